@@ -1,0 +1,156 @@
+"""Result bundles: one self-contained zip per job (format in DESIGN.md).
+
+Written to a temporary file and renamed into place, so a reader never sees half a bundle.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import hashlib
+import io
+import json
+import os
+import platform
+import tempfile
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app import __version__, plots
+from app.jobs.base import JobResult, dumps
+
+BUNDLE_SCHEMA = 1
+
+
+def versions() -> dict[str, str]:
+    import cma
+    import mujoco
+    import scipy
+
+    return {"gaitmend": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+            "scipy": scipy.__version__, "cma": cma.__version__, "python": platform.python_version()}
+
+
+def model_sha256(xml: str) -> str:
+    return hashlib.sha256(xml.encode()).hexdigest()
+
+
+def manifest(job_id: str, spec: Any, result: JobResult) -> dict:
+    return {
+        "bundle_schema": BUNDLE_SCHEMA,
+        "job_id": job_id,
+        "kind": spec.kind,
+        "spec": spec.model_dump(mode="json"),
+        "seed": spec.seed,
+        "versions": versions(),
+        "model_sha256": model_sha256(result.model_xml),
+        "wall_s": result.summary["timing"]["wall_s"],
+        "evaluations": result.evaluations,
+        "sim_steps": result.sim_steps,
+        "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def _csv(rows: list[dict]) -> str:
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return buf.getvalue()
+
+
+def trace_csv(tr: dict[str, np.ndarray]) -> str:
+    """Flat per-step table: time, CoM, Euler angles, foot contacts."""
+    legs = list(tr["legs"])
+    header = ["time_s", "com_x_m", "com_y_m", "com_z_m", "roll_deg", "pitch_deg", "yaw_deg"]
+    header += [f"contact_leg{l}" for l in legs]
+    cols = [tr["time_s"], *np.asarray(tr["com_m"]).T, tr["roll_deg"], tr["pitch_deg"], tr["yaw_deg"],
+            *np.asarray(tr["foot_contact"], dtype=int).T]
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(header)
+    w.writerows(zip(*[np.round(c, 6) if np.asarray(c).dtype.kind == "f" else c for c in cols]))
+    return buf.getvalue()
+
+
+README = """# gaitmend result bundle
+
+Job `{job_id}` ({kind}, robot `{robot}`), made by gaitmend {version}.
+
+| file | what it is |
+|---|---|
+| `manifest.json` | bundle schema, job id, the full spec (every default filled in), seed, versions of gaitmend / MuJoCo / NumPy / Python, sha256 of `robot.xml`, wall time, evaluations |
+| `result.json` | the summary: baseline and best metrics (x_f, y_f, final yaw, roll/pitch amplitude, fell) and fitness, best parameters, gait sequence, per-generation history, timing |
+| `history.csv` | per generation: best-so-far, mean and worst F of the population, best of the generation, fallen candidates, evaluations |
+| `trajectories/*.npz` | per-step arrays of the best gait and of the baseline (time, CoM, body pose, Euler angles, qpos, foot positions and contacts) |
+| `trajectories/*.csv` | the same, flat: time, CoM, roll/pitch/yaw, foot contacts |
+| `robot.xml` | the damaged robot exactly as simulated (MJCF) |
+| `plots/` | convergence, body orientation, CoM position, gait diagrams (SVG and PNG) |
+{extra_rows}
+## Reproduce
+
+```
+pip install "gaitmend=={version}"   # or: pip install -e . in a checkout
+gaitmend run manifest.json --out reproduced/
+```
+
+The same spec and seed give the same numbers (the search and the simulation are
+deterministic; checked with MuJoCo {mujoco}).
+"""
+
+
+def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_files: dict[str, bytes] | None = None) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    man = manifest(job_id, spec, result)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        plot_files = plots.convergence(result.history, tmp / "plots")
+        plot_files += plots.orientation(result.traces, tmp / "plots")
+        plot_files += plots.com_position(result.traces, tmp / "plots")
+        for name, tr in result.traces.items():
+            plot_files += plots.gait_diagram(tr, tmp / "plots", name=f"gait_diagram_{name}")
+        extra_rows = "".join(f"| `{n}` | {'3D replay (viser scene recording)' if n.endswith('.viser') else 'extra'} |\n"
+                             for n in (extra_files or {}))
+        fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")
+        os.close(fd)
+        try:
+            with zipfile.ZipFile(tmp_zip, "w", compression=zipfile.ZIP_DEFLATED) as z:
+                z.writestr("manifest.json", json.dumps(man, indent=2))
+                z.writestr("result.json", dumps(result.summary))
+                z.writestr("history.csv", _csv(result.history))
+                z.writestr("robot.xml", result.model_xml)
+                for name, tr in result.traces.items():
+                    buf = io.BytesIO()
+                    np.savez_compressed(buf, **{k: np.asarray(v) for k, v in tr.items()})
+                    z.writestr(f"trajectories/{name}.npz", buf.getvalue())
+                    z.writestr(f"trajectories/{name}.csv", trace_csv(tr))
+                for p in plot_files:
+                    z.write(p, f"plots/{p.name}")
+                for n, data in (extra_files or {}).items():
+                    z.writestr(n, data)
+                z.writestr("README.md", README.format(job_id=job_id, kind=spec.kind, robot=getattr(spec, "robot", ""),
+                                                      version=__version__, mujoco=man["versions"]["mujoco"],
+                                                      extra_rows=extra_rows))
+            os.replace(tmp_zip, path)
+        except BaseException:
+            Path(tmp_zip).unlink(missing_ok=True)
+            raise
+    return path
+
+
+def read_spec_file(path: Path) -> dict:
+    """A spec from a spec JSON, a bundle's manifest.json, or a bundle zip."""
+    path = Path(path)
+    if path.suffix == ".zip":
+        with zipfile.ZipFile(path) as z:
+            data = json.loads(z.read("manifest.json"))
+    else:
+        data = json.loads(path.read_text())
+    if isinstance(data, dict) and "bundle_schema" in data:
+        return data["spec"]
+    return data

@@ -1,0 +1,178 @@
+"""The ``gaitmend`` command line."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+import zipfile
+from importlib import resources
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from app.jobs.base import SpecError, dumps
+from app.jobs.registry import get_kind, parse_spec
+
+cli = typer.Typer(add_completion=False, no_args_is_help=True, help="Gait recovery for damaged legged robots.")
+err = Console(stderr=True)
+
+
+def fail(msg: str, code: int = 2) -> None:
+    err.print(f"[bold red]error:[/] {msg}", highlight=False)
+    raise typer.Exit(code)
+
+
+def load_spec(path: Optional[Path]):
+    """Parse a spec file (spec JSON, bundle manifest or bundle zip); exit 2 if it is bad."""
+    from app.bundle import read_spec_file
+
+    try:
+        if path is None:
+            data = json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
+        else:
+            data = read_spec_file(path)
+    except FileNotFoundError:
+        fail(f"spec file not found: {path}")
+    except (json.JSONDecodeError, zipfile.BadZipFile, KeyError, UnicodeDecodeError) as e:
+        fail(f"cannot read spec {path}: {e}")
+    try:
+        return parse_spec(data)
+    except SpecError as e:
+        for item in e.errors:
+            err.print(f"[bold red]error:[/] {item['field']}: {item['message']}", highlight=False)
+        raise typer.Exit(2) from None
+
+
+class LocalContext:
+    """Run context for `gaitmend run`: a progress bar, checkpoints kept in memory."""
+
+    def __init__(self, artifact_dir: Path, progress: Progress | None, task=None):
+        self.artifact_dir = artifact_dir
+        self._progress, self._task = progress, task
+        self._ckpt: dict | None = None
+
+    def progress(self, done: int, total: int, info: dict[str, Any]) -> None:
+        if self._progress is not None:
+            self._progress.update(self._task, completed=done, total=total,
+                                  best=f"{info.get('best', float('nan')):.4f}",
+                                  rate=f"{info.get('sim_steps_per_s', 0.0) / 1e3:.0f}k steps/s",
+                                  evals=info.get("evaluations", 0))
+
+    def save_checkpoint(self, state: dict) -> None:
+        self._ckpt = state
+
+    def load_checkpoint(self) -> dict | None:
+        return self._ckpt
+
+    def is_cancelled(self) -> bool:
+        return False
+
+
+def local_job_id(spec) -> str:
+    h = hashlib.sha256(spec.model_dump_json().encode()).hexdigest()[:8]
+    return f"local-{time.strftime('%Y%m%d-%H%M%S')}-{h}"
+
+
+@cli.command()
+def run(
+    spec_path: Optional[Path] = typer.Argument(None, metavar="[SPEC]",
+                                               help="spec JSON, a bundle's manifest.json or bundle zip; default: the embedded paper scenario (legs 1 and 6 lost)"),
+    out: Path = typer.Option(Path("results"), "--out", help="folder for the result bundle"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as one JSON object on the last stdout line"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Run one job locally, with no server, and write its result bundle."""
+    from app.bundle import write_bundle
+
+    spec = load_spec(spec_path)
+    kind = get_kind(spec.kind)
+    job_id = local_job_id(spec)
+    progress = None if quiet else Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("gen"),
+        TextColumn("best F {task.fields[best]}"), TextColumn("{task.fields[rate]}"),
+        TextColumn("{task.fields[evals]} evals"), TimeElapsedColumn(), console=err, transient=False)
+    with (progress or _nullcontext()):
+        task = progress.add_task(spec.kind, total=None, best="-", rate="-", evals=0) if progress else None
+        result = kind.run(spec, LocalContext(out, progress, task))
+    bundle = write_bundle(out / f"{job_id}.zip", job_id, spec, result)
+    with zipfile.ZipFile(bundle) as z:
+        z.extractall(out)
+    s = result.summary
+    if as_json:
+        print(dumps(s | {"job_id": job_id, "bundle": str(bundle)}))
+    else:
+        _print_summary(s, bundle)
+
+
+class _nullcontext:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *a):
+        return False
+
+
+def _print_summary(s: dict, bundle: Path) -> None:
+    from rich.table import Table
+
+    con = Console()
+    if s.get("kind") == "recovery":
+        t = Table(title=f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} (sigma={s['gait']['sigma']})")
+        for c in ("", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F"):
+            t.add_column(c)
+        for name in ("baseline", "best"):
+            m = s[name]["metrics"]
+            t.add_row("before (nominal tripod)" if name == "baseline" else "after recovery",
+                      f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}",
+                      f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}")
+        con.print(t)
+    tm = s["timing"]
+    con.print(f"{tm['evaluations']} evaluations in {tm['wall_s']:.1f} s ({tm['sim_steps_per_s'] / 1e3:.0f}k sim steps/s); bundle: {bundle}")
+
+
+@cli.command()
+def bench(
+    as_json: bool = typer.Option(False, "--json", help="print the figures as one JSON object on the last stdout line"),
+    quick: bool = typer.Option(False, "--quick", help="small budget (CI smoke); figures are not the targets'"),
+):
+    """Measure rollout and evaluator throughput, a paper-size recovery and scipy's DE as a peer."""
+    from app.bench import run_bench
+
+    figures = run_bench(quick=quick, log=err.print)
+    if as_json:
+        print(json.dumps(figures))
+    else:
+        for k, v in figures.items():
+            Console().print(f"{k:28s} {v}")
+
+
+@cli.command()
+def reproduce(
+    seeds: int = typer.Option(10, min=1, max=100, help="seeds per scenario"),
+    out: Path = typer.Option(Path("docs/table2.md"), "--out", help="markdown table to write"),
+    generations: int = typer.Option(60, min=1, help="DE generations (paper: 60)"),
+    population: int = typer.Option(30, min=4, help="DE population (paper: 30)"),
+):
+    """Run paper 000's Table II scenarios (legs 1&6, 3&4, 1, 4 lost) over seeds; write the table."""
+    from app.reproduce import run_table2
+
+    md = run_table2(seeds=seeds, generations=generations, population=population, log=err.print)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(md)
+    print(md)
+
+
+def main() -> None:
+    try:
+        cli()
+    except KeyboardInterrupt:
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,284 @@
+"""Job kind ``recovery``: gait-sequence planning + DE over leg-tip trajectories (paper 000)."""
+
+from __future__ import annotations
+
+import time
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from app.gaits.sequences import InfeasibleMorphology, check_feasible, hexapod_neighbours, nominal_tripod, plan_hexapod
+from app.gaits.trajectory import param_names
+from app.jobs.base import Cancelled, JobResult, RunContext
+from app.optim.registry import make_optimizer
+from app.robots.catalog import ROBOTS, RobotEntry, get_robot
+from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
+from app.sim.evaluate import GaitEvaluator, SimConfig
+from app.sim.metrics import fitness, objective_terms
+
+Strict = ConfigDict(extra="forbid")
+Leg = Annotated[int, Field(ge=1, le=6)]
+JointName = Literal["coxa", "femur", "tibia"]
+Range = tuple[float, float]
+
+
+class LockedJointIn(BaseModel):
+    model_config = Strict
+    leg: Leg
+    joint: JointName
+    angle_deg: float = Field(0.0, ge=-180.0, le=180.0)
+
+
+class WeakJointIn(BaseModel):
+    model_config = Strict
+    leg: Leg
+    joint: JointName
+    torque_scale: float = Field(0.5, gt=0.0, le=1.0)
+
+
+class Damage(BaseModel):
+    model_config = Strict
+    lost_legs: list[Leg] = Field(default_factory=list)
+    locked_joints: list[LockedJointIn] = Field(default_factory=list)
+    weak_joints: list[WeakJointIn] = Field(default_factory=list)
+
+    @field_validator("lost_legs")
+    @classmethod
+    def _unique(cls, v: list[int]) -> list[int]:
+        if len(set(v)) != len(v):
+            raise ValueError("each leg may be listed once")
+        try:
+            check_feasible([l for l in range(1, 7) if l not in v])
+        except InfeasibleMorphology as e:
+            raise ValueError(str(e)) from None
+        return sorted(v)
+
+    @model_validator(mode="after")
+    def _joints_on_present_legs(self):
+        seen = set()
+        for name, items in (("locked_joints", self.locked_joints), ("weak_joints", self.weak_joints)):
+            for j in items:
+                if j.leg in self.lost_legs:
+                    raise ValueError(f"{name}: leg {j.leg} is listed as lost")
+                if (j.leg, j.joint) in seen:
+                    raise ValueError(f"{name}: joint {j.joint} of leg {j.leg} is damaged twice")
+                seen.add((j.leg, j.joint))
+        return self
+
+
+class Search(BaseModel):
+    model_config = Strict
+    optimizer: Literal["de", "cmaes"] = "de"
+    population: int = Field(30, ge=4, le=1000)
+    generations: int = Field(60, ge=1, le=10000)
+    cr: float = Field(0.6, ge=0.0, le=1.0)
+    f: float = Field(0.5, ge=0.0, le=1.0)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+
+
+class Objective(BaseModel):
+    model_config = Strict
+    weights: list[Annotated[float, Field(ge=0.0)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
+                                                           min_length=5, max_length=5)
+
+
+class Sim(BaseModel):
+    model_config = Strict
+    duration_s: float = Field(10.0, gt=0.0, le=120.0)
+    settle_s: float = Field(0.5, ge=0.0, le=5.0)
+
+
+class Gait(BaseModel):
+    model_config = Strict
+    period_s: float = Field(0.6, ge=0.2, le=5.0)
+    stance_height_m: float = Field(0.10, ge=0.05, le=0.16)
+    step_depth_m: float = Field(0.0, ge=0.0, le=0.02)
+
+
+class Bounds(BaseModel):
+    """Overrides of the paper's X_min / X_max (Sec. IV-B); omitted entries keep the paper's."""
+
+    model_config = Strict
+    x0_m: Range | None = None
+    step_length_m: Range | None = None
+    step_height_m: Range | None = None
+    y0_m: dict[Literal["1", "2", "3", "4", "5", "6"], Range] = Field(default_factory=dict)
+    neighbour_relaxation: float = Field(0.2, ge=0.0, le=1.0)
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        pairs = [("x0_m", self.x0_m), ("step_length_m", self.step_length_m), ("step_height_m", self.step_height_m)]
+        pairs += [(f"y0_m.{k}", v) for k, v in self.y0_m.items()]
+        for name, rng in pairs:
+            if rng is not None and rng[0] > rng[1]:
+                raise ValueError(f"{name}: lower bound {rng[0]} exceeds upper bound {rng[1]} (inverted bounds)")
+        for name, rng in pairs[:3]:
+            if rng is not None and rng[0] < 0:
+                raise ValueError(f"{name}: bounds must be >= 0, got {list(rng)}")
+        return self
+
+
+class RecoverySpec(BaseModel):
+    model_config = Strict
+    kind: Literal["recovery"] = "recovery"
+    robot: str = "jethexa"
+    damage: Damage = Field(default_factory=Damage)
+    search: Search = Field(default_factory=Search)
+    objective: Objective = Field(default_factory=Objective)
+    sim: Sim = Field(default_factory=Sim)
+    gait: Gait = Field(default_factory=Gait)
+    bounds: Bounds = Field(default_factory=Bounds)
+
+    @field_validator("robot")
+    @classmethod
+    def _known_robot(cls, v: str) -> str:
+        if v not in ROBOTS:
+            raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)}")
+        return v
+
+    @property
+    def seed(self) -> int:
+        return self.search.seed
+
+    @property
+    def evaluations_budget(self) -> int:
+        return self.search.population * (self.search.generations + 1)
+
+
+Spec = RecoverySpec
+
+
+# -- problem setup -------------------------------------------------------------------------
+
+def functional_legs(spec: RecoverySpec) -> list[int]:
+    return [l for l in range(1, 7) if l not in spec.damage.lost_legs]
+
+
+def damage_spec(spec: RecoverySpec) -> DamageSpec:
+    d = spec.damage
+    return DamageSpec(
+        lost_legs=tuple(d.lost_legs),
+        locked_joints=tuple(LockedJoint(j.leg, j.joint, float(np.radians(j.angle_deg))) for j in d.locked_joints),
+        weak_joints=tuple(WeakJoint(j.leg, j.joint, j.torque_scale) for j in d.weak_joints),
+    )
+
+
+def search_bounds(spec: RecoverySpec, robot: RobotEntry) -> tuple[np.ndarray, np.ndarray]:
+    """X_min / X_max in the layout of ``param_names``. y0 bounds of legs next to a lost
+    leg move outward by ``neighbour_relaxation`` of their width on each side (Sec. III-B)."""
+    b = spec.bounds
+    legs = functional_legs(spec)
+    lost = set(spec.damage.lost_legs)
+    relaxed = {n for l in lost for n in hexapod_neighbours(l)} - lost
+    y_lo, y_hi = [], []
+    for leg in legs:
+        lo, hi = b.y0_m.get(str(leg), robot.y0_bounds[leg])
+        if leg in relaxed:
+            w = (hi - lo) * b.neighbour_relaxation
+            lo, hi = lo - w, hi + w
+        y_lo.append(lo)
+        y_hi.append(hi)
+    x_lo, x_hi = b.x0_m or robot.x0_bounds
+    sl = b.step_length_m or robot.step_length_bounds
+    sh = b.step_height_m or robot.step_height_bounds
+    lower = np.array(y_lo + [x_lo] * len(legs) + [sl[0], sh[0]])
+    upper = np.array(y_hi + [x_hi] * len(legs) + [sl[1], sh[1]])
+    return lower, upper
+
+
+def nominal_params(robot: RobotEntry, legs: list[int]) -> np.ndarray:
+    return np.array([robot.nominal_y0(l) for l in legs] + [robot.nominal_x0()] * len(legs)
+                    + [robot.nominal_step_length, robot.nominal_step_height])
+
+
+def sim_config(spec: RecoverySpec) -> SimConfig:
+    return SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
+                     stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m)
+
+
+def _scored(ev: GaitEvaluator, x: np.ndarray, weights) -> dict:
+    r = ev.evaluate(x)
+    m = {k: (bool(v[0]) if k == "fell" else float(v[0])) for k, v in r.metrics.items()}
+    terms = {k: float(v[0]) for k, v in objective_terms(r.metrics, weights).items()}
+    return {"metrics": m, "fitness": float(fitness(r.metrics, weights)[0]), "terms": terms}
+
+
+# -- the job ---------------------------------------------------------------------------------
+
+def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
+    t0 = time.perf_counter()
+    robot = get_robot(spec.robot)
+    mspec, model = robot.model(damage_spec(spec))
+    legs = functional_legs(spec)
+    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy())
+    cfg = sim_config(spec)
+    weights = spec.objective.weights
+    lower, upper = search_bounds(spec, robot)
+    names = param_names(legs)
+
+    ev = GaitEvaluator(robot, model, seq, cfg)
+    base_ev = GaitEvaluator(robot, model, nominal_tripod(legs), cfg)
+    try:
+        s = spec.search
+        opt = make_optimizer(s.optimizer, lower, upper, s.population, s.seed, cr=s.cr, f=s.f)
+        history: list[dict] = []
+        evaluations = sim_steps = 0
+        wall_before = 0.0
+        ckpt = ctx.load_checkpoint()
+        if ckpt is not None:
+            opt.restore(ckpt["optimizer"])
+            history, evaluations, sim_steps = ckpt["history"], ckpt["evaluations"], ckpt["sim_steps"]
+            wall_before = ckpt["wall_s"]
+        total = s.generations + 1  # generation 0 is the initial population
+        seg_start = time.perf_counter()
+        while opt.generation < total:
+            if ctx.is_cancelled():
+                raise Cancelled()
+            x = opt.ask()
+            r = ev.evaluate(x)
+            f = fitness(r.metrics, weights)
+            opt.tell(f)
+            evaluations += len(f)
+            sim_steps += r.sim_steps
+            pop_fit = opt.population_fitness
+            row = {"generation": opt.generation - 1, "best": opt.best[1], "mean": float(np.mean(pop_fit)),
+                   "worst": float(np.min(pop_fit)), "generation_best": float(np.max(f)),
+                   "fell": int(np.sum(r.metrics["fell"])), "evaluations": evaluations}
+            history.append(row)
+            wall = wall_before + time.perf_counter() - seg_start
+            ctx.save_checkpoint({"optimizer": opt.state(), "history": history, "evaluations": evaluations,
+                                 "sim_steps": sim_steps, "wall_s": wall})
+            ctx.progress(opt.generation, total, {"best": row["best"], "mean": row["mean"], "worst": row["worst"],
+                                                 "evaluations": evaluations,
+                                                 "sim_steps_per_s": sim_steps / max(wall, 1e-9)})
+
+        best_x, best_f = opt.best
+        nominal = nominal_params(robot, legs)
+        best = _scored(ev, best_x, weights)
+        baseline = _scored(base_ev, nominal, weights)
+        traces = {"best": ev.trace(best_x), "baseline": base_ev.trace(nominal)}
+        evaluations += 2
+    finally:
+        ev.close()
+        base_ev.close()
+    wall = wall_before + time.perf_counter() - seg_start
+    best["params"] = {n: float(v) for n, v in zip(names, best_x)}
+    baseline["params"] = {n: float(v) for n, v in zip(names, nominal)}
+    baseline["gait"] = nominal_tripod(legs).as_dict()
+    summary = {
+        "kind": "recovery",
+        "robot": spec.robot,
+        "damage": spec.damage.model_dump(),
+        "seed": spec.seed,
+        "baseline": baseline,
+        "best": best,
+        "gait": seq.as_dict() | {"period_s": ev.n_period * ev.dt},
+        "bounds": {"names": names, "lower": lower.tolist(), "upper": upper.tolist()},
+        "history": history,
+        "timing": {"wall_s": wall, "evaluations": evaluations,
+                   "sim_steps_per_s": sim_steps / max(wall, 1e-9), "sim_steps": sim_steps,
+                   "setup_s": seg_start - t0},
+    }
+    return JobResult(summary=summary, history=history, traces=traces, model_xml=mspec.to_xml(),
+                     evaluations=evaluations, sim_steps=sim_steps)

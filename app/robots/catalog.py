@@ -1,0 +1,99 @@
+"""Robots gaitmend knows, with the recovery problem's bounds and nominal gait for each."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import mujoco
+
+from app.robots import hexapod
+from app.robots.damage import DamageSpec, apply_damage
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotEntry:
+    name: str
+    description: str
+    geometry: hexapod.HexapodGeometry
+    build: Callable[[], mujoco.MjSpec]
+    legs: tuple[int, ...]
+    joints: tuple[str, ...]
+    # Paper 000, Sec. IV-B: X_min / X_max, with y0 paired front (1,2), middle (3,4), rear (5,6).
+    y0_bounds: dict[int, tuple[float, float]]
+    x0_bounds: tuple[float, float]
+    step_length_bounds: tuple[float, float]
+    step_height_bounds: tuple[float, float]
+    # Nominal healthy gait: the centre of the bounds, as a designer would set it.
+    nominal_step_length: float
+    nominal_step_height: float
+    stance_height: float  # H0: hip plane above the foot centres
+    period_s: float  # T_g; the paper does not give it (see README)
+
+    def nominal_y0(self, leg: int) -> float:
+        lo, hi = self.y0_bounds[leg]
+        return 0.5 * (lo + hi)
+
+    def nominal_x0(self) -> float:
+        return 0.5 * sum(self.x0_bounds)
+
+    def nominal_feet_xy(self) -> dict[int, tuple[float, float]]:
+        """Foot positions in the body frame at the nominal stance, for support polygons."""
+        out = {}
+        for lg in self.geometry.legs():
+            hx, hy, _ = lg.hip
+            out[lg.leg] = (hx + lg.side * self.nominal_x0(), hy + self.nominal_y0(lg.leg))
+        return out
+
+    def model(self, damage: DamageSpec = DamageSpec()) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+        spec = apply_damage(self.build(), damage)
+        return spec, spec.compile()
+
+    def describe(self) -> dict:
+        g = self.geometry
+        return {
+            "name": self.name,
+            "description": self.description,
+            "legs": list(self.legs),
+            "joints": list(self.joints),
+            "leg_sides": {str(l.leg): ("left" if l.side < 0 else "right") for l in g.legs()},
+            "hips_m": {str(l.leg): list(l.hip) for l in g.legs()},
+            "link_lengths_m": list(g.link_lengths),
+            "total_mass_kg": round(g.total_mass, 4),
+            "parameters": {
+                "y0_bounds_m": {str(k): list(v) for k, v in self.y0_bounds.items()},
+                "x0_bounds_m": list(self.x0_bounds),
+                "step_length_bounds_m": list(self.step_length_bounds),
+                "step_height_bounds_m": list(self.step_height_bounds),
+                "stance_height_m": self.stance_height,
+                "period_s": self.period_s,
+                "pid": {"kp": g.kp, "kd": g.kd, "ki": g.ki},
+            },
+        }
+
+
+JETHEXA = RobotEntry(
+    name="jethexa",
+    description="JetHexa-like 18-DoF hexapod (paper 000): 3-DoF legs, PID joint servos",
+    geometry=hexapod.JETHEXA,
+    build=lambda: hexapod.build_spec(hexapod.JETHEXA),
+    legs=hexapod.LEG_IDS,
+    joints=hexapod.JOINT_NAMES,
+    y0_bounds={1: (-0.01, 0.05), 2: (-0.01, 0.05), 3: (-0.03, 0.03), 4: (-0.03, 0.03), 5: (-0.05, 0.01), 6: (-0.05, 0.01)},
+    x0_bounds=(0.09, 0.13),
+    step_length_bounds=(0.02, 0.05),
+    step_height_bounds=(0.02, 0.05),
+    nominal_step_length=0.04,
+    nominal_step_height=0.03,
+    stance_height=0.10,
+    period_s=0.6,
+)
+
+ROBOTS: dict[str, RobotEntry] = {JETHEXA.name: JETHEXA}
+
+
+def get_robot(name: str) -> RobotEntry:
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise KeyError(f"unknown robot {name!r}; known: {sorted(ROBOTS)}") from None

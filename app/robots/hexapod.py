@@ -1,0 +1,168 @@
+"""JetHexa-like 18-DoF hexapod, built procedurally with MjSpec.
+
+Numbering (papers README, derived from the text of paper 000 since its Fig. 1 is
+missing): odd legs on the left (-X), even legs on the right (+X); legs (1, 2) are the
+front pair, (3, 4) the middle pair, (5, 6) the rear pair; forward is +Y. Tripod groups
+L1 = {1, 4, 5} and L2 = {2, 3, 6} then contain no two neighbouring legs, as the paper
+requires.
+
+Dimensions and masses. Hiwonder publishes the JetHexa as a ~2 kg hexapod with three
+35 kg*cm (3.4 N*m) bus servos per leg and a hexagonal chassis; link lengths are not
+published. We use coxa/femur/tibia = 45/77/123 mm, the lengths of Hiwonder's own
+hexapod legs of that servo class, which also put the paper's foot-position bounds
+(x0 in [0.09, 0.13] m from the hip, Sec. IV-B) in the middle of the leg's workspace at
+the paper's stance height. Body 0.14 x 0.26 m, 1.2 kg (chassis, Jetson Nano, battery);
+per leg 0.04/0.06/0.03 kg (servo plus bracket per link) -> 1.98 kg in all.
+
+Actuation. MuJoCo 4's native ``pid`` actuator is the paper's joint PID exactly
+(Kp 500, Kd 1, Ki 10, Sec. IV-B) and, unlike the old ``mujoco.pid`` plugin, keeps its
+integral in ``act`` so it is part of the state that ``mujoco.rollout`` carries; the
+derivative acts on joint velocity and is integrated implicitly (implicitfast). The
+servos' gear trains are modelled as joint armature (rotor inertia x ratio^2 ~ 5e-3
+kg*m^2 for a ~1:300 hobby servo), which is also what keeps Kp = 500 stable at a 4 ms
+step on links this light.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+
+LEG_IDS = (1, 2, 3, 4, 5, 6)
+JOINT_NAMES = ("coxa", "femur", "tibia")
+
+
+@dataclasses.dataclass(frozen=True)
+class LegGeometry:
+    leg: int
+    hip: tuple[float, float, float]  # hip (coxa axis) position in the body frame
+    side: int  # -1 left (odd), +1 right (even)
+
+
+@dataclasses.dataclass(frozen=True)
+class HexapodGeometry:
+    name: str = "jethexa"
+    link_lengths: tuple[float, float, float] = (0.045, 0.077, 0.123)
+    link_masses: tuple[float, float, float] = (0.04, 0.06, 0.03)
+    link_radius: float = 0.008
+    foot_radius: float = 0.010
+    body_half_size: tuple[float, float, float] = (0.07, 0.13, 0.025)
+    body_mass: float = 1.2
+    hip_front: tuple[float, float] = (0.065, 0.12)  # |x|, y of legs 1, 2 (rear mirrored)
+    hip_middle_x: float = 0.085
+    joint_range_deg: tuple[tuple[float, float], ...] = ((-80, 80), (-90, 90), (-165, 10))
+    torque_limit: float = 3.4  # N*m, 35 kg*cm bus servo
+    armature: float = 5e-3
+    kp: float = 500.0
+    kd: float = 1.0
+    ki: float = 10.0
+    friction: float = 1.0
+    timestep: float = 0.004  # 4 ms: the nominal gait walks within 1 % of the 2 ms result, at half the cost
+
+    def legs(self) -> list[LegGeometry]:
+        fx, fy = self.hip_front
+        rows = {1: (fx, fy), 3: (self.hip_middle_x, 0.0), 5: (fx, -fy)}
+        out = []
+        for leg in LEG_IDS:
+            side = -1 if leg % 2 else 1
+            x, y = rows[leg if leg % 2 else leg - 1]
+            out.append(LegGeometry(leg=leg, hip=(side * x, y, 0.0), side=side))
+        return out
+
+    def leg(self, leg: int) -> LegGeometry:
+        return self.legs()[leg - 1]
+
+    @property
+    def total_mass(self) -> float:
+        return self.body_mass + 6 * sum(self.link_masses)
+
+
+JETHEXA = HexapodGeometry()
+
+
+def leg_frame_quat(side: int) -> np.ndarray:
+    """Leg frame: x outward, z up. Right legs use the body axes; left legs turn 180 deg
+    about z so that the same joint conventions (and the same IK) serve both sides."""
+    if side > 0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def joint_name(leg: int, joint: str) -> str:
+    return f"leg{leg}_{joint}"
+
+
+def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
+    """The intact robot on a flat floor. Damage is applied to the returned spec."""
+    spec = mujoco.MjSpec()
+    spec.modelname = geom.name
+    spec.option.timestep = geom.timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    spec.compiler.degree = False
+
+    # Only feet and the chassis touch the floor: contype/conaffinity pairs so that no
+    # link-link or link-floor pair is ever tested (the collision phase stays tiny).
+    floor = spec.worldbody.add_geom(
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+        contype=1, conaffinity=0, friction=[geom.friction, 0.005, 1e-4],
+        rgba=[0.82, 0.84, 0.86, 1],
+    )
+    del floor
+    spec.worldbody.add_light(pos=[0, 0, 3], dir=[0, 0, -1])
+
+    L1, L2, L3 = geom.link_lengths
+    m1, m2, m3 = geom.link_masses
+    r = geom.link_radius
+
+    torso = spec.worldbody.add_body(name="torso", pos=[0, 0, 0.2])
+    torso.add_freejoint(name="root")
+    torso.add_geom(
+        name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(geom.body_half_size),
+        mass=geom.body_mass, contype=0, conaffinity=1, rgba=[0.15, 0.45, 0.75, 1],
+    )
+    torso.add_site(name="imu", pos=[0, 0, 0])
+
+    (q1lo, q1hi), (q2lo, q2hi), (q3lo, q3hi) = [
+        (math.radians(a), math.radians(b)) for a, b in geom.joint_range_deg
+    ]
+    for lg in geom.legs():
+        n = lg.leg
+        coxa = torso.add_body(name=f"leg{n}_coxa", pos=list(lg.hip), quat=list(leg_frame_quat(lg.side)))
+        coxa.add_joint(name=joint_name(n, "coxa"), axis=[0, 0, 1], range=[q1lo, q1hi],
+                       limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
+        coxa.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L1, 0, 0], size=[r, 0, 0],
+                      mass=m1, contype=0, conaffinity=0, rgba=[0.3, 0.3, 0.3, 1])
+        femur = coxa.add_body(name=f"leg{n}_femur", pos=[L1, 0, 0])
+        femur.add_joint(name=joint_name(n, "femur"), axis=[0, -1, 0], range=[q2lo, q2hi],
+                        limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
+        femur.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L2, 0, 0], size=[r, 0, 0],
+                       mass=m2, contype=0, conaffinity=0, rgba=[0.25, 0.25, 0.25, 1])
+        tibia = femur.add_body(name=f"leg{n}_tibia", pos=[L2, 0, 0])
+        tibia.add_joint(name=joint_name(n, "tibia"), axis=[0, -1, 0], range=[q3lo, q3hi],
+                        limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
+        tibia.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L3, 0, 0], size=[r * 0.8, 0, 0],
+                       mass=m3, contype=0, conaffinity=0, rgba=[0.2, 0.2, 0.2, 1])
+        tibia.add_geom(name=f"leg{n}_foot", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[L3, 0, 0],
+                       size=[geom.foot_radius, 0, 0], mass=0.0, contype=0, conaffinity=1,
+                       friction=[geom.friction, 0.005, 1e-4], rgba=[0.9, 0.4, 0.1, 1])
+        tibia.add_site(name=f"leg{n}_tip", pos=[L3, 0, 0])
+
+        for jn in JOINT_NAMES:
+            act = spec.add_actuator(name=f"{joint_name(n, jn)}_pid", target=joint_name(n, jn),
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            act.set_to_pid(kp=geom.kp, kv=geom.kd, ki=geom.ki, inheritrange=1.0,
+                            ctrlspec=int(mujoco.mjtCtrlInput.mjINPUT_POS))
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            act.forcerange = [-geom.torque_limit, geom.torque_limit]
+
+    spec.add_sensor(name="torso_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    spec.add_sensor(name="torso_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT,
+                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM,
+                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    return spec

@@ -1,0 +1,74 @@
+"""Body metrics and the recovery objective (paper 000, Eq. 5), batched over candidates.
+
+Angles are ZYX Euler angles of the body (yaw psi about z, then about y, then about x).
+Forward is +Y, so, as the paper writes, roll is the rotation about y and pitch the
+rotation about x.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+FALL_FITNESS = -1.0
+METRIC_KEYS = ("x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg", "fell")
+
+
+def euler_zyx(quat: np.ndarray) -> np.ndarray:
+    """(..., 4) wxyz -> (..., 3) [yaw_z, rot_y, rot_x] in radians."""
+    w, x, y, z = np.moveaxis(quat, -1, 0)
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    rot_y = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    rot_x = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    return np.stack([yaw, rot_y, rot_x], axis=-1)
+
+
+def fallen(torso_z: np.ndarray, quat: np.ndarray, min_height: float, max_tilt_rad: float) -> np.ndarray:
+    """(P, T) -> (P,) True if at any step the body sagged below min_height or tilted past
+    max_tilt (angle between body z and world z)."""
+    w, x, y, _ = np.moveaxis(quat, -1, 0)
+    up_z = 1 - 2 * (x * x + y * y)
+    return np.any((torso_z < min_height) | (up_z < np.cos(max_tilt_rad)), axis=1)
+
+
+def body_metrics(com: np.ndarray, quat: np.ndarray, fell: np.ndarray) -> dict[str, np.ndarray]:
+    """Metrics of Eq. 5 from the walking window: com (P, T, 3), quat (P, T, 4).
+
+    x_f, y_f: displacement of the centre of mass from the window's start; yaw_f: change of
+    (unwrapped) yaw; amplitudes: half the peak-to-peak excursion over the window.
+    """
+    ang = euler_zyx(quat)
+    yaw = np.unwrap(ang[..., 0], axis=1)
+    d = com[:, -1, :2] - com[:, 0, :2]
+    half_ptp = 0.5 * (ang.max(axis=1) - ang.min(axis=1))
+    return {
+        "x_f_m": d[:, 0],
+        "y_f_m": d[:, 1],
+        "yaw_f_deg": np.degrees(yaw[:, -1] - yaw[:, 0]),
+        "roll_amp_deg": np.degrees(half_ptp[:, 1]),
+        "pitch_amp_deg": np.degrees(half_ptp[:, 2]),
+        "fell": np.asarray(fell, dtype=bool),
+    }
+
+
+def objective_terms(metrics: dict[str, np.ndarray], weights) -> dict[str, np.ndarray]:
+    """Named, weighted terms of Eq. 5 (angles in radians).
+
+    The paper's numerator is w1 * y_f^2, which rewards walking backwards as much as
+    forwards; its stated intent is forward progression, so we keep the sign:
+    w1 * y_f * |y_f|. A fallen candidate gets FALL_FITNESS, below any walker's F.
+    """
+    w1, w2, w3, w4, w5 = (float(w) for w in weights)
+    y = metrics["y_f_m"]
+    return {
+        "forward": w1 * y * np.abs(y),
+        "drift": w2 * metrics["x_f_m"] ** 2,
+        "yaw": w3 * np.radians(metrics["yaw_f_deg"]) ** 2,
+        "roll": w4 * np.radians(metrics["roll_amp_deg"]) ** 2,
+        "pitch": w5 * np.radians(metrics["pitch_amp_deg"]) ** 2,
+    }
+
+
+def fitness(metrics: dict[str, np.ndarray], weights) -> np.ndarray:
+    t = objective_terms(metrics, weights)
+    f = t["forward"] / (1.0 + t["drift"] + t["yaw"] + t["roll"] + t["pitch"])
+    return np.where(metrics["fell"], FALL_FITNESS, f)
