@@ -19,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from app import __version__, plots
+from app import __version__
 from app.jobs.base import JobResult, dumps
+from app.jobs.registry import get_kind
 
 BUNDLE_SCHEMA = 1
 
@@ -64,16 +65,27 @@ def _csv(rows: list[dict]) -> str:
 
 
 def trace_csv(tr: dict[str, np.ndarray]) -> str:
-    """Flat per-step table: time, CoM, Euler angles, foot contacts."""
-    legs = list(tr["legs"])
-    header = ["time_s", "com_x_m", "com_y_m", "com_z_m", "roll_deg", "pitch_deg", "yaw_deg"]
-    header += [f"contact_leg{l}" for l in legs]
-    cols = [tr["time_s"], *np.asarray(tr["com_m"]).T, tr["roll_deg"], tr["pitch_deg"], tr["yaw_deg"],
-            *np.asarray(tr["foot_contact"], dtype=int).T]
+    """Flat per-step table of a trace: every array whose first axis is time ("time_s")
+    becomes one column (1-D) or one column per component (2-D, suffix _0, _1, ...);
+    booleans are written as 0/1. Arrays of other shapes stay in the .npz only."""
+    t = np.asarray(tr["time_s"])
+    header, cols = [], []
+    for k, v in tr.items():
+        v = np.asarray(v)
+        if v.ndim == 0 or v.shape[0] != t.shape[0] or v.ndim > 2:
+            continue
+        if v.dtype == bool:
+            v = v.astype(int)
+        if v.ndim == 1:
+            header.append(k)
+            cols.append(v)
+        else:
+            header += [f"{k}_{i}" for i in range(v.shape[1])]
+            cols += list(v.T)
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(header)
-    w.writerows(zip(*[np.round(c, 6) if np.asarray(c).dtype.kind == "f" else c for c in cols]))
+    w.writerows(zip(*[np.round(c, 6) if c.dtype.kind == "f" else c for c in cols]))
     return buf.getvalue()
 
 
@@ -109,11 +121,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
     man = manifest(job_id, spec, result)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        plot_files = plots.convergence(result.history, tmp / "plots")
-        plot_files += plots.orientation(result.traces, tmp / "plots")
-        plot_files += plots.com_position(result.traces, tmp / "plots")
-        for name, tr in result.traces.items():
-            plot_files += plots.gait_diagram(tr, tmp / "plots", name=f"gait_diagram_{name}")
+        plot_files = get_kind(spec.kind).plots(result, tmp / "plots")
         extra_rows = "".join(f"| `{n}` | {'3D replay (viser scene recording)' if n.endswith('.viser') else 'extra'} |\n"
                              for n in (extra_files or {}))
         fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")

@@ -204,6 +204,18 @@ def _scored(ev: GaitEvaluator, x: np.ndarray, weights) -> dict:
     return {"metrics": m, "fitness": float(fitness(r.metrics, weights)[0]), "terms": terms}
 
 
+def plots(result: JobResult, out):
+    """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
+    from app import plots as P
+
+    files = P.convergence(result.history, out)
+    files += P.orientation(result.traces, out)
+    files += P.com_position(result.traces, out)
+    for name, tr in result.traces.items():
+        files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}")
+    return files
+
+
 # -- the job ---------------------------------------------------------------------------------
 
 def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
