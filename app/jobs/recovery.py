@@ -81,6 +81,9 @@ class Objective(BaseModel):
     model_config = Strict
     weights: list[Annotated[float, Field(ge=0.0)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
                                                            min_length=5, max_length=5)
+    # Eq. 5 gives no units; Table II reports cm and degrees, and in those units the
+    # weights do what the paper says they are for (see README, "Choices").
+    units: Literal["m_rad", "cm_deg"] = "cm_deg"
 
 
 class Sim(BaseModel):
@@ -197,11 +200,11 @@ def sim_config(spec: RecoverySpec) -> SimConfig:
                      stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m)
 
 
-def _scored(ev: GaitEvaluator, x: np.ndarray, weights) -> dict:
+def _scored(ev: GaitEvaluator, x: np.ndarray, weights, units: str) -> dict:
     r = ev.evaluate(x)
     m = {k: (bool(v[0]) if k == "fell" else float(v[0])) for k, v in r.metrics.items()}
-    terms = {k: float(v[0]) for k, v in objective_terms(r.metrics, weights).items()}
-    return {"metrics": m, "fitness": float(fitness(r.metrics, weights)[0]), "terms": terms}
+    terms = {k: float(v[0]) for k, v in objective_terms(r.metrics, weights, units).items()}
+    return {"metrics": m, "fitness": float(fitness(r.metrics, weights, units)[0]), "terms": terms}
 
 
 def plots(result: JobResult, out):
@@ -223,9 +226,10 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     robot = get_robot(spec.robot)
     mspec, model = robot.model(damage_spec(spec))
     legs = functional_legs(spec)
-    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy())
+    com_xy = robot.stance_com_xy(model, spec.gait.stance_height_m)
+    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(), com_xy)
     cfg = sim_config(spec)
-    weights = spec.objective.weights
+    weights, units = spec.objective.weights, spec.objective.units
     lower, upper = search_bounds(spec, robot)
     names = param_names(legs)
 
@@ -249,7 +253,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
                 raise Cancelled()
             x = opt.ask()
             r = ev.evaluate(x)
-            f = fitness(r.metrics, weights)
+            f = fitness(r.metrics, weights, units)
             opt.tell(f)
             evaluations += len(f)
             sim_steps += r.sim_steps
@@ -267,8 +271,8 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
 
         best_x, best_f = opt.best
         nominal = nominal_params(robot, legs)
-        best = _scored(ev, best_x, weights)
-        baseline = _scored(base_ev, nominal, weights)
+        best = _scored(ev, best_x, weights, units)
+        baseline = _scored(base_ev, nominal, weights, units)
         traces = {"best": ev.trace(best_x), "baseline": base_ev.trace(nominal)}
         evaluations += 2
     finally:

@@ -4,13 +4,17 @@ from __future__ import annotations
 
 from app.optim.cmaes import CMAES
 from app.optim.de import DifferentialEvolution
+from app.optim.pso import ParticleSwarm
 
-OPTIMIZERS = ("de", "cmaes")
+OPTIMIZERS = ("de", "cmaes", "pso")
 
 
-def make_optimizer(name: str, lower, upper, population: int, seed: int, cr: float = 0.6, f: float = 0.5):
+def make_optimizer(name: str, lower, upper, population: int, seed: int, cr: float = 0.6, f: float = 0.5,
+                   w: float = 0.1, phi1: float = 2.0, phi2: float = 2.0):
     if name == "de":
         return DifferentialEvolution(lower, upper, population=population, cr=cr, f=f, seed=seed)
     if name == "cmaes":
         return CMAES(lower, upper, population=population, seed=seed)
+    if name == "pso":
+        return ParticleSwarm(lower, upper, population=population, w=w, phi1=phi1, phi2=phi2, seed=seed)
     raise ValueError(f"unknown optimizer {name!r}; known: {OPTIMIZERS}")

@@ -45,6 +45,27 @@ class RobotEntry:
             out[lg.leg] = (hx + lg.side * self.nominal_x0(), hy + self.nominal_y0(lg.leg))
         return out
 
+    def stance_com_xy(self, model: mujoco.MjModel, stance_height: float) -> tuple[float, float]:
+        """Centre of mass (body frame, xy) of a (damaged) model standing at the nominal
+        stance: what the gait planner's support polygons must hold."""
+        import numpy as np
+
+        from app.gaits.ik import leg_ik
+
+        data = mujoco.MjData(model)
+        data.qpos[3] = 1.0
+        for lg in self.geometry.legs():
+            tip = np.array([self.nominal_x0(), lg.side * self.nominal_y0(lg.leg), -stance_height])
+            q = leg_ik(tip, self.geometry.link_lengths)
+            for jn, v in zip(hexapod.JOINT_NAMES, q):
+                jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, hexapod.joint_name(lg.leg, jn))
+                if jid >= 0:
+                    data.qpos[model.jnt_qposadr[jid]] = v
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
+        return float(data.subtree_com[torso, 0]), float(data.subtree_com[torso, 1])
+
     def model(self, damage: DamageSpec = DamageSpec()) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
         spec = apply_damage(self.build(), damage)
         return spec, spec.compile()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 FALL_FITNESS = -1.0
+UNITS = ("m_rad", "cm_deg")
 METRIC_KEYS = ("x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg", "fell")
 
 
@@ -50,25 +51,33 @@ def body_metrics(com: np.ndarray, quat: np.ndarray, fell: np.ndarray) -> dict[st
     }
 
 
-def objective_terms(metrics: dict[str, np.ndarray], weights) -> dict[str, np.ndarray]:
-    """Named, weighted terms of Eq. 5 (angles in radians).
+def objective_terms(metrics: dict[str, np.ndarray], weights, units: str = "m_rad") -> dict[str, np.ndarray]:
+    """Named, weighted terms of Eq. 5.
+
+    The paper does not say in which units Eq. 5 is evaluated. ``units`` picks metres and
+    radians ("m_rad") or centimetres and degrees ("cm_deg", the units of its Table II).
 
     The paper's numerator is w1 * y_f^2, which rewards walking backwards as much as
     forwards; its stated intent is forward progression, so we keep the sign:
     w1 * y_f * |y_f|. A fallen candidate gets FALL_FITNESS, below any walker's F.
     """
     w1, w2, w3, w4, w5 = (float(w) for w in weights)
-    y = metrics["y_f_m"]
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {UNITS}, got {units!r}")
+    pos = 100.0 if units == "cm_deg" else 1.0
+    ang = 1.0 if units == "cm_deg" else np.pi / 180.0
+    y = pos * metrics["y_f_m"]
     return {
         "forward": w1 * y * np.abs(y),
-        "drift": w2 * metrics["x_f_m"] ** 2,
-        "yaw": w3 * np.radians(metrics["yaw_f_deg"]) ** 2,
-        "roll": w4 * np.radians(metrics["roll_amp_deg"]) ** 2,
-        "pitch": w5 * np.radians(metrics["pitch_amp_deg"]) ** 2,
+        "drift": w2 * (pos * metrics["x_f_m"]) ** 2,
+        "yaw": w3 * (ang * metrics["yaw_f_deg"]) ** 2,
+        "roll": w4 * (ang * metrics["roll_amp_deg"]) ** 2,
+        "pitch": w5 * (ang * metrics["pitch_amp_deg"]) ** 2,
     }
 
 
-def fitness(metrics: dict[str, np.ndarray], weights) -> np.ndarray:
-    t = objective_terms(metrics, weights)
+def fitness(metrics: dict[str, np.ndarray], weights, units: str = "m_rad") -> np.ndarray:
+    t = objective_terms(metrics, weights, units)
     f = t["forward"] / (1.0 + t["drift"] + t["yaw"] + t["roll"] + t["pitch"])
-    return np.where(metrics["fell"], FALL_FITNESS, f)
+    # Walkers are clipped just above the fall value so that a fall always ranks last.
+    return np.where(metrics["fell"], FALL_FITNESS, np.maximum(f, FALL_FITNESS + 1e-3))

@@ -1,0 +1,63 @@
+"""Bearer API tokens. Stored as sha256 hashes; required whenever the server is reachable
+from other hosts (or GAITMEND_AUTH=on). Without auth everything belongs to "local"."""
+
+from __future__ import annotations
+
+import dataclasses
+import ipaddress
+
+from fastapi import Request
+from fastapi.concurrency import run_in_threadpool
+
+from app.api.errors import ApiError
+from app.store import repo
+from app.store.db import session_scope
+
+LOCAL_OWNER = "local"
+
+
+@dataclasses.dataclass(frozen=True)
+class Principal:
+    name: str
+    restricted: bool  # False: sees every job (no auth, no token)
+
+    @property
+    def owner_filter(self) -> str | None:
+        return self.name if self.restricted else None
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def auth_required(mode: str, host: str) -> bool:
+    return mode == "on" or (mode == "auto" and not is_loopback(host))
+
+
+async def principal(request: Request) -> Principal:
+    header = request.headers.get("authorization", "")
+    required = request.app.state.auth_required
+    if not header:
+        if required:
+            raise ApiError(401, "an API token is required: Authorization: Bearer <token> (gaitmend token create NAME)",
+                           field="Authorization", headers={"WWW-Authenticate": "Bearer"})
+        return Principal(LOCAL_OWNER, restricted=False)
+    scheme, _, token = header.partition(" ")
+    if scheme.lower() != "bearer" or not token.strip():
+        raise ApiError(401, "Authorization must be 'Bearer <token>'", field="Authorization",
+                       headers={"WWW-Authenticate": "Bearer"})
+    url = request.app.state.settings.db_url
+
+    def lookup():
+        with session_scope(url) as s:
+            return repo.resolve_token(s, token.strip())
+
+    name = await run_in_threadpool(lookup)
+    if name is None:
+        raise ApiError(401, "unknown API token", field="Authorization", headers={"WWW-Authenticate": "Bearer"})
+    return Principal(name, restricted=True)

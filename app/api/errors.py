@@ -1,0 +1,44 @@
+"""Errors as JSON: {"detail": message, "errors": [{"field", "message"}]}, always naming the
+field when one is at fault."""
+
+from __future__ import annotations
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+
+class ApiError(Exception):
+    def __init__(self, status: int, message: str, field: str | None = None, errors: list[dict] | None = None,
+                 headers: dict | None = None):
+        self.status, self.message, self.headers = status, message, headers
+        self.errors = errors if errors is not None else ([{"field": field, "message": message}] if field else [])
+
+
+def error_body(message: str, errors: list[dict]) -> dict:
+    return {"detail": message, "errors": errors}
+
+
+def _loc(loc) -> str:
+    parts = [str(p) for p in loc]
+    if parts and parts[0] in ("body", "query", "path", "header"):
+        parts = parts[1:] or parts
+    return ".".join(parts) or "request"
+
+
+def install(app: FastAPI) -> None:
+    @app.exception_handler(ApiError)
+    async def _api_error(_req: Request, exc: ApiError):
+        return JSONResponse(error_body(exc.message, exc.errors), status_code=exc.status, headers=exc.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(_req: Request, exc: RequestValidationError):
+        errors = [{"field": _loc(e["loc"]), "message": e["msg"].removeprefix("Value error, ")} for e in exc.errors()]
+        return JSONResponse(error_body("; ".join(f"{e['field']}: {e['message']}" for e in errors), errors),
+                            status_code=422)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(_req: Request, exc: StarletteHTTPException):
+        return JSONResponse(error_body(str(exc.detail), []), status_code=exc.status_code,
+                            headers=getattr(exc, "headers", None))

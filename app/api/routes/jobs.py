@@ -1,0 +1,246 @@
+"""/api/jobs: validate, call one repository function, return a response model."""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import io
+import json
+import shutil
+from pathlib import Path
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Depends, Header, Path as PathParam, Query, Request, Response
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import FileResponse, StreamingResponse
+from sqlalchemy.exc import IntegrityError
+
+from app.api.auth import Principal, principal
+from app.api.errors import ApiError
+from app.api.schemas import ErrorOut, JobList, JobOut, Status
+from app.dispatch import send
+from app.jobs.base import SpecError
+from app.jobs.registry import parse_spec
+from app.settings import Settings
+from app.store import repo
+from app.store.db import session_scope
+from app.store.models import FINAL, utcnow
+
+router = APIRouter(prefix="/jobs", tags=["jobs"])
+
+JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
+ERRORS = {r: {"model": ErrorOut} for r in (401, 404, 409, 413, 422, 429)}
+
+
+def _settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+def _not_found(job_id: str) -> ApiError:
+    return ApiError(404, f"no job {job_id!r}", field="id")
+
+
+async def _db(request: Request, fn, readonly: bool = False):
+    url = _settings(request).db_url
+
+    def call():
+        with session_scope(url, readonly=readonly) as s:
+            return fn(s)
+
+    try:
+        return await run_in_threadpool(call)
+    except repo.NotFound as e:
+        raise _not_found(str(e)) from None
+    except repo.Conflict as e:
+        raise ApiError(409, str(e)) from None
+
+
+async def _read_body(request: Request, limit: int) -> bytes:
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > limit:
+            raise ApiError(413, f"request body larger than {limit} bytes (GAITMEND_MAX_BODY_BYTES)", field="body")
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def _budget_error(spec, limit: int) -> ApiError | None:
+    budget = int(spec.evaluations_budget)
+    if budget <= limit:
+        return None
+    field = "search.generations" if hasattr(spec, "search") else "spec"
+    return ApiError(422, f"the spec needs {budget} evaluations (population x (generations + 1)); "
+                         f"the limit is {limit} per job (GAITMEND_MAX_EVALUATIONS_PER_JOB)", field=field)
+
+
+@router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,
+             "description": "a retry with the same Idempotency-Key: the job created the first time"}},
+             openapi_extra={"requestBody": {"required": True, "content": {
+                 "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
+async def submit(request: Request, response: Response, who: Principal = Depends(principal),
+                 idempotency_key: Annotated[str | None, Header(min_length=1, max_length=200)] = None):
+    """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
+    checked before anything is written."""
+    settings = _settings(request)
+    body = await _read_body(request, settings.max_body_bytes)
+    try:
+        data = json.loads(body)
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ApiError(422, f"the body is not JSON: {e}", field="body") from None
+    try:
+        spec = parse_spec(data)
+    except SpecError as e:
+        raise ApiError(422, str(e), errors=e.errors) from None
+    if (err := _budget_error(spec, settings.max_evaluations_per_job)) is not None:
+        raise err
+    full = spec.model_dump(mode="json")
+
+    def existing(s):
+        job = repo.find_by_idempotency_key(s, who.name, idempotency_key)
+        if job is not None and job.spec != full:
+            raise repo.Conflict("Idempotency-Key was used before with a different spec")
+        return job
+
+    def create(s):
+        if idempotency_key and (job := existing(s)) is not None:
+            return job, False
+        if repo.count_queued(s, who.name) >= settings.max_queued_per_owner:
+            raise ApiError(429, f"{settings.max_queued_per_owner} jobs are already queued for {who.name!r} "
+                                f"(GAITMEND_MAX_QUEUED_PER_OWNER); wait or cancel some", field="owner")
+        job = repo.create_job(s, owner=who.name, kind=spec.kind, robot=getattr(spec, "robot", None), spec=full,
+                              evaluations_budget=int(spec.evaluations_budget), max_attempts=settings.max_attempts,
+                              idempotency_key=idempotency_key)
+        job.dispatched_at = utcnow()
+        return job, True
+
+    try:
+        job, created = await _db(request, create)
+    except IntegrityError:  # a concurrent request with the same Idempotency-Key won
+        job, created = await _db(request, existing), False
+    if created:
+        await run_in_threadpool(send, settings, [job.id])
+    else:
+        response.status_code = 200
+    response.headers["Location"] = f"/api/jobs/{job.id}"
+    return JobOut.of(job)
+
+
+@router.get("", response_model=JobList, responses=ERRORS)
+async def list_jobs(request: Request, who: Principal = Depends(principal),
+                    status: Status | None = None,
+                    kind: Annotated[str | None, Query(max_length=32)] = None,
+                    robot: Annotated[str | None, Query(max_length=64)] = None,
+                    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+                    cursor: Annotated[str | None, Query(max_length=64)] = None):
+    """Jobs, newest first, filtered by status, kind and robot; keyset pagination."""
+    before = None
+    if cursor:
+        try:
+            before = repo.decode_cursor(cursor)
+        except ValueError as e:
+            raise ApiError(422, str(e), field="cursor") from None
+    rows, nxt = await _db(request, lambda s: repo.list_jobs(s, owner=who.owner_filter, status=status, kind=kind,
+                                                             robot=robot, limit=limit, before_seq=before),
+                          readonly=True)
+    return JobList(items=[JobOut.of(j, detail=False) for j in rows],
+                   next_cursor=repo.encode_cursor(nxt) if nxt is not None else None)
+
+
+@router.get("/{job_id}", response_model=JobOut, responses=ERRORS)
+async def get_job(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+    return JobOut.of(job)
+
+
+@router.get("/{job_id}/history", responses=ERRORS | {200: {"content": {"application/json": {}, "text/csv": {}},
+                                                           "description": "one row per generation"}})
+async def get_history(request: Request, job_id: JobId, who: Principal = Depends(principal),
+                      format: Literal["json", "csv"] = "json"):
+    """Per-generation metrics: progress rows while running, the job's own history once done."""
+    rows = await _db(request, lambda s: repo.history(s, repo.get_job(s, job_id, who.owner_filter)), readonly=True)
+    if format == "json":
+        return rows
+    buf = io.StringIO()
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    w = csv.DictWriter(buf, fieldnames=fields)
+    w.writeheader()
+    w.writerows(rows)
+    return Response(buf.getvalue(), media_type="text/csv")
+
+
+@router.get("/{job_id}/events", responses=ERRORS | {200: {"content": {"text/event-stream": {}},
+                                                          "description": "progress events, then one final 'end'"}})
+async def events(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    """Server-sent events: `progress` whenever the job changes, then `end` with its final state."""
+    settings = _settings(request)
+    first = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+
+    async def stream():
+        job, last, idle = first, None, 0.0
+        while True:
+            out = JobOut.of(job, detail=job.status in FINAL)
+            stamp = (job.status, job.updated_at, job.progress_done)
+            if job.status in FINAL:
+                yield f"event: end\ndata: {out.model_dump_json()}\n\n"
+                return
+            if stamp != last:
+                yield f"event: progress\ndata: {out.model_dump_json()}\n\n"
+                last, idle = stamp, 0.0
+            elif idle >= 15:
+                yield ": keep-alive\n\n"
+                idle = 0.0
+            if await request.is_disconnected():
+                return
+            await asyncio.sleep(0.5)
+            idle += 0.5
+            try:
+                job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+            except ApiError:  # deleted meanwhile
+                yield "event: end\ndata: {\"status\": \"deleted\"}\n\n"
+                return
+
+    return StreamingResponse(stream(), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+@router.post("/{job_id}/cancel", response_model=JobOut, status_code=202, responses=ERRORS)
+async def cancel(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    """A queued job is cancelled at once and never starts; a running one stops within a generation."""
+    return JobOut.of(await _db(request, lambda s: repo.request_cancel(s, job_id, who.owner_filter)))
+
+
+@router.post("/{job_id}/retry", response_model=JobOut, status_code=202, responses=ERRORS)
+async def retry(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    """Run a failed or cancelled job again; it resumes from its last checkpoint."""
+    def do(s):
+        job = repo.retry(s, job_id, who.owner_filter)
+        job.dispatched_at = utcnow()
+        return job
+
+    job = await _db(request, do)
+    await run_in_threadpool(send, _settings(request), [job.id])
+    return JobOut.of(job)
+
+
+@router.delete("/{job_id}", status_code=204, responses=ERRORS)
+async def delete(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    """Delete a job that is not running, with its history, checkpoint and bundle."""
+    settings = _settings(request)
+    job = await _db(request, lambda s: repo.delete_job(s, job_id, who.owner_filter))
+    if job.bundle_path:
+        Path(job.bundle_path).unlink(missing_ok=True)
+    shutil.rmtree(Path(settings.artifact_dir) / job.id, ignore_errors=True)
+    return Response(status_code=204)
+
+
+@router.get("/{job_id}/bundle", responses=ERRORS | {200: {"content": {"application/zip": {}},
+                                                          "description": "the result bundle"}})
+async def bundle(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+    job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+    if job.status != "succeeded" or not job.bundle_path:
+        raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
+    path = Path(job.bundle_path)
+    if not path.is_file():
+        raise ApiError(410, f"the bundle file is gone from the data folder: {path.name}")
+    return FileResponse(path, media_type="application/zip", filename=f"gaitmend-{job.id}.zip")

@@ -1,0 +1,44 @@
+"""/api/robots and /api/health."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request
+from fastapi.concurrency import run_in_threadpool
+from sqlalchemy import text
+
+from app.api.schemas import Health, WorkerOut
+from app.dispatch import broker_ok
+from app.robots.catalog import ROBOTS
+from app.store import repo
+from app.store.db import session_scope
+
+router = APIRouter(tags=["service"])
+
+
+@router.get("/robots")
+async def robots() -> list[dict]:
+    """The robot catalog: legs, joints and the parameters of the search."""
+    return [r.describe() for r in ROBOTS.values()]
+
+
+@router.get("/health", response_model=Health)
+async def health(request: Request):
+    """Database, broker, and the workers seen in the last three housekeeping intervals."""
+    settings = request.app.state.settings
+
+    def check():
+        try:
+            with session_scope(settings.db_url, readonly=True) as s:
+                s.execute(text("SELECT 1"))
+                seen = repo.workers_seen(s, within_s=max(3 * settings.reaper_interval_s, 15.0))
+            db = "ok"
+        except Exception as e:
+            db, seen = f"{type(e).__name__}: {e}", []
+        ok, broker = broker_ok(settings)
+        return db, broker, seen
+
+    db, broker, seen = await run_in_threadpool(check)
+    url = settings.broker_url.split("@")[-1] if "@" in settings.broker_url else settings.broker_url
+    return Health(status="ok" if db == "ok" and broker == "ok" else "degraded", database=db, broker=broker,
+                  broker_url=url, workers=[WorkerOut(name=w.name, broker=w.broker, started_at=w.started_at,
+                                                     last_seen_at=w.last_seen_at) for w in seen])

@@ -1,0 +1,65 @@
+"""Sending job ids to the broker. The row is committed first; a send that fails leaves
+the job queued with no dispatch time, and the housekeeper sends it again."""
+
+from __future__ import annotations
+
+import functools
+import logging
+
+from app.settings import Settings
+from app.store import repo
+from app.store.db import session_scope
+
+log = logging.getLogger("gaitmend.dispatch")
+
+TASK = "gaitmend.run_job"
+
+
+@functools.lru_cache(maxsize=8)
+def _celery(settings: Settings):
+    from workers.celery_app import make_celery
+
+    return make_celery(settings)
+
+
+def send(settings: Settings, job_ids: list[str]) -> list[str]:
+    """Send each id; returns those that could not be sent (their dispatch time is cleared)."""
+    app = _celery(settings)
+    failed = []
+    for job_id in job_ids:
+        try:
+            app.send_task(TASK, args=[job_id], queue=settings.queue, retry=False)
+        except Exception:
+            log.exception("could not send job %s to the broker", job_id)
+            failed.append(job_id)
+    if failed:
+        from sqlalchemy import update
+
+        from app.store.models import Job
+
+        with session_scope(settings.db_url) as s:
+            s.execute(update(Job).where(Job.id.in_(failed)).values(dispatched_at=None))
+    return failed
+
+
+def broker_ok(settings: Settings) -> tuple[bool, str]:
+    app = _celery(settings)
+    try:
+        with app.connection_for_write() as conn:
+            conn.ensure_connection(max_retries=1, timeout=2)
+        return True, "ok"
+    except Exception as e:
+        return False, f"{type(e).__name__}: {e}"
+
+
+def dispatch_pending(settings: Settings) -> int:
+    """Requeue jobs whose lease expired and (re)send messages that are missing."""
+    with session_scope(settings.db_url) as s:
+        requeued = repo.reap(s)
+    with session_scope(settings.db_url) as s:
+        ids = repo.undelivered(s, settings.redispatch_after_s)
+        repo.mark_dispatched(s, ids)
+    if requeued:
+        log.info("requeued after lost lease: %s", requeued)
+    send(settings, ids)
+    return len(ids)

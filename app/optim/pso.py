@@ -1,0 +1,98 @@
+"""Particle swarm optimisation exactly as paper 001, Eq. 1 (Kennedy & Eberhart), ask/tell.
+
+    v_ij(k+1) = w v_ij(k) + phi1 r1_j (xbar_ij - x_ij) + phi2 r2_j (xhat_j - x_ij)
+    x_ij(k+1) = x_ij(k) + v_ij(k+1)
+
+with r1, r2 ~ U(0, 1) drawn per particle and dimension. The paper leaves open what the
+initial velocities are and how bounds are kept; we draw v(0) ~ U(-(u - l), u - l) / 2,
+clamp |v| to the box width (the usual v_max) and clip positions to the box, zeroing the
+velocity component that hit a wall (an "absorbing wall", so particles do not stick to it
+with a velocity pointing outward). Maximises; the state (positions, velocities, personal
+and global bests, generator state) is a JSON-able dict, so a restored run continues
+bit-identically.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ParticleSwarm:
+    def __init__(self, lower, upper, population: int = 20, w: float = 0.1, phi1: float = 2.0, phi2: float = 2.0,
+                 seed: int = 0):
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
+            raise ValueError("lower and upper bounds must have the same shape with lower <= upper")
+        if population < 2:
+            raise ValueError("population must be at least 2 particles")
+        self.population, self.w, self.phi1, self.phi2 = int(population), float(w), float(phi1), float(phi2)
+        self.rng = np.random.default_rng(seed)
+        self.generation = 0
+        self.x: np.ndarray | None = None
+        self.v: np.ndarray | None = None
+        self.pbest: np.ndarray | None = None
+        self.pbest_f: np.ndarray | None = None
+        self.last_f: np.ndarray | None = None
+        self._asked = False
+
+    @property
+    def dim(self) -> int:
+        return self.lower.size
+
+    def ask(self) -> np.ndarray:
+        width = self.upper - self.lower
+        if self.x is None:
+            self.x = self.lower + self.rng.random((self.population, self.dim)) * width
+            self.v = (self.rng.random((self.population, self.dim)) - 0.5) * width
+        else:
+            g = self.pbest[int(np.argmax(self.pbest_f))]
+            r1 = self.rng.random(self.x.shape)
+            r2 = self.rng.random(self.x.shape)
+            v = self.w * self.v + self.phi1 * r1 * (self.pbest - self.x) + self.phi2 * r2 * (g - self.x)  # Eq. 1
+            v = np.clip(v, -width, width)
+            x = self.x + v
+            hit = (x < self.lower) | (x > self.upper)
+            self.x = np.clip(x, self.lower, self.upper)
+            self.v = np.where(hit, 0.0, v)
+        self._asked = True
+        return self.x.copy()
+
+    def tell(self, fitness) -> None:
+        f = np.asarray(fitness, dtype=float)
+        if not self._asked or f.shape != (self.population,):
+            raise ValueError("tell() needs one fitness per particle of the last ask()")
+        if self.pbest is None:
+            self.pbest, self.pbest_f = self.x.copy(), f.copy()
+        else:
+            better = f > self.pbest_f
+            self.pbest = np.where(better[:, None], self.x, self.pbest)
+            self.pbest_f = np.where(better, f, self.pbest_f)
+        self.last_f = f.copy()
+        self._asked = False
+        self.generation += 1
+
+    @property
+    def population_fitness(self) -> np.ndarray:
+        """Fitness of the particles' current positions (the last generation told)."""
+        return self.last_f
+
+    @property
+    def best(self) -> tuple[np.ndarray, float]:
+        i = int(np.argmax(self.pbest_f))
+        return self.pbest[i].copy(), float(self.pbest_f[i])
+
+    def state(self) -> dict:
+        def l(a):
+            return None if a is None else a.tolist()
+        return {"generation": self.generation, "x": l(self.x), "v": l(self.v), "pbest": l(self.pbest),
+                "pbest_f": l(self.pbest_f), "last_f": l(self.last_f), "rng": self.rng.bit_generator.state}
+
+    def restore(self, state: dict) -> None:
+        def a(v):
+            return None if v is None else np.asarray(v, dtype=float)
+        self.generation = int(state["generation"])
+        self.x, self.v, self.pbest = a(state["x"]), a(state["v"]), a(state["pbest"])
+        self.pbest_f, self.last_f = a(state["pbest_f"]), a(state["last_f"])
+        self.rng.bit_generator.state = state["rng"]
+        self._asked = False

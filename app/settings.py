@@ -1,0 +1,118 @@
+"""The one Settings object of the job service. Every value comes from a GAITMEND_* variable
+(or its default); a bad value stops the process at start-up with the variable's name."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+EMBEDDED = "embedded"
+
+
+class SettingsError(ValueError):
+    pass
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="GAITMEND_", extra="ignore", validate_default=True, frozen=True)
+
+    data_dir: Path = Path("./gaitmend-data")
+    # Default: a SQLite file under data_dir. PostgreSQL: postgresql://user@host/db.
+    database_url: str = ""
+    # "embedded": Celery's filesystem transport under data_dir/broker (no server);
+    # or redis://host:port/db.
+    broker_url: str = EMBEDDED
+    queue: str = Field("gaitmend", pattern=r"^[A-Za-z0-9_.-]{1,64}$")
+    # Prefix for every Redis key Celery writes, so several deployments can share one Redis.
+    redis_key_prefix: str = Field("gaitmend:", max_length=64)
+
+    # Limits (API).
+    max_body_bytes: int = Field(64 * 1024, ge=1024, le=16 * 1024 * 1024)
+    max_evaluations_per_job: int = Field(200_000, ge=1)
+    max_queued_per_owner: int = Field(100, ge=1)
+    auth: Literal["auto", "on", "off"] = "auto"  # auto: required unless bound to loopback
+
+    # Reliability (workers).
+    lease_s: float = Field(30.0, ge=1.0, le=3600.0)  # renewed every lease_s / 3 while running
+    max_attempts: int = Field(3, ge=1, le=20)  # worker deaths tolerated per job
+    reaper_interval_s: float = Field(5.0, gt=0.0, le=600.0)
+    redispatch_after_s: float = Field(300.0, ge=1.0)  # re-send a queued job's message after this
+    max_job_s: int = Field(6 * 3600, ge=10)  # a running job past this fails
+    visibility_timeout_s: int = Field(12 * 3600, ge=60)  # Redis redelivery; must exceed max_job_s
+    worker_concurrency: int = Field(1, ge=1, le=64)
+    worker_max_tasks_per_child: int = Field(20, ge=1)
+    poll_interval_s: float = Field(0.2, gt=0.0, le=5.0)  # embedded broker polling
+
+    # Client side (gaitmend submit / jobs / fetch).
+    server: str = "http://127.0.0.1:8000"
+    token: str = ""
+
+    @field_validator("broker_url")
+    @classmethod
+    def _broker(cls, v: str) -> str:
+        if v != EMBEDDED and not v.startswith(("redis://", "rediss://")):
+            raise ValueError(f"must be {EMBEDDED!r} or a redis:// URL, got {v!r}")
+        return v
+
+    @field_validator("database_url")
+    @classmethod
+    def _db(cls, v: str) -> str:
+        if v and not v.startswith(("sqlite:", "postgresql:", "postgresql+psycopg:")):
+            raise ValueError(f"must be a sqlite:/// or postgresql:// URL, got {v!r}")
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.visibility_timeout_s <= self.max_job_s:
+            raise ValueError(f"GAITMEND_VISIBILITY_TIMEOUT_S ({self.visibility_timeout_s}) must exceed "
+                             f"GAITMEND_MAX_JOB_S ({self.max_job_s}), or Redis redelivers running jobs")
+        return self
+
+    @property
+    def embedded_broker(self) -> bool:
+        return self.broker_url == EMBEDDED
+
+    @property
+    def db_url(self) -> str:
+        """SQLAlchemy URL; psycopg 3 is the PostgreSQL driver."""
+        url = self.database_url or f"sqlite:///{(self.data_dir / 'gaitmend.db').resolve()}"
+        if url.startswith("postgresql://"):
+            url = "postgresql+psycopg://" + url[len("postgresql://"):]
+        return url
+
+    @property
+    def bundle_dir(self) -> Path:
+        return self.data_dir / "bundles"
+
+    @property
+    def artifact_dir(self) -> Path:
+        return self.data_dir / "artifacts"
+
+    @property
+    def broker_dir(self) -> Path:
+        return self.data_dir / "broker" / self.queue
+
+
+def _explain(exc: ValidationError) -> str:
+    parts = []
+    for e in exc.errors():
+        name = "GAITMEND_" + "_".join(str(p) for p in e["loc"]).upper() if e["loc"] else "settings"
+        msg = e["msg"].removeprefix("Value error, ")
+        parts.append(f"{name}: {msg}" + (f" (got {e['input']!r})" if e["loc"] else ""))
+    return "; ".join(parts)
+
+
+def load_settings(**overrides) -> Settings:
+    try:
+        return Settings(**overrides)
+    except ValidationError as e:
+        raise SettingsError(_explain(e)) from None
+
+
+@functools.lru_cache(maxsize=1)
+def get_settings() -> Settings:
+    return load_settings()

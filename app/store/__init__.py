@@ -1,0 +1,1 @@
+"""The jobs database: SQLAlchemy models, engine and session scope, repository functions."""

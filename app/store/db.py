@@ -1,0 +1,80 @@
+"""Engine and session scope. One engine per (URL, process): a forked worker child never
+reuses its parent's connections."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+from collections.abc import Iterator
+
+from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.orm import Session, sessionmaker
+
+_lock = threading.Lock()
+_engines: dict[tuple[str, int], tuple[Engine, sessionmaker]] = {}
+
+SQLITE_BUSY_TIMEOUT_MS = 30_000
+
+
+def _sqlite_engine(url: str) -> Engine:
+    path = url.removeprefix("sqlite:///")
+    if path and path != ":memory:":
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000, "check_same_thread": False})
+
+    @event.listens_for(engine, "connect")
+    def _on_connect(dbapi_conn, _rec):
+        # We issue BEGIN ourselves (below); the driver's implicit transactions would
+        # start a deferred one that can fail with SQLITE_BUSY when it turns into a write.
+        dbapi_conn.isolation_level = None
+        cur = dbapi_conn.cursor()
+        cur.execute("PRAGMA journal_mode=WAL")
+        cur.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_TIMEOUT_MS}")
+        cur.execute("PRAGMA synchronous=NORMAL")
+        cur.execute("PRAGMA foreign_keys=ON")
+        cur.close()
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn):
+        # Writers take the lock up front, so the busy timeout applies and the
+        # transaction never has to be upgraded; readers use a WAL snapshot.
+        conn.exec_driver_sql("BEGIN" if conn.get_execution_options().get("readonly") else "BEGIN IMMEDIATE")
+
+    return engine
+
+
+def get_engine(url: str) -> tuple[Engine, sessionmaker]:
+    key = (url, os.getpid())
+    with _lock:
+        if key not in _engines:
+            if url.startswith("sqlite"):
+                engine = _sqlite_engine(url)
+            else:
+                engine = create_engine(url, pool_pre_ping=True, pool_size=10, max_overflow=20)
+            _engines[key] = (engine, sessionmaker(engine, expire_on_commit=False))
+        return _engines[key]
+
+
+def forget_engines() -> None:
+    """After a fork: drop (without closing) connections inherited from the parent."""
+    with _lock:
+        for (url, pid), (engine, _) in list(_engines.items()):
+            if pid != os.getpid():
+                engine.dispose(close=False)
+                del _engines[(url, pid)]
+
+
+@contextlib.contextmanager
+def session_scope(url: str, readonly: bool = False) -> Iterator[Session]:
+    """One short transaction: commits on success, rolls back on error."""
+    _, factory = get_engine(url)
+    with factory() as session:
+        if readonly:
+            session.connection(execution_options={"readonly": True})
+        try:
+            yield session
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise

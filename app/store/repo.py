@@ -1,0 +1,352 @@
+"""Repository functions: every read and write of the service goes through here, each in
+the caller's short transaction (see db.session_scope). Writes by a running job are fenced
+by its lease token, so a worker that lost its lease can no longer change the job."""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import datetime as dt
+import hashlib
+import secrets
+import uuid
+from sqlalchemy import delete, func, select, update
+from sqlalchemy.orm import Session
+
+from app.store.models import FINAL, ApiToken, Job, JobCheckpoint, JobHistory, Worker, utcnow
+
+
+class NotFound(LookupError):
+    pass
+
+
+class Conflict(ValueError):
+    pass
+
+
+def new_job_id() -> str:
+    return uuid.uuid4().hex
+
+
+# -- submission ------------------------------------------------------------------------------
+
+def find_by_idempotency_key(s: Session, owner: str, key: str) -> Job | None:
+    return s.scalar(select(Job).where(Job.owner == owner, Job.idempotency_key == key))
+
+
+def count_queued(s: Session, owner: str) -> int:
+    return s.scalar(select(func.count()).select_from(Job).where(Job.owner == owner, Job.status == "queued"))
+
+
+def create_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: dict, evaluations_budget: int,
+               max_attempts: int, idempotency_key: str | None = None) -> Job:
+    job = Job(id=new_job_id(), owner=owner, kind=kind, robot=robot, status="queued", spec=spec,
+              idempotency_key=idempotency_key, evaluations_budget=evaluations_budget, max_attempts=max_attempts,
+              attempt=0, cancel_requested=False, progress_done=0, progress_total=0)
+    s.add(job)
+    s.flush()
+    return job
+
+
+def mark_dispatched(s: Session, job_ids: list[str], now: dt.datetime | None = None) -> None:
+    if job_ids:
+        s.execute(update(Job).where(Job.id.in_(job_ids)).values(dispatched_at=now or utcnow()))
+
+
+# -- reads ---------------------------------------------------------------------------------------
+
+def get_job(s: Session, job_id: str, owner: str | None = None) -> Job:
+    """A job by id; owner None means any owner. Someone else's job is NotFound, like a missing one."""
+    q = select(Job).where(Job.id == job_id)
+    if owner is not None:
+        q = q.where(Job.owner == owner)
+    job = s.scalar(q)
+    if job is None:
+        raise NotFound(job_id)
+    return job
+
+
+def encode_cursor(seq: int) -> str:
+    return base64.urlsafe_b64encode(f"s{seq}".encode()).decode().rstrip("=")
+
+
+def decode_cursor(cursor: str) -> int:
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)).decode()
+        if not raw.startswith("s"):
+            raise ValueError
+        return int(raw[1:])
+    except (ValueError, UnicodeDecodeError):
+        raise ValueError("not a cursor returned by this API") from None
+
+
+def list_jobs(s: Session, *, owner: str | None, status: str | None = None, kind: str | None = None,
+              robot: str | None = None, limit: int = 50, before_seq: int | None = None) -> tuple[list[Job], int | None]:
+    """Newest first; keyset pagination on seq, so page N costs the same as page 1."""
+    q = select(Job)
+    if owner is not None:
+        q = q.where(Job.owner == owner)
+    if status:
+        q = q.where(Job.status == status)
+    if kind:
+        q = q.where(Job.kind == kind)
+    if robot:
+        q = q.where(Job.robot == robot)
+    if before_seq is not None:
+        q = q.where(Job.seq < before_seq)
+    rows = list(s.scalars(q.order_by(Job.seq.desc()).limit(limit + 1)))
+    nxt = rows[limit - 1].seq if len(rows) > limit else None
+    return rows[:limit], nxt
+
+
+def history(s: Session, job: Job) -> list[dict]:
+    rows = s.scalars(select(JobHistory).where(JobHistory.job_seq == job.seq).order_by(JobHistory.generation))
+    return [r.data for r in rows]
+
+
+def load_checkpoint(s: Session, job_id: str) -> str | None:
+    return s.scalar(select(JobCheckpoint.data).join(Job, Job.seq == JobCheckpoint.job_seq).where(Job.id == job_id))
+
+
+def checkpoint_saves(s: Session, job_id: str) -> int:
+    return s.scalar(select(JobCheckpoint.saves).join(Job, Job.seq == JobCheckpoint.job_seq).where(Job.id == job_id)) or 0
+
+
+# -- the worker's side -----------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Claim:
+    job_id: str
+    seq: int
+    lease_token: str
+    attempt: int
+    spec: dict
+
+
+def lost_reason(attempt: int, max_attempts: int) -> str:
+    return (f"worker lost {attempt} times while running this job (killed, out of memory or crashed); "
+            f"giving up after max_attempts={max_attempts}")
+
+
+def claim(s: Session, job_id: str, *, worker: str, lease_s: float, now: dt.datetime | None = None) -> Claim | None:
+    """Take a queued job, or a running one whose lease expired, for one attempt.
+    None when there is nothing to run: finished, cancelled, held by a live lease, or out of
+    attempts (then the job is failed here, with the reason)."""
+    now = now or utcnow()
+    job = s.scalar(select(Job).where(Job.id == job_id).with_for_update())
+    if job is None or job.status in FINAL:
+        return None
+    if job.status == "running" and job.lease_expires_at is not None and job.lease_expires_at > now:
+        return None
+    if job.cancel_requested:
+        _finish(job, "cancelled", now)
+        return None
+    if job.attempt >= job.max_attempts:
+        _finish(job, "failed", now, error=lost_reason(job.attempt, job.max_attempts))
+        return None
+    job.attempt += 1
+    job.status = "running"
+    job.lease_token = uuid.uuid4().hex
+    job.lease_expires_at = now + dt.timedelta(seconds=lease_s)
+    job.worker = worker
+    job.started_at = job.started_at or now
+    job.updated_at = now
+    return Claim(job.id, job.seq, job.lease_token, job.attempt, dict(job.spec))
+
+
+def _fenced(job_id: str, token: str):
+    return update(Job).where(Job.id == job_id, Job.lease_token == token, Job.status == "running")
+
+
+def heartbeat(s: Session, job_id: str, token: str, lease_s: float) -> bool:
+    now = utcnow()
+    r = s.execute(_fenced(job_id, token).values(lease_expires_at=now + dt.timedelta(seconds=lease_s)))
+    return r.rowcount == 1
+
+
+def record_progress(s: Session, claim_: Claim, done: int, total: int, info: dict, lease_s: float) -> bool:
+    now = utcnow()
+    r = s.execute(_fenced(claim_.job_id, claim_.lease_token).values(
+        progress_done=done, progress_total=total, progress_info=info, updated_at=now,
+        lease_expires_at=now + dt.timedelta(seconds=lease_s)))
+    if r.rowcount != 1:
+        return False
+    gen = max(done - 1, 0)
+    row = s.get(JobHistory, (claim_.seq, gen))
+    if row is None:
+        s.add(JobHistory(job_seq=claim_.seq, generation=gen, data={"generation": gen} | info))
+    else:
+        row.data = {"generation": gen} | info
+    return True
+
+
+def save_checkpoint(s: Session, claim_: Claim, data: str) -> bool:
+    r = s.execute(_fenced(claim_.job_id, claim_.lease_token).values(updated_at=utcnow()))
+    if r.rowcount != 1:
+        return False
+    row = s.get(JobCheckpoint, claim_.seq)
+    if row is None:
+        s.add(JobCheckpoint(job_seq=claim_.seq, saves=1, data=data, updated_at=utcnow()))
+    else:
+        row.data, row.saves, row.updated_at = data, row.saves + 1, utcnow()
+    return True
+
+
+def cancel_requested(s: Session, job_id: str) -> bool:
+    return bool(s.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
+
+
+def _finish(job: Job, status: str, now: dt.datetime, error: str | None = None) -> None:
+    job.status = status
+    job.error = error
+    job.finished_at = now
+    job.updated_at = now
+    job.lease_token = None
+    job.lease_expires_at = None
+
+
+def finish(s: Session, claim_: Claim, status: str, *, summary: dict | None = None, error: str | None = None,
+           bundle_path: str | None = None, history_rows: list[dict] | None = None) -> bool:
+    assert status in FINAL
+    job = s.scalar(select(Job).where(Job.id == claim_.job_id, Job.lease_token == claim_.lease_token,
+                                     Job.status == "running").with_for_update())
+    if job is None:
+        return False
+    _finish(job, status, utcnow(), error=error)
+    job.summary = summary
+    job.bundle_path = bundle_path
+    if history_rows is not None:
+        s.execute(delete(JobHistory).where(JobHistory.job_seq == job.seq))
+        s.add_all(JobHistory(job_seq=job.seq, generation=i, data=r) for i, r in enumerate(history_rows))
+    if status == "succeeded":
+        job.progress_done = job.progress_total = max(job.progress_total, job.progress_done)
+    return True
+
+
+# -- reaper --------------------------------------------------------------------------------------
+
+def reap(s: Session, now: dt.datetime | None = None) -> list[str]:
+    """Jobs whose lease expired go back to the queue (or fail, out of attempts, or become
+    cancelled if that was asked). Returns the ids to dispatch again."""
+    now = now or utcnow()
+    q = select(Job).where(Job.status == "running", Job.lease_expires_at < now).with_for_update(skip_locked=True)
+    requeued = []
+    for job in s.scalars(q):
+        if job.cancel_requested:
+            _finish(job, "cancelled", now)
+        elif job.attempt >= job.max_attempts:
+            _finish(job, "failed", now, error=lost_reason(job.attempt, job.max_attempts))
+        else:
+            job.status = "queued"
+            job.lease_token = None
+            job.lease_expires_at = None
+            job.dispatched_at = None
+            job.updated_at = now
+            requeued.append(job.id)
+    return requeued
+
+
+def undelivered(s: Session, after_s: float, now: dt.datetime | None = None, limit: int = 500) -> list[str]:
+    """Queued jobs whose message was never sent or was sent long ago (the embedded broker
+    drops a message that a killed worker had taken but not yet claimed)."""
+    now = now or utcnow()
+    cutoff = now - dt.timedelta(seconds=after_s)
+    q = (select(Job.id).where(Job.status == "queued", (Job.dispatched_at.is_(None)) | (Job.dispatched_at < cutoff))
+         .order_by(Job.seq).limit(limit))
+    return list(s.scalars(q))
+
+
+# -- user actions --------------------------------------------------------------------------------
+
+def request_cancel(s: Session, job_id: str, owner: str | None) -> Job:
+    """Queued: cancelled now, it never starts. Running: flagged, the search stops at its next
+    generation. Finished: unchanged."""
+    job = get_job(s, job_id, owner)
+    now = utcnow()
+    if job.status == "queued":
+        _finish(job, "cancelled", now)
+        job.cancel_requested = True
+    elif job.status == "running":
+        job.cancel_requested = True
+        job.updated_at = now
+    return job
+
+
+def retry(s: Session, job_id: str, owner: str | None) -> Job:
+    """Failed or cancelled jobs run again, resuming from their last checkpoint if any."""
+    job = get_job(s, job_id, owner)
+    if job.status not in ("failed", "cancelled"):
+        raise Conflict(f"only failed or cancelled jobs can be retried; this one is {job.status}")
+    job.status = "queued"
+    job.attempt = 0
+    job.cancel_requested = False
+    job.error = None
+    job.summary = None
+    job.bundle_path = None
+    job.finished_at = None
+    job.dispatched_at = None
+    job.updated_at = utcnow()
+    return job
+
+
+def delete_job(s: Session, job_id: str, owner: str | None) -> Job:
+    job = get_job(s, job_id, owner)
+    if job.status == "running":
+        raise Conflict("the job is running; cancel it first")
+    s.execute(delete(JobHistory).where(JobHistory.job_seq == job.seq))
+    s.execute(delete(JobCheckpoint).where(JobCheckpoint.job_seq == job.seq))
+    s.delete(job)
+    return job
+
+
+# -- tokens ----------------------------------------------------------------------------------------
+
+def hash_token(token: str) -> str:
+    return hashlib.sha256(token.encode()).hexdigest()
+
+
+def create_token(s: Session, name: str) -> str:
+    if s.scalar(select(ApiToken).where(ApiToken.name == name)) is not None:
+        raise Conflict(f"a token named {name!r} exists; revoke it first")
+    token = "gm_" + secrets.token_urlsafe(32)
+    s.add(ApiToken(name=name, token_hash=hash_token(token)))
+    return token
+
+
+def resolve_token(s: Session, token: str) -> str | None:
+    row = s.scalar(select(ApiToken).where(ApiToken.token_hash == hash_token(token)))
+    if row is None:
+        return None
+    now = utcnow()
+    if row.last_used_at is None or (now - row.last_used_at).total_seconds() > 60:
+        row.last_used_at = now  # at most one write a minute per token
+    return row.name
+
+
+def list_tokens(s: Session) -> list[ApiToken]:
+    return list(s.scalars(select(ApiToken).order_by(ApiToken.id)))
+
+
+def revoke_token(s: Session, name: str) -> bool:
+    return s.execute(delete(ApiToken).where(ApiToken.name == name)).rowcount == 1
+
+
+def token_count(s: Session) -> int:
+    return s.scalar(select(func.count()).select_from(ApiToken))
+
+
+# -- workers ------------------------------------------------------------------------------------
+
+def worker_seen(s: Session, name: str, broker: str) -> None:
+    now = utcnow()
+    row = s.get(Worker, name)
+    if row is None:
+        s.add(Worker(name=name, broker=broker, started_at=now, last_seen_at=now))
+    else:
+        row.last_seen_at = now
+
+
+def workers_seen(s: Session, within_s: float) -> list[Worker]:
+    cutoff = utcnow() - dt.timedelta(seconds=within_s)
+    return list(s.scalars(select(Worker).where(Worker.last_seen_at >= cutoff).order_by(Worker.name)))
+

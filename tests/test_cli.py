@@ -1,0 +1,71 @@
+"""`gaitmend run` as a user runs it: a subprocess, exit codes, files written."""
+
+import json
+import subprocess
+import sys
+import zipfile
+
+import pytest
+
+SMALL = {"kind": "recovery", "damage": {"lost_legs": [3, 4]},
+         "search": {"population": 6, "generations": 2, "seed": 11}, "sim": {"duration_s": 2.0}}
+
+
+def gaitmend(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "app.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp_path):
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(SMALL))
+    out = tmp_path / "out"
+    p = gaitmend("run", str(spec), "--out", str(out), "--json")
+    assert p.returncode == 0, p.stderr
+    summary = json.loads(p.stdout.strip().splitlines()[-1])
+    assert {"baseline", "best", "gait", "history", "timing"} <= set(summary)
+    assert set(summary["timing"]) >= {"wall_s", "evaluations", "sim_steps_per_s"}
+    assert "gen" in p.stderr  # the progress bar went to stderr
+
+    bundle = out / f"{summary['job_id']}.zip"
+    with zipfile.ZipFile(bundle) as z:
+        names = set(z.namelist())
+        manifest = json.loads(z.read("manifest.json"))
+    for f in ("manifest.json", "result.json", "history.csv", "robot.xml", "README.md",
+              "trajectories/best.npz", "trajectories/best.csv", "trajectories/baseline.npz",
+              "plots/convergence.svg", "plots/convergence.png", "plots/orientation.svg", "plots/com.svg",
+              "plots/gait_diagram_best.svg"):
+        assert f in names
+    assert manifest["spec"]["search"]["seed"] == 11 and manifest["seed"] == 11
+    assert set(manifest["versions"]) >= {"gaitmend", "mujoco", "numpy", "python"}
+    assert manifest["evaluations"] == summary["timing"]["evaluations"]
+
+    again = gaitmend("run", str(out / "manifest.json"), "--out", str(tmp_path / "again"), "--json", "--quiet")
+    assert again.returncode == 0, again.stderr
+    rerun = json.loads(again.stdout.strip().splitlines()[-1])
+    for key in ("baseline", "best", "gait", "history"):
+        assert rerun[key] == summary[key]
+    assert json.loads((tmp_path / "again" / "manifest.json").read_text())["model_sha256"] == manifest["model_sha256"]
+
+
+@pytest.mark.parametrize("patch,needle", [
+    ({"robot": "atlas"}, "robot: unknown robot 'atlas'"),
+    ({"damage": {"lost_legs": [2, 4]}}, "damage.lost_legs: infeasible morphology"),
+    ({"bounds": {"step_length_m": [0.05, 0.02]}}, "step_length_m: lower bound 0.05 exceeds upper bound 0.02"),
+    ({"search": {"population": 2}}, "search.population: Input should be greater than or equal to 4"),
+    ({"sim": {"duration_s": -1}}, "sim.duration_s: Input should be greater than 0"),
+    ({"gravity": 3}, "gravity: unknown field"),
+])
+def test_bad_specs_exit_2_name_the_field_and_write_nothing(tmp_path, patch, needle):
+    spec = tmp_path / "bad.json"
+    spec.write_text(json.dumps(SMALL | patch))
+    out = tmp_path / "out"
+    p = gaitmend("run", str(spec), "--out", str(out))
+    assert p.returncode == 2
+    assert needle in " ".join(p.stderr.split())
+    assert not out.exists()
+
+
+def test_unreadable_spec_exits_2(tmp_path):
+    (tmp_path / "x.json").write_text("{not json")
+    assert gaitmend("run", str(tmp_path / "x.json"), "--out", str(tmp_path / "o")).returncode == 2
+    assert gaitmend("run", str(tmp_path / "missing.json"), "--out", str(tmp_path / "o")).returncode == 2
