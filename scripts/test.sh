@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The README's second command: install the test dependencies and run every test.
+# Idempotent; used as-is by CI (.ci/run). Starts what the tests need and is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-python3}
+[ -x .venv/bin/python ] || "$PY" -m venv .venv
+. .venv/bin/activate
+python -m pip install -q --upgrade pip >/dev/null
+python -m pip install -q -e '.[test]'
+
+# Browser tests drive Debian's Chromium (never a downloaded browser).
+if [ -f tests/e2e/conftest.py ] && [ ! -x /usr/bin/chromium ] && command -v apt-get >/dev/null; then
+  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+    || echo "warning: could not install chromium; browser tests will fail" >&2
+fi
+# Redis and PostgreSQL run on this machine and in CI; start them if they stopped.
+if command -v redis-cli >/dev/null && ! redis-cli -h 127.0.0.1 ping >/dev/null 2>&1; then
+  redis-server --daemonize yes --bind 127.0.0.1 --port 6379 --save "" --appendonly no >/dev/null || true
+fi
+if command -v pg_isready >/dev/null && ! pg_isready -h 127.0.0.1 -q 2>/dev/null; then
+  pg_ctlcluster --skip-systemctl-redirect "$(ls /etc/postgresql | head -1)" main start 2>/dev/null || true
+fi
+
+set +e
+python -m pytest "$@"
+rc=$?
+set -e
+# Exit 5 means pytest collected nothing: a broken checkout, so say so and fail.
+if [ "$rc" -eq 5 ]; then
+  echo "pytest collected no tests" >&2
+fi
+exit "$rc"
