@@ -167,6 +167,9 @@ def reproduce(
     print(md)
 
 
+from app import service_cli  # noqa: E402,F401  (serve, worker, submit, jobs, fetch, db, token)
+
+
 def main() -> None:
     try:
         cli()

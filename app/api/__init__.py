@@ -1,0 +1,81 @@
+"""The HTTP API: create_app() wires routes, auth, limits and the OpenAPI schema."""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+
+from fastapi import FastAPI
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import JSONResponse, RedirectResponse
+
+from app import __version__
+from app.api import errors
+from app.api.auth import auth_required
+from app.api.routes import jobs, meta
+from app.api.schemas import spec_json_schema
+from app.settings import Settings, get_settings
+
+
+class BodyLimit:
+    """Refuses a declared Content-Length above the limit before reading anything
+    (streamed bodies are counted by the route that reads them)."""
+
+    def __init__(self, app, limit: int):
+        self.app, self.limit = app, limit
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] == "http":
+            for k, v in scope.get("headers", ()):
+                if k == b"content-length" and v.isdigit() and int(v) > self.limit:
+                    msg = f"request body larger than {self.limit} bytes (GAITMEND_MAX_BODY_BYTES)"
+                    resp = JSONResponse(errors.error_body(msg, [{"field": "body", "message": msg}]), status_code=413)
+                    await resp(scope, receive, send)
+                    return
+        await self.app(scope, receive, send)
+
+
+def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housekeeping: bool = False) -> FastAPI:
+    """`host` is the address the server binds: auth is required unless it is loopback
+    (GAITMEND_AUTH=on|off overrides). `housekeeping` runs the lease reaper in this process."""
+    settings = settings or get_settings()
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        keeper = None
+        if housekeeping:
+            from app.housekeeping import Housekeeper
+
+            keeper = Housekeeper(settings)
+            threading.Thread(target=keeper.loop, name="housekeeping", daemon=True).start()
+        yield
+        if keeper:
+            keeper.stop()
+
+    app = FastAPI(title="gaitmend", version=__version__, lifespan=lifespan,
+                  description="Submit damage scenarios; workers search for gaits that walk again.")
+    app.state.settings = settings
+    app.state.auth_required = auth_required(settings.auth, host)
+    errors.install(app)
+    app.include_router(jobs.router, prefix="/api")
+    app.include_router(meta.router, prefix="/api")
+    app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+
+    @app.get("/", include_in_schema=False)
+    async def root():
+        return RedirectResponse("/docs")
+
+    def openapi():
+        if app.openapi_schema is None:
+            schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+            spec, defs = spec_json_schema()
+            comps = schema.setdefault("components", {}).setdefault("schemas", {})
+            comps.update(defs)
+            comps["JobSpec"] = spec
+            schema.setdefault("components", {})["securitySchemes"] = {"bearer": {"type": "http", "scheme": "bearer"}}
+            schema["security"] = [{"bearer": []}, {}]
+            app.openapi_schema = schema
+        return app.openapi_schema
+
+    app.openapi = openapi
+    return app

@@ -1,0 +1,80 @@
+"""The Celery app and its reliability settings.
+
+The broker only carries job ids; the jobs table is the source of truth (DESIGN.md). Hence:
+acks_late + reject_on_worker_lost (a message is only gone once its job ran), prefetch 1
+(a busy worker holds no other job's message), a visibility timeout above the longest job
+(Redis does not redeliver a running job), and a reaper for what a broker loses on kill -9.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+from celery import Celery, signals
+
+from app.settings import Settings, get_settings
+
+log = logging.getLogger("gaitmend.worker")
+
+
+def broker_options(settings: Settings) -> tuple[str, dict]:
+    if settings.embedded_broker:
+        # Celery's filesystem transport: a folder of message files, no server. A message
+        # taken by a worker that is then killed is lost; the reaper re-sends it.
+        folder = settings.broker_dir.resolve()
+        (folder / "processed").mkdir(parents=True, exist_ok=True)
+        return "filesystem://", {"data_folder_in": str(folder), "data_folder_out": str(folder),
+                                 "processed_folder": str(folder / "processed"), "store_processed": False,
+                                 "polling_interval": settings.poll_interval_s}
+    return settings.broker_url, {"visibility_timeout": settings.visibility_timeout_s,
+                                 "global_keyprefix": settings.redis_key_prefix}
+
+
+def make_celery(settings: Settings | None = None) -> Celery:
+    settings = settings or get_settings()
+    url, options = broker_options(settings)
+    app = Celery("gaitmend", broker=url, include=["workers.tasks"])
+    app.conf.update(
+        broker_transport_options=options,
+        broker_connection_retry_on_startup=True,
+        task_default_queue=settings.queue,
+        task_acks_late=True,
+        task_reject_on_worker_lost=True,
+        task_ignore_result=True,
+        task_serializer="json",
+        accept_content=["json"],
+        worker_prefetch_multiplier=1,
+        worker_concurrency=settings.worker_concurrency,
+        worker_max_tasks_per_child=settings.worker_max_tasks_per_child,
+        worker_enable_remote_control=False,  # workers report to the database instead
+        worker_send_task_events=False,
+        worker_hijack_root_logger=False,
+        broker_heartbeat=0,
+    )
+    return app
+
+
+celery_app = make_celery()
+
+
+@signals.worker_process_init.connect
+def _fresh_engine_per_child(**_):
+    # A forked pool process must not use connections opened by the parent.
+    from app.store.db import forget_engines
+
+    forget_engines()
+
+
+@signals.worker_ready.connect
+def _start_housekeeping(sender=None, **_):
+    from app.housekeeping import Housekeeper
+
+    hk = Housekeeper(get_settings(), worker_name=_name(sender))
+    threading.Thread(target=hk.loop, name="housekeeping", daemon=True).start()
+
+
+def _name(sender) -> str:
+    from app.runner import worker_name
+
+    return getattr(sender, "hostname", None) or worker_name()
