@@ -95,7 +95,7 @@ class TipDetector:
 
     threshold_deg: float = 20.0
     kappa: float = 0.8
-    window: int = 10
+    window: int = 25
     times: list = dataclasses.field(default_factory=list)
     margins: list = dataclasses.field(default_factory=list)
 

@@ -1,0 +1,420 @@
+"""Tipping scenarios in MuJoCo (paper 002 Sec. 5): the tilting platform and tripod walking
+onto a unilateral cliff, with the judgment-and-recovery controller running every control
+step (0.02 s, the paper's sample time) on the simulated contact forces."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import mujoco
+import numpy as np
+
+from app.robots.heavy_hexapod import HEAVY, JOINT_NAMES, LEG_IDS, HeavyHexapodGeometry, joint_name
+from app.stability.fasm import TipDetector, fasm_edges, net_wrench_from_contacts
+from app.stability.foothold import SwingPlan, leg_ik, optimal_foothold, reachable_space, select_adjustment_leg
+from app.stability.polygon import ccw_order, fit_plane, nesm, ssm
+from app.stability.qp import distribute
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerConfig:
+    recovery: bool = True
+    threshold_deg: float = 20.0  # xi_f (Sec. 3)
+    kappa: float = 0.8  # Eq. 15
+    rho: float = 0.9  # safety margin of the reachable space (Eq. 11-13)
+    lam: float = 0.9  # radius factor of the stability cone's base (Eq. 21)
+    mu: float = 0.8  # friction coefficient the QP assumes (below the simulated one)
+    parallel_deg: float = 15.0  # boundary-vs-axis angle under which L or R is taken (Sec. 4.2)
+    swing_min_s: float = 0.4
+    swing_max_s: float = 2.5
+    clearance_m: float = 0.25
+    press_m: float = 0.06  # target this far into the fitted ground so the foot surely lands
+    min_lever_m: float = 0.05  # a swing leg that cannot reach this far outside the axis cannot help
+    qp: bool = True
+    control_dt: float = 0.02
+    max_adjustments: int = 2
+
+
+@dataclasses.dataclass
+class Adjustment:
+    detect_time_s: float
+    margin_at_detection_deg: float
+    edge_legs: tuple[int, int]
+    time_to_tip_s: float
+    margin_rate_deg_s: float
+    margin_acc_deg_s2: float
+    leg: int | None
+    lever_arm_m: float = float("nan")
+    foothold_label: str = ""
+    foothold_body_m: list = dataclasses.field(default_factory=list)
+    swing_s: float = float("nan")
+    lands_before_tip: bool = False
+    land_time_s: float | None = None
+    margin_before_landing_deg: float = float("nan")
+    margin_after_landing_deg: float = float("nan")
+
+    def as_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["edge"] = f"a{self.edge_legs[0]}{self.edge_legs[1]}"
+        d["adjustment_time_s"] = None if self.land_time_s is None else self.land_time_s - self.detect_time_s
+        return d
+
+
+def _quat_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    return np.concatenate([[math.cos(angle / 2)], axis * math.sin(angle / 2)])
+
+
+class HexapodSim:
+    """Model, data and the per-step sensing the controller uses."""
+
+    def __init__(self, spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY):
+        self.spec = spec
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.geom = geom
+        m = self.model
+        self.torso = m.body("torso").id
+        self.mass = float(m.body_subtreemass[self.torso])
+        self.gravity = m.opt.gravity.copy()
+        self.foot_geom = {leg: m.geom(f"leg{leg}_foot").id for leg in LEG_IDS}
+        self.geom_leg = {g: leg for leg, g in self.foot_geom.items()}
+        self.tip_site = {leg: m.site(f"leg{leg}_tip").id for leg in LEG_IDS}
+        self.shank = {leg: m.body(f"leg{leg}_shank").id for leg in LEG_IDS}
+        self.qadr = {leg: np.array([m.jnt_qposadr[m.joint(joint_name(leg, j)).id] for j in JOINT_NAMES]) for leg in LEG_IDS}
+        self.dadr = {leg: np.array([m.jnt_dofadr[m.joint(joint_name(leg, j)).id] for j in JOINT_NAMES]) for leg in LEG_IDS}
+        self.pid = {leg: np.array([m.actuator(f"{joint_name(leg, j)}_pid").id for j in JOINT_NAMES]) for leg in LEG_IDS}
+        self.ff = {leg: np.array([m.actuator(f"{joint_name(leg, j)}_ff").id for j in JOINT_NAMES]) for leg in LEG_IDS}
+        self.jlo = {leg: m.jnt_range[[m.joint(joint_name(leg, j)).id for j in JOINT_NAMES], 0] for leg in LEG_IDS}
+        self.jhi = {leg: m.jnt_range[[m.joint(joint_name(leg, j)).id for j in JOINT_NAMES], 1] for leg in LEG_IDS}
+        self._cf = np.zeros(6)
+        self._jac = np.zeros((3, m.nv))
+
+    # -- sensing ---------------------------------------------------------------------------
+    def foot_forces(self) -> np.ndarray:
+        """(6, 3) ground forces on each foot, world frame (3D contact-force sensors)."""
+        d, out = self.data, np.zeros((6, 3))
+        for i in range(d.ncon):
+            c = d.contact[i]
+            leg = self.geom_leg.get(c.geom2)
+            sign = 1.0
+            if leg is None:
+                leg = self.geom_leg.get(c.geom1)
+                sign = -1.0  # the normal points from geom1 to geom2
+            if leg is None:
+                continue
+            mujoco.mj_contactForce(self.model, d, i, self._cf)
+            out[leg - 1] += sign * (c.frame.reshape(3, 3).T @ self._cf[:3])
+        return out
+
+    def feet_world(self) -> np.ndarray:
+        return np.stack([self.data.site_xpos[self.tip_site[leg]] for leg in LEG_IDS])
+
+    def body_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.data.xpos[self.torso].copy(), self.data.xmat[self.torso].reshape(3, 3).copy()
+
+    def to_body(self, p_world: np.ndarray) -> np.ndarray:
+        x, R = self.body_pose()
+        return (np.asarray(p_world) - x) @ R
+
+    def com(self) -> np.ndarray:
+        return self.data.subtree_com[self.torso].copy()
+
+    # -- actuation -------------------------------------------------------------------------
+    def set_foot_target(self, leg: int, p_body: np.ndarray) -> None:
+        x, dd, th = leg_ik(self.geom.workspace(leg), p_body)
+        q = np.clip(np.array([th, x, dd]), self.jlo[leg], self.jhi[leg])
+        self.data.ctrl[self.pid[leg]] = q
+
+    def place_feet(self, feet_body: dict[int, np.ndarray]) -> None:
+        """Put the joints at the targets before the first step (no start-up kick)."""
+        for leg, p in feet_body.items():
+            self.set_foot_target(leg, p)
+            self.data.qpos[self.qadr[leg]] = self.data.ctrl[self.pid[leg]]
+        mujoco.mj_forward(self.model, self.data)
+
+    def apply_foot_forces(self, forces: dict[int, np.ndarray]) -> None:
+        """Feed-forward joint efforts so the stance legs push the QP's forces: tau = -J^T f."""
+        self.data.ctrl[np.concatenate(list(self.ff.values()))] = 0.0
+        for leg, f in forces.items():
+            mujoco.mj_jac(self.model, self.data, self._jac, None, self.data.site_xpos[self.tip_site[leg]], self.shank[leg])
+            tau = -(self._jac[:, self.dadr[leg]].T @ f)
+            lo = self.model.actuator_ctrlrange[self.ff[leg], 0]
+            hi = self.model.actuator_ctrlrange[self.ff[leg], 1]
+            self.data.ctrl[self.ff[leg]] = np.clip(tau, lo, hi)
+
+
+@dataclasses.dataclass
+class StepMonitor:
+    """FASM (and SSM, NESM beside it) over the current support polygon."""
+
+    margin_deg: float
+    edge_legs: tuple[int, int]
+    ssm_m: float
+    nesm_m: float
+    edges_deg: np.ndarray
+    polygon_legs: list[int]
+
+
+def monitor(feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray, stance: list[int]) -> StepMonitor:
+    idx = [l - 1 for l in stance]
+    order = ccw_order(feet_w[idx])
+    legs = [stance[i] for i in order]
+    poly = feet_w[[l - 1 for l in legs]]
+    f_r, n_r = net_wrench_from_contacts(feet_w, forces_w, com)  # Eq. 4 from every foot's force
+    th = np.degrees(fasm_edges(poly, com, f_r, n_r))
+    i = int(np.argmin(th))
+    return StepMonitor(margin_deg=float(th[i]), edge_legs=(legs[i], legs[(i + 1) % len(legs)]),
+                       ssm_m=ssm(poly, com)[0], nesm_m=nesm(poly, com)[0], edges_deg=th, polygon_legs=legs)
+
+
+class TippingController:
+    """Judgment every control step; on a tip, one adjustment leg swings (quintic) to the
+    optimal foothold and joins the stance; the QP then distributes the stance forces."""
+
+    def __init__(self, sim: HexapodSim, cfg: ControllerConfig, stance: list[int]):
+        self.sim, self.cfg = sim, cfg
+        self.stance = list(stance)
+        self.detector = TipDetector(threshold_deg=cfg.threshold_deg, kappa=cfg.kappa)
+        self.adjustments: list[Adjustment] = []
+        self.swing: tuple[int, SwingPlan, float, Adjustment] | None = None
+        self.frozen = False  # a gait generator stops once a tip is detected
+        self.prev_feet_body: np.ndarray | None = None
+        self.qp_forces: dict[int, np.ndarray] = {}
+        self.qp_stability = False
+        self.pending_after: list[tuple[float, Adjustment]] = []
+
+    def step(self, t: float, feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray) -> StepMonitor:
+        sim, cfg = self.sim, self.cfg
+        mon = monitor(feet_w, forces_w, com, self.stance)
+        tipping = self.detector.update(t, mon.margin_deg)
+        feet_b = sim.to_body(feet_w)
+        for t_after, adj in list(self.pending_after):
+            if t >= t_after:
+                adj.margin_after_landing_deg = mon.margin_deg
+                self.pending_after.remove((t_after, adj))
+        if self.swing is not None:
+            self._advance_swing(t, forces_w, mon)
+        elif cfg.recovery and tipping and len(self.adjustments) < cfg.max_adjustments and len(self.detector.times) >= 3:
+            self._start_adjustment(t, mon, feet_b)
+        if cfg.recovery and cfg.qp and any(a.land_time_s is not None for a in self.adjustments):
+            self._distribute(feet_w, com)
+        self.prev_feet_body = feet_b
+        return mon
+
+    def _start_adjustment(self, t: float, mon: StepMonitor, feet_b: np.ndarray) -> None:
+        sim, cfg = self.sim, self.cfg
+        v, a = self.detector.rates()
+        adj = Adjustment(detect_time_s=t, margin_at_detection_deg=mon.margin_deg, edge_legs=mon.edge_legs,
+                         time_to_tip_s=self.detector.time_to_tip(), margin_rate_deg_s=v, margin_acc_deg_s2=a, leg=None)
+        self.frozen = True
+        normal, origin = fit_plane(feet_b[[l - 1 for l in self.stance]])  # Sec. 4.2, body frame
+        candidates = {leg: reachable_space(sim.geom.workspace(leg), normal, origin, cfg.rho)
+                      for leg in LEG_IDS if leg not in self.stance}
+        p_i, p_j = feet_b[mon.edge_legs[0] - 1], feet_b[mon.edge_legs[1] - 1]
+        leg, lever = select_adjustment_leg((p_i, p_j), candidates)
+        self.adjustments.append(adj)
+        if leg is None or lever < cfg.min_lever_m:
+            adj.lever_arm_m = lever
+            self.detector.times.clear()  # judge again from fresh samples, not every step
+            self.detector.margins.clear()
+            return
+        label, target, lever = optimal_foothold(candidates[leg], p_i, p_j, cfg.parallel_deg)
+        adj.leg, adj.lever_arm_m, adj.foothold_label, adj.foothold_body_m = leg, lever, label, target.tolist()
+        T = float(np.clip(adj.time_to_tip_s, cfg.swing_min_s, cfg.swing_max_s))
+        adj.swing_s, adj.lands_before_tip = T, T <= adj.time_to_tip_s
+        p0 = feet_b[leg - 1]
+        v0 = np.zeros(3) if self.prev_feet_body is None else (p0 - self.prev_feet_body[leg - 1]) / cfg.control_dt
+        plan = SwingPlan.plan(p0, v0, np.zeros(3), target - cfg.press_m * normal, T, cfg.clearance_m, normal)
+        self.swing = (leg, plan, t, adj)
+
+    def _advance_swing(self, t: float, forces_w: np.ndarray, mon: StepMonitor) -> None:
+        leg, plan, t0, adj = self.swing
+        tau = t - t0
+        self.sim.set_foot_target(leg, plan.at(tau + self.cfg.control_dt)[0])
+        loaded = forces_w[leg - 1] @ np.array([0.0, 0.0, 1.0]) > 0.02 * self.sim.mass * 9.81
+        if tau >= plan.duration and (loaded or tau >= plan.duration + 1.0):
+            adj.margin_before_landing_deg = mon.margin_deg
+            adj.land_time_s = t
+            self.stance.append(leg)
+            self.swing = None
+            self.pending_after.append((t + 0.5, adj))
+            self.detector.times.clear()
+            self.detector.margins.clear()
+
+    def _distribute(self, feet_w: np.ndarray, com: np.ndarray) -> None:
+        sim = self.sim
+        idx = [l - 1 for l in self.stance]
+        normal, _ = fit_plane(feet_w[idx])
+        _, R = sim.body_pose()
+        sol = distribute(feet_w[idx], com, sim.mass, sim.gravity, normal=normal, mu=self.cfg.mu, lam=self.cfg.lam,
+                         body_x=R[:, 0])
+        self.qp_forces = {l: sol.forces[i] for i, l in enumerate(self.stance)}
+        self.qp_stability = sol.stability_constrained
+        sim.apply_foot_forces(self.qp_forces)
+
+
+# -- tilting platform -----------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class TiltScenario:
+    """The platform turns so that ``downhill_deg`` (0 = the robot's front, 90 = its left)
+    goes down, at ``rate_deg_s`` after ``settle_s``, and stops at ``max_tilt_deg`` or, when
+    that is None, ``overshoot_deg`` past the angle at which the stance tripod statically tips
+    (so the robot goes over unless something catches it)."""
+
+    downhill_deg: float = 180.0
+    stance: tuple[int, ...] = (1, 3, 5)
+    rate_deg_s: float = 3.0
+    settle_s: float = 3.0
+    max_tilt_deg: float | None = None
+    overshoot_deg: float = 4.0
+    lift_m: float = 0.45
+
+
+def paper_direction(axis: str, direction: str) -> float:
+    """Map the paper's platform rotations to the downhill direction. Seen from the axis's
+    negative end, "ccw" about y raises the front (climbing, the robot tips backward) and
+    "ccw" about x raises the right side (the robot tips to its left), as in Sec. 5.2."""
+    table = {("y", "ccw"): 180.0, ("y", "cw"): 0.0, ("x", "ccw"): 90.0, ("x", "cw"): 270.0}
+    return table[(axis, direction)]
+
+
+def static_tip_angle(poly_xy: np.ndarray, com_xy: np.ndarray, height: float, downhill_deg: float) -> float:
+    """Tilt (deg) at which the CoM's projection along the platform normal leaves the convex
+    polygon ``poly_xy`` (CCW) travelling in the downhill direction."""
+    d = np.array([math.cos(math.radians(downhill_deg)), math.sin(math.radians(downhill_deg))])
+    best = np.inf
+    n = len(poly_xy)
+    for i in range(n):
+        p, q = poly_xy[i], poly_xy[(i + 1) % n]
+        e = q - p
+        den = d[0] * e[1] - d[1] * e[0]
+        if abs(den) < 1e-12:
+            continue
+        w = p - com_xy
+        s = (w[0] * e[1] - w[1] * e[0]) / den
+        u = (w[0] * d[1] - w[1] * d[0]) / den
+        if s > 0 and -1e-9 <= u <= 1 + 1e-9:
+            best = min(best, s)
+    return math.degrees(math.atan2(best, height))
+
+
+def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
+             friction: float | None = None, record_qpos: bool = True) -> dict:
+    from app.robots.heavy_hexapod import build_tilt_spec
+
+    g = geom if friction is None else dataclasses.replace(geom, friction=friction)
+    psi = math.radians(scen.downhill_deg)
+    axis = np.array([-math.sin(psi), math.cos(psi), 0.0])  # turning +angle about it lowers the downhill side
+    sim = HexapodSim(build_tilt_spec(g, axis=tuple(axis)), g)
+    m, d = sim.model, sim.data
+    plat_body = m.body("platform").id
+    servo = m.actuator("tilt_servo").id
+    stance = list(scen.stance)
+    targets = {leg: g.nominal_foot(leg) + (0 if leg in stance else np.array([0.0, 0.0, scen.lift_m])) for leg in LEG_IDS}
+    sim.place_feet(targets)
+    ctl = TippingController(sim, cfg, stance)
+    n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
+    n_ctl = int(round(duration_s / cfg.control_dt))
+    rec = _Recorder(n_ctl, m.nq, record_qpos)
+    max_tilt = scen.max_tilt_deg
+    tip_angle = None
+    tipped_at = None
+    control_s = []
+    def tilt_at(tt: float) -> float:
+        """Constant rate after a 1 s linear ramp of the rate (a rate step would jolt a 5 t robot)."""
+        if max_tilt is None:
+            return 0.0
+        s = tt - scen.settle_s
+        ramp = 1.0
+        if s <= 0:
+            return 0.0
+        ang = scen.rate_deg_s * (s * s / (2 * ramp) if s < ramp else s - ramp / 2)
+        return min(ang, max_tilt)
+
+    mujoco.mj_forward(m, d)
+    forces_avg = sim.foot_forces()
+    for k in range(n_ctl):
+        t = k * cfg.control_dt
+        if max_tilt is None and t >= scen.settle_s:  # the stance polygon as it stands, flat
+            feet = sim.feet_world()[[l - 1 for l in stance]]
+            com = sim.com()
+            h = com[2] - feet[:, 2].mean() + g.foot_radius
+            order = ccw_order(feet)
+            tip_angle = static_tip_angle(feet[order, :2], com[:2], h, scen.downhill_deg)
+            max_tilt = tip_angle + scen.overshoot_deg
+        tilt = tilt_at(t)
+        for leg in LEG_IDS:
+            if leg not in ctl.stance and (ctl.swing is None or ctl.swing[0] != leg):
+                sim.set_foot_target(leg, targets[leg])
+        feet_w, com = sim.feet_world(), sim.com()
+        c0 = time.perf_counter()
+        if t >= scen.settle_s * 0.5:
+            mon = ctl.step(t, feet_w, forces_avg, com)
+        else:
+            mon = monitor(feet_w, forces_avg, com, ctl.stance)
+        control_s.append(time.perf_counter() - c0)
+        normal = d.xmat[plat_body].reshape(3, 3)[:, 2]
+        _, R = sim.body_pose()
+        rel = math.degrees(math.acos(np.clip(R[:, 2] @ normal, -1, 1)))
+        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d)
+        if rel > 30.0 and tipped_at is None:
+            tipped_at = t
+        if tipped_at is not None and t > tipped_at + 1.0:
+            break
+        # The platform moves every physics step (a 20 ms jump would bounce the feet), and
+        # the force sensors report the mean over the control interval (50 Hz sampling).
+        forces_avg = np.zeros((6, 3))
+        for j in range(n_sub):
+            d.ctrl[servo] = math.radians(tilt_at(t + (j + 1) * m.opt.timestep))
+            mujoco.mj_step(m, d)
+            forces_avg += sim.foot_forces()
+        forces_avg /= n_sub
+        mujoco.mj_forward(m, d)
+    tr = rec.finish()
+    return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
+            "tipped_at_s": tipped_at, "static_tip_deg": tip_angle, "max_tilt_deg": max_tilt,
+            "control_ms_mean": 1e3 * float(np.mean(control_s)), "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)),
+            "model_xml": sim.spec.to_xml(), "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass,
+            "final_stance": list(ctl.stance)}
+
+
+def _quat_rot(q: np.ndarray) -> np.ndarray:
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, np.asarray(q, float))
+    return R.reshape(3, 3)
+
+
+class _Recorder:
+    def __init__(self, n: int, nq: int, qpos: bool):
+        self.rows: dict[str, list] = {k: [] for k in ("time_s", "platform_tilt_deg", "fasm_deg", "edge_leg_a", "edge_leg_b",
+                                                      "ssm_m", "nesm_m", "foot_fz_n", "com_m", "tilt_rel_deg", "stance",
+                                                      "qp_fz_n", "qp_stability")}
+        self.qpos = qpos
+        if qpos:
+            self.rows["qpos"] = []
+            self.rows["mocap_quat"] = []
+
+    def add(self, t, tilt, mon: StepMonitor, forces_w, com, rel, ctl: TippingController, d) -> None:
+        r = self.rows
+        r["time_s"].append(t)
+        r["platform_tilt_deg"].append(tilt)
+        r["fasm_deg"].append(mon.margin_deg)
+        r["edge_leg_a"].append(mon.edge_legs[0])
+        r["edge_leg_b"].append(mon.edge_legs[1])
+        r["ssm_m"].append(mon.ssm_m)
+        r["nesm_m"].append(mon.nesm_m)
+        r["foot_fz_n"].append(forces_w[:, 2].copy())
+        r["com_m"].append(com.copy())
+        r["tilt_rel_deg"].append(rel)
+        r["stance"].append(np.array([leg in ctl.stance for leg in LEG_IDS]))
+        r["qp_fz_n"].append(np.array([ctl.qp_forces.get(leg, np.zeros(3))[2] for leg in LEG_IDS]))
+        r["qp_stability"].append(bool(ctl.qp_stability))
+        if self.qpos:
+            r["qpos"].append(d.qpos.copy())
+
+    def finish(self) -> dict[str, np.ndarray]:
+        return {k: np.asarray(v) for k, v in self.rows.items()}
