@@ -151,12 +151,21 @@ class ModularSim:
         G = ctrl.shape[0]
         st, _ = self._runner.rollout(self.model, self._datas, np.ascontiguousarray(states), np.ascontiguousarray(ctrl))
         self.sim_steps += G * ctrl.shape[1]
-        idx = np.arange(self.stride - 1, ctrl.shape[1], self.stride)
-        if idx[-1] != ctrl.shape[1] - 1:
-            idx = np.append(idx, ctrl.shape[1] - 1)
+        idx = self._sample_steps(ctrl.shape[1])
         samples = np.concatenate([states[:, None], st[:, idx]], axis=1)
         xyz, yaw = self.pivot_pose(samples)
         return xyz, np.unwrap(yaw, axis=1), st[:, -1].copy(), (st if full else None)
+
+    def _sample_steps(self, nstep: int) -> np.ndarray:
+        idx = np.arange(self.stride - 1, nstep, self.stride)
+        if idx.size == 0 or idx[-1] != nstep - 1:
+            idx = np.append(idx, nstep - 1)
+        return idx
+
+    @property
+    def n_samples(self) -> int:
+        """Pivot samples per gait (start included)."""
+        return self._sample_steps(self.nstep).size + 1
 
     def primitives(self, gaits: np.ndarray, k: int) -> Primitives:
         """Simulate k gaits of each of B candidates ((B, k * 6 J) vectors) from rest at the

@@ -16,8 +16,8 @@ the pivot within ``min_move`` of its parent adds nothing (a duplicate node cover
 Metric rho: the pivot's planar distance (x, y); on non-flat maps (stairs) its 3-D distance.
 The random configuration is a uniform point of the map (the metric ignores the rest).
 Collisions: every swept sample of the pivot must be free in the map's CollisionGrid.
-Coverage: the share of the map's cells visited by the pivot along the tree's edges (the
-area the motion plan reaches), not only by the nodes.
+Coverage: the share of the map's cells that hold at least one tree node (Sec. IV-B: "the
+nodes of the tree are assigned to cells according to their 2D positions").
 """
 
 from __future__ import annotations
@@ -153,7 +153,7 @@ def rrt_mp(pmap: PlanMap, expand: Expander, k: int, draws: np.ndarray, radius: f
             if tree.paths is not None:
                 tree.paths[ba, slot] = paths[add, j]
             tree.n[add] += 1
-            _mark(tree.covered, ba, paths[add, j], pmap)
+            _mark(tree.covered, ba, q_new[add, None], pmap)
     return tree
 
 
