@@ -39,6 +39,7 @@ from app.stability.foothold import LegWorkspace
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 JOINT_NAMES = ("swing", "horizontal", "vertical")
 TRIPODS = ((1, 3, 5), (2, 4, 6))
+ROBOT_GROUP = 1  # terrain stays in group 0, so a foothold ray (mj_ray, group 0 only) sees the ground alone
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,7 +102,7 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
     torso = spec.worldbody.add_body(name="torso", pos=list(pos))
     torso.add_freejoint(name="root")
     torso.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(geom.body_half_size),
-                   mass=geom.body_mass, contype=1, conaffinity=1, rgba=[0.85, 0.6, 0.15, 1])
+                   mass=geom.body_mass, contype=1, conaffinity=1, group=ROBOT_GROUP, rgba=[0.85, 0.6, 0.15, 1])
     torso.add_site(name="imu", pos=[0, 0, 0])
     m_coxa, m_carriage, m_shank = geom.leg_masses
     (tlo, thi) = (math.radians(a) for a in geom.theta_range_deg)
@@ -112,20 +113,20 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
         coxa.add_joint(name=joint_name(leg, "swing"), type=mujoco.mjtJoint.mjJNT_HINGE, axis=[s, 0, 0],
                        range=[tlo, thi], limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature[0])
         coxa.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, 0, s * geom.l1, 0], size=[0.12, 0, 0],
-                      mass=m_coxa, contype=0, conaffinity=0, rgba=[0.3, 0.3, 0.3, 1])
+                      mass=m_coxa, contype=0, conaffinity=0, group=ROBOT_GROUP, rgba=[0.3, 0.3, 0.3, 1])
         carriage = coxa.add_body(name=f"leg{leg}_carriage", pos=[0, s * geom.l1, 0])
         carriage.add_joint(name=joint_name(leg, "horizontal"), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0],
                            range=list(geom.x_range), limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature[1])
         carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.25, 0.1, 0.15], mass=m_carriage,
-                          contype=0, conaffinity=0, rgba=[0.35, 0.35, 0.4, 1])
+                          contype=0, conaffinity=0, group=ROBOT_GROUP, rgba=[0.35, 0.35, 0.4, 1])
         shank = carriage.add_body(name=f"leg{leg}_shank", pos=[0, 0, 0])
         shank.add_joint(name=joint_name(leg, "vertical"), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, -1],
                         range=list(geom.d_range), limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature[2])
         # Slide value = leg length d: at d the shank origin (the foot) is d below the carriage.
         shank.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, 0, 0, geom.d_range[0]], size=[0.07, 0, 0],
-                       mass=m_shank, contype=0, conaffinity=0, rgba=[0.2, 0.2, 0.2, 1])
+                       mass=m_shank, contype=0, conaffinity=0, group=ROBOT_GROUP, rgba=[0.2, 0.2, 0.2, 1])
         shank.add_geom(name=f"leg{leg}_foot", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[0, 0, 0],
-                       size=[geom.foot_radius, 0, 0], mass=0.0, contype=1, conaffinity=1,
+                       size=[geom.foot_radius, 0, 0], mass=0.0, contype=1, conaffinity=1, group=ROBOT_GROUP,
                        friction=[geom.friction, 0.005, 1e-4], rgba=[0.9, 0.3, 0.1, 1])
         shank.add_site(name=f"leg{leg}_tip", pos=[0, 0, 0])
         for jn, kp, kv, fl in zip(JOINT_NAMES, geom.kp, geom.kv, geom.force_limit):

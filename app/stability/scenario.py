@@ -28,7 +28,7 @@ class ControllerConfig:
     mu: float = 0.8  # friction coefficient the QP assumes (below the simulated one)
     parallel_deg: float = 15.0  # boundary-vs-axis angle under which L or R is taken (Sec. 4.2)
     swing_min_s: float = 0.4
-    swing_max_s: float = 2.5
+    swing_max_s: float = 1.5  # the paper's adjustments took 0.74-2.31 s
     clearance_m: float = 0.25
     press_m: float = 0.06  # target this far into the fitted ground so the foot surely lands
     min_lever_m: float = 0.05  # a swing leg that cannot reach this far outside the axis cannot help
@@ -56,10 +56,24 @@ class Adjustment:
     margin_after_landing_deg: float = float("nan")
 
     def as_dict(self) -> dict:
-        d = dataclasses.asdict(self)
-        d["edge"] = f"a{self.edge_legs[0]}{self.edge_legs[1]}"
+        # JSON has no NaN: unknown numbers (no leg could help, never landed) become None.
+        d = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in dataclasses.asdict(self).items()}
+        d["time_to_tip_s"] = None if math.isinf(self.time_to_tip_s) else float(self.time_to_tip_s)
+        d["lands_before_tip"] = bool(self.lands_before_tip)
+        d["edge"] = edge_name(*self.edge_legs)
         d["adjustment_time_s"] = None if self.land_time_s is None else self.land_time_s - self.detect_time_s
         return d
+
+
+PAPER_EDGES = ("a13", "a35", "a51", "a24", "a46", "a62")  # Table II's names
+
+
+def edge_name(i: int, j: int) -> str:
+    """Support edge as Table II names it (its order for tripod 2-4-6 is clockwise)."""
+    for name in (f"a{i}{j}", f"a{j}{i}"):
+        if name in PAPER_EDGES:
+            return name
+    return f"a{i}{j}"
 
 
 def _quat_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -174,8 +188,9 @@ class TippingController:
     """Judgment every control step; on a tip, one adjustment leg swings (quintic) to the
     optimal foothold and joins the stance; the QP then distributes the stance forces."""
 
-    def __init__(self, sim: HexapodSim, cfg: ControllerConfig, stance: list[int]):
+    def __init__(self, sim: HexapodSim, cfg: ControllerConfig, stance: list[int], ground_check=None):
         self.sim, self.cfg = sim, cfg
+        self.ground_check = ground_check  # world point -> is there ground to stand on
         self.stance = list(stance)
         self.detector = TipDetector(threshold_deg=cfg.threshold_deg, kappa=cfg.kappa)
         self.adjustments: list[Adjustment] = []
@@ -186,9 +201,18 @@ class TippingController:
         self.qp_stability = False
         self.pending_after: list[tuple[float, Adjustment]] = []
 
+    def support(self, forces_w: np.ndarray) -> list[int]:
+        """The support polygon's legs: those commanded to stance plus any foot still
+        carrying load (a lifting tripod unloads over a few steps; leaving its force out of
+        the polygon but in Eq. 4 would read as a false tip)."""
+        loaded = [leg for leg in LEG_IDS if forces_w[leg - 1, 2] > 0.02 * self.sim.mass * 9.81]
+        if self.swing is not None and self.swing[0] in loaded and self.swing[0] not in self.stance:
+            loaded.remove(self.swing[0])
+        return sorted(set(self.stance) | set(loaded))
+
     def step(self, t: float, feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray) -> StepMonitor:
         sim, cfg = self.sim, self.cfg
-        mon = monitor(feet_w, forces_w, com, self.stance)
+        mon = monitor(feet_w, forces_w, com, self.support(forces_w))
         tipping = self.detector.update(t, mon.margin_deg)
         feet_b = sim.to_body(feet_w)
         for t_after, adj in list(self.pending_after):
@@ -214,14 +238,21 @@ class TippingController:
         candidates = {leg: reachable_space(sim.geom.workspace(leg), normal, origin, cfg.rho)
                       for leg in LEG_IDS if leg not in self.stance}
         p_i, p_j = feet_b[mon.edge_legs[0] - 1], feet_b[mon.edge_legs[1] - 1]
-        leg, lever = select_adjustment_leg((p_i, p_j), candidates)
         self.adjustments.append(adj)
-        if leg is None or lever < cfg.min_lever_m:
-            adj.lever_arm_m = lever
-            self.detector.times.clear()  # judge again from fresh samples, not every step
-            self.detector.margins.clear()
-            return
-        label, target, lever = optimal_foothold(candidates[leg], p_i, p_j, cfg.parallel_deg)
+        while True:
+            leg, lever = select_adjustment_leg((p_i, p_j), candidates)
+            if leg is None or lever < cfg.min_lever_m:
+                adj.lever_arm_m = lever
+                self.detector.times.clear()  # judge again from fresh samples, not every step
+                self.detector.margins.clear()
+                return
+            label, target, lever = optimal_foothold(candidates[leg], p_i, p_j, cfg.parallel_deg)
+            if self.ground_check is None:
+                break
+            x, R = sim.body_pose()
+            if self.ground_check(x + R @ target):
+                break
+            candidates[leg] = None  # its best foothold is over a void: the next leg
         adj.leg, adj.lever_arm_m, adj.foothold_label, adj.foothold_body_m = leg, lever, label, target.tolist()
         T = float(np.clip(adj.time_to_tip_s, cfg.swing_min_s, cfg.swing_max_s))
         adj.swing_s, adj.lands_before_tip = T, T <= adj.time_to_tip_s
@@ -418,3 +449,103 @@ class _Recorder:
 
     def finish(self) -> dict[str, np.ndarray]:
         return {k: np.asarray(v) for k, v in self.rows.items()}
+
+
+# -- tripod walking onto a unilateral cliff ---------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class CliffScenario:
+    """Tripod gait (Sec. 5.1: duty factor 14/24, step 0.5 m, period 6 s, 3 s standing first)
+    along +x toward a cliff that cuts off the ground on one side at ``cliff_x``."""
+
+    side: str = "right"
+    cliff_x: float = 4.5
+    drop_m: float = 3.0
+    duty_factor: float = 14.0 / 24.0
+    step_m: float = 0.5
+    period_s: float = 6.0
+    stand_s: float = 3.0
+    lift_m: float = 0.3
+
+
+def tripod_gait_targets(geom: HeavyHexapodGeometry, sc: CliffScenario, t: float) -> tuple[dict[int, np.ndarray], list[int]]:
+    """Body-frame foot targets and the legs in stance at time t. Tripod {1,3,5} swings in
+    the first (1 - beta) T of each period, {2,4,6} half a period later; the swing follows
+    the quintic minimum-jerk profile with a lift bump, the stance moves back at constant
+    speed. Before ``stand_s`` the pose of the gait's first instant is held."""
+    T, beta = sc.period_s, sc.duty_factor
+    t_sw = (1.0 - beta) * T
+    tt = max(0.0, t - sc.stand_s)
+    out, stance = {}, []
+    for leg in LEG_IDS:
+        off = 0.0 if leg in (1, 3, 5) else 0.5 * T
+        tau = (tt - off) % T
+        p = geom.nominal_foot(leg).copy()
+        if tau < t_sw and t >= sc.stand_s:
+            s = tau / t_sw
+            p[0] += sc.step_m * (-0.5 + 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5)
+            p[2] += sc.lift_m * 64.0 * s ** 3 * (1 - s) ** 3
+        else:
+            sig = (tau - t_sw) / (beta * T) if tau >= t_sw else 1.0  # standing: tripod 1-3-5 at the end of its stroke
+            p[0] += sc.step_m * (0.5 - sig)
+            stance.append(leg)
+        out[leg] = p
+    return out, stance
+
+
+def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
+              friction: float | None = None, record_qpos: bool = True) -> dict:
+    from app.robots.heavy_hexapod import build_cliff_spec
+
+    g = geom if friction is None else dataclasses.replace(geom, friction=friction)
+    side = -1 if sc.side == "right" else 1
+    sim = HexapodSim(build_cliff_spec(g, cliff_x=sc.cliff_x, side=side, drop=sc.drop_m), g)
+    m, d = sim.model, sim.data
+    hit = np.zeros(1, np.int32)
+    group = np.array([1, 0, 0, 0, 0, 0], np.uint8)
+
+    def ground_check(p_world: np.ndarray) -> bool:
+        top = np.asarray(p_world, float) + [0.0, 0.0, 1.0]
+        dist = mujoco.mj_ray(m, d, top, np.array([0.0, 0.0, -1.0]), group, 1, -1, hit)
+        return 0 <= dist <= 1.6  # ground within 0.6 m under the foothold, not the void's floor
+
+    targets, stance = tripod_gait_targets(g, sc, 0.0)
+    sim.place_feet(targets)
+    ctl = TippingController(sim, cfg, stance, ground_check=ground_check)
+    n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
+    n_ctl = int(round(duration_s / cfg.control_dt))
+    rec = _Recorder(n_ctl, m.nq, record_qpos)
+    tipped_at, control_s = None, []
+    mujoco.mj_forward(m, d)
+    forces_avg = sim.foot_forces()
+    for k in range(n_ctl):
+        t = k * cfg.control_dt
+        if not ctl.frozen:
+            targets, stance = tripod_gait_targets(g, sc, t + cfg.control_dt)
+            ctl.stance = stance
+        for leg in LEG_IDS:
+            if ctl.swing is None or ctl.swing[0] != leg:
+                sim.set_foot_target(leg, targets[leg])
+        feet_w, com = sim.feet_world(), sim.com()
+        c0 = time.perf_counter()
+        mon = ctl.step(t, feet_w, forces_avg, com) if t >= 1.0 else monitor(feet_w, forces_avg, com, ctl.stance)
+        control_s.append(time.perf_counter() - c0)
+        _, R = sim.body_pose()
+        rel = math.degrees(math.acos(np.clip(R[2, 2], -1, 1)))
+        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d)
+        if rel > 30.0 and tipped_at is None:
+            tipped_at = t
+        if tipped_at is not None and t > tipped_at + 1.0:
+            break
+        forces_avg = np.zeros((6, 3))
+        for _ in range(n_sub):
+            mujoco.mj_step(m, d)
+            forces_avg += sim.foot_forces()
+        forces_avg /= n_sub
+        mujoco.mj_forward(m, d)
+    tr = rec.finish()
+    return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
+            "tipped_at_s": tipped_at, "control_ms_mean": 1e3 * float(np.mean(control_s)),
+            "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)), "model_xml": sim.spec.to_xml(),
+            "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass, "final_stance": list(ctl.stance),
+            "distance_m": float(tr["com_m"][-1][0] - tr["com_m"][0][0])}

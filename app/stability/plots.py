@@ -1,0 +1,87 @@
+"""Bundle figures of the tipping kind (paper 002 Figs. 5-6): margin timeline with the
+threshold and the tipping edge, foot normal forces per leg, platform and body tilt, and the
+recovery success rate per tilt direction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from app.plots import _save  # noqa: E402
+
+STYLE = {"no_recovery": ("tab:red", "without recovery"), "recovery": ("tab:blue", "with recovery")}
+
+
+def margin_timeline(traces: dict, summary: dict, out: Path) -> list[Path]:
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+    thr = summary.get("threshold_deg", 20.0)
+    for name, tr in traces.items():
+        color, label = STYLE.get(name, ("k", name))
+        t = tr["time_s"]
+        m = np.clip(tr["fasm_deg"], -60, 90)
+        ax.plot(t, m, color=color, label=f"FASM {label}")
+        edge = tr["edge_leg_a"] * 10 + tr["edge_leg_b"]
+        ax2.plot(t, edge, ".", ms=2, color=color)
+    rs = summary.get("runs", {}).get("recovery", {})
+    if rs.get("detection_time_s") is not None:
+        ax.axvline(rs["detection_time_s"], color="tab:orange", ls="--", lw=1, label="tipping detected")
+        for a in rs.get("adjustments", []):
+            if a.get("land_time_s") is not None:
+                ax.axvline(a["land_time_s"], color="tab:green", ls=":", lw=1)
+    ax.axhline(thr, color="gray", ls="--", lw=1, label=f"threshold {thr:g} deg")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_ylabel("S_FASM (deg)")
+    ax.set_title("Stability margin and tipping edge")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower left")
+    ax2.set_ylabel("edge (legs ij)")
+    ax2.set_xlabel("time (s)")
+    ax2.grid(alpha=0.3)
+    return _save(fig, out, "margin_timeline")
+
+
+def foot_forces(traces: dict, out: Path) -> list[Path]:
+    fig, axes = plt.subplots(len(traces), 1, figsize=(7, 2.8 * len(traces)), sharex=True, squeeze=False)
+    for ax, (name, tr) in zip(axes[:, 0], traces.items()):
+        for leg in range(6):
+            ax.plot(tr["time_s"], tr["foot_fz_n"][:, leg] / 1e3, lw=1, label=f"leg {leg + 1}")
+        ax.set_ylabel("foot F_z (kN)")
+        ax.set_title(STYLE.get(name, ("k", name))[1])
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=6)
+    axes[-1, 0].set_xlabel("time (s)")
+    return _save(fig, out, "foot_forces")
+
+
+def tilt(traces: dict, out: Path) -> list[Path]:
+    fig, ax = plt.subplots(figsize=(7, 3))
+    for name, tr in traces.items():
+        color, label = STYLE.get(name, ("k", name))
+        ax.plot(tr["time_s"], tr["tilt_rel_deg"], color=color, label=f"body vs ground, {label}")
+    first = next(iter(traces.values()))
+    if np.any(first["platform_tilt_deg"]):
+        ax.plot(first["time_s"], first["platform_tilt_deg"], "k--", lw=1, label="platform tilt")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("deg")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, out, "tilt")
+
+
+def sweep(sw: dict, out: Path) -> list[Path]:
+    th = np.radians(sw["directions_deg"])
+    fig = plt.figure(figsize=(5, 5))
+    ax = fig.add_subplot(projection="polar")
+    width = 2 * np.pi / max(len(th), 1) * 0.8
+    ax.bar(th, sw["success_rate"], width=width, alpha=0.6, label="recovered (tips without, upright with)")
+    ax.plot(np.append(th, th[:1]), np.append(sw["tip_rate_without_recovery"], sw["tip_rate_without_recovery"][:1]),
+            "r.-", label="tips without recovery")
+    ax.set_ylim(0, 1)
+    ax.set_title("Recovery success per downhill direction\n(0 deg = robot front down, 90 = left side down)", fontsize=9)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.1, -0.15))
+    return _save(fig, out, "sweep_success")
