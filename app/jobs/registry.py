@@ -8,11 +8,11 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from app.jobs import recovery
+from app.jobs import multigait, recovery
 from app.jobs import tipping
 from app.jobs.base import SpecError
 
-KINDS: dict[str, types.ModuleType] = {"recovery": recovery, "tipping": tipping}
+KINDS: dict[str, types.ModuleType] = {"recovery": recovery, "multigait": multigait, "tipping": tipping}
 
 
 def get_kind(name: str) -> types.ModuleType:

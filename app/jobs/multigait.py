@@ -1,0 +1,365 @@
+"""Job kind ``multigait``: k gaits of a modular robot evolved together (paper 001, Alg. 2).
+
+One particle is the concatenation of k Hopf-CPG gaits (Eq. 2, 6 numbers per working
+module); its cost is what RRT-MP (Alg. 1) achieves with those gaits: the coverage of the
+map or the distance to a goal. PSO (Eq. 1) by default, DE as an option.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from app.jobs.base import Cancelled, JobResult, RunContext
+from app.optim.registry import make_optimizer
+from app.planning.costs import cost_value, evaluate, planner_draws, verify_tree
+from app.planning.maps import MAPS, PlanMap, get_map
+from app.planning.primitives import ModularSim, Primitives
+from app.planning.rrt import composed_expander, path_to, rrt_mp
+from app.robots.modular import MU, SHAPES, get_shape
+
+Strict = ConfigDict(extra="forbid")
+
+
+class Damage(BaseModel):
+    model_config = Strict
+    stuck_modules: list[int] = Field(default_factory=list)
+
+    @field_validator("stuck_modules")
+    @classmethod
+    def _unique(cls, v: list[int]) -> list[int]:
+        if len(set(v)) != len(v):
+            raise ValueError("each module may be listed once")
+        if any(m < 0 for m in v):
+            raise ValueError("module indices start at 0")
+        return sorted(v)
+
+
+class Search(BaseModel):
+    model_config = Strict
+    optimizer: Literal["pso", "de"] = "pso"
+    particles: int = Field(20, ge=2, le=1000)
+    generations: int = Field(150, ge=1, le=10000)
+    w: float = Field(0.1, ge=0.0, le=2.0)
+    phi1: float = Field(2.0, ge=0.0, le=4.0)
+    phi2: float = Field(2.0, ge=0.0, le=4.0)
+    cr: float = Field(0.6, ge=0.0, le=1.0)
+    f: float = Field(0.5, ge=0.0, le=1.0)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+
+    @model_validator(mode="after")
+    def _de_needs_four(self):
+        if self.optimizer == "de" and self.particles < 4:
+            raise ValueError("particles: DE needs at least 4 (current-to-best/1 uses two other members)")
+        return self
+
+
+class Planner(BaseModel):
+    model_config = Strict
+    iterations: int | None = Field(None, ge=1, le=2000)  # K_max; paper: 150 coverage / 100 distance
+    goal_distance_mu: float = Field(15.0, gt=0.0, le=30.0)  # goal ahead of the start (flat maps)
+
+
+class Reuse(BaseModel):
+    """Sec. V-C: plan with the evolved gaits to a goal 30 mu away, K = 100 (Tables III-IV)."""
+
+    model_config = Strict
+    enabled: bool = True
+    plans: int = Field(20, ge=1, le=500)
+    iterations: int = Field(100, ge=1, le=2000)
+    distance_mu: float = Field(30.0, gt=0.0, le=40.0)
+
+
+class Verify(BaseModel):
+    """How many nodes of the best tree are replayed in full simulation."""
+
+    model_config = Strict
+    nodes: int = Field(60, ge=0, le=2000)
+
+
+class MultigaitSpec(BaseModel):
+    model_config = Strict
+    kind: Literal["multigait"] = "multigait"
+    robot: str = "lizard"
+    damage: Damage = Field(default_factory=Damage)
+    gaits: int | None = Field(None, ge=1, le=6)  # paper: 3 (2 on the staircase)
+    cost: Literal["coverage", "distance"] = "coverage"
+    map: str = "empty"
+    search: Search = Field(default_factory=Search)
+    planner: Planner = Field(default_factory=Planner)
+    reuse: Reuse = Field(default_factory=Reuse)
+    verify: Verify = Field(default_factory=Verify)
+    gait_duration_s: float = Field(30.0, gt=0.0, le=120.0)  # tau^p
+    settle_s: float = Field(1.0, ge=0.0, le=10.0)
+
+    @field_validator("robot")
+    @classmethod
+    def _known_robot(cls, v: str) -> str:
+        if v not in SHAPES:
+            raise ValueError(f"unknown modular robot {v!r}; allowed: {sorted(SHAPES)}")
+        return v
+
+    @field_validator("map")
+    @classmethod
+    def _known_map(cls, v: str) -> str:
+        if v not in MAPS:
+            raise ValueError(f"unknown map {v!r}; allowed: {sorted(MAPS)}")
+        return v
+
+    @model_validator(mode="after")
+    def _stuck_exist(self):
+        shape = SHAPES[self.robot]
+        bad = [m for m in self.damage.stuck_modules if m >= shape.m]
+        if bad:
+            raise ValueError(f"damage.stuck_modules: {bad} not in the {self.robot}'s modules 0..{shape.m - 1}")
+        if len(self.damage.stuck_modules) >= shape.m:
+            raise ValueError("damage.stuck_modules: at least one module must work")
+        return self
+
+    @property
+    def seed(self) -> int:
+        return self.search.seed
+
+    @property
+    def k(self) -> int:
+        return self.gaits if self.gaits is not None else (3 if MAPS[self.map].flat else 2)
+
+    @property
+    def iterations(self) -> int:
+        if self.planner.iterations is not None:
+            return self.planner.iterations
+        return 150 if (self.cost == "coverage" or not MAPS[self.map].flat) else 100
+
+    @property
+    def evaluations_budget(self) -> int:
+        return self.search.particles * self.search.generations
+
+
+Spec = MultigaitSpec
+
+
+# -- problem setup -------------------------------------------------------------------------
+
+def problem_map(spec: MultigaitSpec) -> PlanMap:
+    """The spec's map with the goal ``goal_distance_mu`` ahead of the start on flat maps."""
+    pmap = get_map(spec.map)
+    if not pmap.flat:
+        return pmap
+    x, y, yaw = pmap.start
+    d = spec.planner.goal_distance_mu
+    return pmap.with_start_goal(pmap.start, (x + d * np.cos(yaw), y + d * np.sin(yaw), 0.5))
+
+
+def reuse_scenarios(pmap: PlanMap, distance: float) -> dict[str, PlanMap]:
+    """Sec. V-C's three scenarios on a 48 x 27 map: the robot faces +x as in the search;
+    1) Empty, goal ahead; 2) Column, goal ahead behind the column; 3) Column, goal behind
+    the robot. The paper starts at the map centre, but a goal 30 mu from the centre would
+    lie outside a 48 mu map, so start and goal sit symmetrically about the centre."""
+    cx, cy = 0.5 * pmap.width, 0.5 * pmap.height
+    a, b = (cx - distance / 2, cy, 0.0), (cx + distance / 2, cy, 0.5)
+    return {
+        "empty_same": get_map("empty").with_start_goal(a, b),
+        "column_same": get_map("column").with_start_goal(a, b),
+        "column_opposite": get_map("column").with_start_goal((b[0], b[1], 0.0), (a[0], a[1], 0.5)),
+    }
+
+
+def reuse_experiment(prims: Primitives, scenarios: dict[str, PlanMap], plans: int, iterations: int, seed: int,
+                     radius: float, root_z: float) -> dict:
+    """Plan ``plans`` times per scenario with the cached primitives of one gait set (each
+    plan its own random stream); distance to the goal and coverage, mean / std."""
+    out = {}
+    B = plans
+    p = Primitives(np.repeat(prims.end_xy, B, 0), np.repeat(prims.dyaw, B, 0), np.repeat(prims.path, B, 0))
+    draws = np.concatenate([planner_draws(seed, 1, iterations, stream=1000 + i) for i in range(B)])
+    for name, pm in scenarios.items():
+        root = np.array([pm.start[0], pm.start[1], root_z, pm.start[2]])
+        tree = rrt_mp(pm, composed_expander(p), prims.k, draws, radius, root_pose=root)
+        dist = cost_value(tree, "distance", pm)
+        cov = cost_value(tree, "coverage", pm)
+        out[name] = {"distance_mu": {"mean": float(dist.mean()), "std": float(dist.std())},
+                     "coverage_pct": {"mean": float(cov.mean()), "std": float(cov.std())},
+                     "start": list(pm.start), "goal": list(pm.goal[:2])}
+    return out
+
+
+def gait_trace(sim: ModularSim, gait: np.ndarray, state: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-step record of one gait from ``state``: for plots, CSVs and replay."""
+    xyz, yaw, _, full = sim.rollout(state[None], sim.controls(gait[None]), full=True)
+    q = full[0, :, sim.qoff : sim.qoff + sim.model.nq]
+    piv, hd = sim.pivot_pose(full[0])
+    return {"time_s": (np.arange(q.shape[0]) + 1) * sim.dt, "pivot_mu": piv, "com_m": piv * MU,
+            "heading_deg": np.degrees(np.unwrap(hd)), "qpos": q, "ctrl": sim.controls(gait[None])[0]}
+
+
+def plan_trace(sim: ModularSim, gaits: np.ndarray, k: int, tree: dict, node: int,
+               max_gaits: int = 8) -> dict[str, np.ndarray]:
+    """The plan from the root to ``node`` executed in full simulation, gait after gait (its
+    first ``max_gaits`` gaits: the trace is replayed in 3D at real time)."""
+    path = path_to(tree, node)[: max_gaits + 1]
+    ctrl = sim.controls(gaits.reshape(k, sim.dim))
+    state = sim.start_state()
+    qs, piv, hd, gait_id = [], [], [], []
+    for n in path[1:]:
+        j = int(tree["gait"][n])
+        _, _, end, full = sim.rollout(state[None], ctrl[j][None], full=True)
+        qs.append(full[0, :, sim.qoff : sim.qoff + sim.model.nq])
+        p, h = sim.pivot_pose(full[0])
+        piv.append(p)
+        hd.append(h)
+        gait_id.append(np.full(full.shape[1], j))
+        state = end[0]
+    if not qs:
+        p, h = sim.pivot_pose(state)
+        return {"time_s": np.zeros(1), "pivot_mu": p[None], "com_m": p[None] * MU, "heading_deg": np.degrees([h]),
+                "qpos": state[None, sim.qoff : sim.qoff + sim.model.nq], "gait": np.zeros(1, dtype=int)}
+    q = np.concatenate(qs)
+    pv = np.concatenate(piv)
+    return {"time_s": (np.arange(q.shape[0]) + 1) * sim.dt, "pivot_mu": pv, "com_m": pv * MU,
+            "heading_deg": np.degrees(np.unwrap(np.concatenate(hd))), "qpos": q, "gait": np.concatenate(gait_id),
+            "plan_nodes_mu": tree["pos"][path]}
+
+
+def plots(result: JobResult, out):
+    from app.planning import plots as P
+
+    return P.all_plots(result, out)
+
+
+# -- the job ---------------------------------------------------------------------------------
+
+def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
+    t0 = time.perf_counter()
+    shape = get_shape(spec.robot)
+    stuck = tuple(spec.damage.stuck_modules)
+    pmap = problem_map(spec)
+    k, K = spec.k, spec.iterations
+    radius = shape.radius_mu()
+    sim = ModularSim(shape, stuck, pmap, spec.gait_duration_s, spec.settle_s)
+    try:
+        lower, upper = sim.bounds(k)
+        s = spec.search
+        opt = make_optimizer(s.optimizer, lower, upper, s.particles, s.seed, cr=s.cr, f=s.f, w=s.w, phi1=s.phi1,
+                             phi2=s.phi2)
+        history: list[dict] = []
+        evaluations = 0
+        wall_before = sim_s = plan_s = 0.0
+        ckpt = ctx.load_checkpoint()
+        if ckpt is not None:
+            opt.restore(ckpt["optimizer"])
+            history, evaluations = ckpt["history"], ckpt["evaluations"]
+            sim.sim_steps, wall_before = ckpt["sim_steps"], ckpt["wall_s"]
+            sim_s, plan_s = ckpt["sim_s"], ckpt["plan_s"]
+        total = s.generations
+        sign = 1.0 if spec.cost == "coverage" else -1.0
+        seg_start = time.perf_counter()
+        while opt.generation < total:
+            if ctx.is_cancelled():
+                raise Cancelled()
+            x = opt.ask()
+            ev = evaluate(sim, x, k, pmap, K, spec.cost, spec.seed, radius)
+            opt.tell(ev.fitness)
+            evaluations += len(ev.fitness)
+            sim_s += ev.sim_s
+            plan_s += ev.plan_s
+            row = {"generation": opt.generation, "best": sign * opt.best[1],
+                   "mean": float(ev.value.mean()), "generation_best": float(ev.value.max() if sign > 0 else ev.value.min()),
+                   "worst": float(ev.value.min() if sign > 0 else ev.value.max()),
+                   "nodes_mean": float(ev.tree.n.mean()), "evaluations": evaluations}
+            history.append(row)
+            wall = wall_before + time.perf_counter() - seg_start
+            ctx.save_checkpoint({"optimizer": opt.state(), "history": history, "evaluations": evaluations,
+                                 "sim_steps": sim.sim_steps, "wall_s": wall, "sim_s": sim_s, "plan_s": plan_s})
+            ctx.progress(opt.generation, total, {"best": row["best"], "mean": row["mean"], "evaluations": evaluations,
+                                                 "sim_steps_per_s": sim.sim_steps / max(wall, 1e-9)})
+        search_wall = wall_before + time.perf_counter() - seg_start
+
+        # -- the best gait set, examined ----------------------------------------------------
+        t_an = time.perf_counter()
+        best_x, best_f = opt.best
+        ev = evaluate(sim, best_x[None], k, pmap, K, spec.cost, spec.seed, radius, record_paths=True)
+        tree = ev.tree.single(0)
+        value = float(ev.value[0])
+        gaits = best_x.reshape(k, sim.dim)
+        state0 = sim.place(sim.state0, 0.0, 0.0, 0.0)
+        traces = {f"gait{j + 1}": gait_trace(sim, gaits[j], state0) for j in range(k)}
+        goal_node = int(np.argmin(np.linalg.norm((tree["pos"] - np.asarray(pmap.goal))[:, : 2 if pmap.flat else 3],
+                                                 axis=1)))
+        if spec.cost == "coverage" and pmap.flat:  # show the longest branch
+            depth = np.array([len(path_to(tree, i)) for i in range(len(tree["pos"]))])
+            goal_node = int(np.argmax(depth))
+        traces["plan"] = plan_trace(sim, best_x, k, tree, goal_node)
+        per_gait = []
+        for j in range(k):
+            tr = traces[f"gait{j + 1}"]
+            d = tr["pivot_mu"][-1, :2] - tr["pivot_mu"][0, :2]
+            per_gait.append({"gait": j + 1, "distance_mu": float(np.hypot(*d)),
+                             "rotation_deg": float(tr["heading_deg"][-1] - tr["heading_deg"][0]),
+                             "end_mu": d.tolist()})
+        if pmap.flat:
+            verification = verify_tree(sim, best_x, k, tree, spec.verify.nodes) if spec.verify.nodes > 0 else None
+            composition = None
+            if verification is not None:
+                composition = {key: verification[key] for key in
+                               ("nodes", "position_error_mu", "heading_error_deg", "depth1_position_error_mu",
+                                "relative_error_per_edge", "mean_edge_length_mu", "error_by_depth_mu")}
+                traces["composition"] = {"time_s": np.arange(len(verification["depth"])) * 1.0,
+                                         "depth": verification["depth"],
+                                         "composed_mu": verification["composed_pos"],
+                                         "simulated_mu": verification["simulated_pos"]}
+            reuse = None
+            if spec.reuse.enabled:
+                reuse = reuse_experiment(ev.prims, reuse_scenarios(pmap, spec.reuse.distance_mu), spec.reuse.plans,
+                                         spec.reuse.iterations, spec.seed, radius, root_z=float(tree["pos"][0, 2]))
+        else:
+            composition = {"note": "expansions simulated from the parent's full state (non-flat map); nothing composed"}
+            reuse = None
+        analysis_s = time.perf_counter() - t_an
+    finally:
+        sim.close()
+    wall = search_wall + analysis_s
+    first = history[0] if history else {}
+    gens = len(history)
+    summary = {
+        "kind": "multigait",
+        "robot": spec.robot,
+        "shape": shape.describe(),
+        "damage": spec.damage.model_dump(),
+        "seed": spec.seed,
+        "cost": spec.cost,
+        "cost_units": "percent of map cells holding a tree node" if spec.cost == "coverage" else "mu from the tree to the goal",
+        "map": pmap.describe(),
+        "gaits": k,
+        "iterations": K,
+        "result": {"final_best": value, "initial_best": first.get("generation_best"),
+                   "initial_mean": first.get("mean"), "final_mean": history[-1]["mean"] if history else None,
+                   "best_fitness": best_f, "reproduced": bool(abs(sign * value - best_f) < 1e-9),
+                   "tree_nodes": int(len(tree["pos"])), "goal_distance_mu": float(ev.tree.goal_distance(pmap.goal, pmap.flat)[0])},
+        "per_gait": per_gait,
+        "best_params": {"names": [f"g{j + 1}_{n}" for j in range(k) for n in _names(sim)], "values": best_x.tolist()},
+        "bounds": {"lower": lower.tolist(), "upper": upper.tolist()},
+        "tree": {"pos_mu": tree["pos"].tolist(), "yaw": tree["yaw"].tolist(), "parent": tree["parent"].tolist(),
+                 "gait": tree["gait"].tolist(), "plan_node": goal_node},
+        "composition": composition,
+        "reuse": reuse,
+        "history": history,
+        "timing": {"wall_s": wall, "evaluations": evaluations, "sim_steps": sim.sim_steps,
+                   "sim_steps_per_s": sim.sim_steps / max(wall, 1e-9), "setup_s": seg_start - t0,
+                   "search_s": search_wall, "analysis_s": analysis_s, "rollout_s": sim_s, "planner_s": plan_s,
+                   "per_generation_s": search_wall / max(gens, 1),
+                   "planner_per_tree_s": plan_s / max(evaluations, 1)},
+    }
+    # the recorded swept paths are drawn by the plots; they ride along in the traces
+    traces["tree"] = {"time_s": np.arange(len(tree["pos"])) * 1.0, "pos_mu": tree["pos"], "parent": tree["parent"],
+                      "gait": tree["gait"], "paths_mu": tree["paths"]}
+    return JobResult(summary=summary, history=history, traces=traces, model_xml=sim.spec.to_xml(),
+                     evaluations=evaluations, sim_steps=sim.sim_steps)
+
+
+def _names(sim: ModularSim) -> list[str]:
+    from app.gaits.cpg import param_names
+
+    return param_names(sim.joints)

@@ -1,0 +1,131 @@
+"""Paper 001's Table I-IV experiments at a chosen budget, written as markdown.
+
+    python -m app.planning.table --particles 12 --generations 15 --out docs/multigait_tables.md
+
+Table I: coverage-based gaits on Empty for each robot healthy and with its 1 and 2 stuck
+modules (final best and first-generation best / mean). Table II: distance-based gaits.
+Tables III-IV: the reuse experiment (goal 30 mu, K = 100) with the coverage- and
+distance-based gaits of the healthy robots. Every run is a ``multigait`` job with the
+paper's parameters except the PSO budget given here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from app.jobs.multigait import MultigaitSpec, run
+from app.robots.modular import SHAPES
+
+
+class _Ctx:
+    def __init__(self, out: Path):
+        self.artifact_dir = out
+        self._ckpt = None
+
+    def progress(self, done, total, info):
+        pass
+
+    def save_checkpoint(self, state):
+        self._ckpt = state
+
+    def load_checkpoint(self):
+        return self._ckpt
+
+    def is_cancelled(self):
+        return False
+
+
+def one(robot: str, stuck: list[int], cost: str, particles: int, generations: int, seed: int, plans: int) -> dict:
+    spec = MultigaitSpec.model_validate({
+        "kind": "multigait", "robot": robot, "damage": {"stuck_modules": stuck}, "cost": cost, "map": "empty",
+        "search": {"particles": particles, "generations": generations, "seed": seed},
+        "reuse": {"plans": plans}})
+    t = time.perf_counter()
+    res = run(spec, _Ctx(Path(".")))
+    s = res.summary
+    return {"robot": robot, "stuck": stuck, "cost": cost, "seed": seed, "result": s["result"], "reuse": s["reuse"],
+            "composition": s["composition"], "per_gait": s["per_gait"], "timing": s["timing"],
+            "history": [{k: r[k] for k in ("generation", "best", "mean", "generation_best")} for r in s["history"]],
+            "wall_s": time.perf_counter() - t}
+
+
+def markdown(rows: list[dict], particles: int, generations: int) -> str:
+    out = [f"Budget: {particles} particles x {generations} generations (paper: 20 x 150), k = 3, "
+           "tau = 30 s, K = 150 (coverage) / 100 (distance), PSO w = 0.1, phi1 = phi2 = 2, Empty map.\n"]
+    for cost, unit in (("coverage", "coverage % (final best; in parentheses first-generation best / mean)"),
+                       ("distance", "distance to the goal 15 mu ahead, mu (final best; first-generation best / mean)")):
+        sel = [r for r in rows if r["cost"] == cost]
+        if not sel:
+            continue
+        out.append(f"\n### {cost}-based cost: {unit}\n")
+        out.append("| robot | stuck modules | final best | first generation best / mean | gens | wall (s) |")
+        out.append("|---|---|---|---|---|---|")
+        for r in sel:
+            res = r["result"]
+            out.append(f"| {r['robot']} | {r['stuck'] or '-'} | {res['final_best']:.2f} | "
+                       f"{res['initial_best']:.2f} / {res['initial_mean']:.2f} | {len(r['history'])} | {r['wall_s']:.0f} |")
+    reuse = [r for r in rows if not r["stuck"] and r["reuse"]]
+    if reuse:
+        out.append("\n### Reuse (Sec. V-C): goal 30 mu away, K = 100, 20 plans per gait set: distance mu / coverage %, mean (std)\n")
+        out.append("| robot | gaits | 1: Empty, same | 2: Column, same | 3: Column, opposite |")
+        out.append("|---|---|---|---|---|")
+        for r in reuse:
+            cells = []
+            for sc in ("empty_same", "column_same", "column_opposite"):
+                v = r["reuse"][sc]
+                cells.append(f"{v['distance_mu']['mean']:.1f} ({v['distance_mu']['std']:.1f}) / "
+                             f"{v['coverage_pct']['mean']:.1f} ({v['coverage_pct']['std']:.1f})")
+            out.append(f"| {r['robot']} | {r['cost']} | " + " | ".join(cells) + " |")
+    comp = [r for r in rows if r["composition"]]
+    if comp:
+        out.append("\n### Composition error: first 60 nodes of the best tree replayed in full simulation\n")
+        out.append("| robot | stuck | cost | mean edge (mu) | depth-1 error (mu) | mean / max position error (mu) | "
+                   "error per edge / edge length | heading error mean (deg) |")
+        out.append("|---|---|---|---|---|---|---|---|")
+        for r in comp:
+            c = r["composition"]
+            out.append(f"| {r['robot']} | {r['stuck'] or '-'} | {r['cost']} | {c['mean_edge_length_mu']:.2f} | "
+                       f"{c['depth1_position_error_mu']:.1e} | {c['position_error_mu']['mean']:.2f} / "
+                       f"{c['position_error_mu']['max']:.2f} | {c['relative_error_per_edge']:.2f} | "
+                       f"{c['heading_error_deg']['mean']:.1f} |")
+    return "\n".join(out) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--robots", default="lizard,quadropod")
+    ap.add_argument("--particles", type=int, default=20)
+    ap.add_argument("--generations", type=int, default=150)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plans", type=int, default=20)
+    ap.add_argument("--distance", action="store_true", help="also distance-based runs of the healthy robots")
+    ap.add_argument("--out", type=Path, default=Path("docs/multigait_tables.md"))
+    ap.add_argument("--json", type=Path, default=None)
+    a = ap.parse_args()
+    rows = []
+    for robot in a.robots.split(","):
+        f1, f2 = SHAPES[robot].failures
+        for stuck in ([], [f1], [f1, f2]):
+            rows.append(one(robot, stuck, "coverage", a.particles, a.generations, a.seed, a.plans))
+            print(json.dumps({k: rows[-1][k] for k in ("robot", "stuck", "cost", "result", "wall_s")}), flush=True)
+            _write(a, rows)
+        if a.distance:
+            rows.append(one(robot, [], "distance", a.particles, a.generations, a.seed, a.plans))
+            print(json.dumps({k: rows[-1][k] for k in ("robot", "stuck", "cost", "result", "wall_s")}), flush=True)
+            _write(a, rows)
+
+
+def _write(a, rows):
+    a.out.parent.mkdir(parents=True, exist_ok=True)
+    a.out.write_text(markdown(rows, a.particles, a.generations))
+    if a.json:
+        from app.jobs.base import dumps
+
+        a.json.write_text(dumps(rows))
+
+
+if __name__ == "__main__":
+    main()
