@@ -8,9 +8,8 @@ import time
 import numpy as np
 
 from app.robots.heavy_hexapod import HEAVY
+from app.stability.fast import distribute_fast, plane_normal
 from app.stability.fasm import TipDetector
-from app.stability.polygon import fit_plane
-from app.stability.qp import distribute
 from app.stability.scenario import monitor
 
 
@@ -36,7 +35,7 @@ def bench_tipping(steps: int = 500, seed: int = 0) -> dict:
     det = TipDetector()
     states = [_state(rng, 12.0 + 4.0 * rng.random()) for _ in range(32)]
     mass = HEAVY.total_mass
-    g = np.array([0.0, 0.0, -9.81])
+    g = (0.0, 0.0, -9.81)
     times = {"fasm": [], "judgment": [], "qp": [], "step": []}
     for k in range(steps):
         feet, forces, com, stance = states[k % len(states)]
@@ -46,9 +45,8 @@ def bench_tipping(steps: int = 500, seed: int = 0) -> dict:
         if det.update(0.02 * k, mon.margin_deg):
             det.time_to_tip()
         t2 = time.perf_counter()
-        idx = [l - 1 for l in stance]
-        normal, _ = fit_plane(feet[idx])
-        sol = distribute(feet[idx], com, mass, g, normal=normal)
+        pts = [feet[l - 1].tolist() for l in stance]
+        sol = distribute_fast(pts, com.tolist(), mass, g, normal=plane_normal(pts))
         t3 = time.perf_counter()
         times["fasm"].append(t1 - t0)
         times["judgment"].append(t2 - t1)

@@ -12,10 +12,10 @@ import mujoco
 import numpy as np
 
 from app.robots.heavy_hexapod import HEAVY, JOINT_NAMES, LEG_IDS, HeavyHexapodGeometry, joint_name
-from app.stability.fasm import TipDetector, fasm_edges, net_wrench_from_contacts
+from app.stability.fast import distribute_fast, hull_ccw, margins, plane_normal
+from app.stability.fasm import TipDetector
 from app.stability.foothold import SwingPlan, leg_ik, optimal_foothold, reachable_space, select_adjustment_leg
-from app.stability.polygon import ccw_order, fit_plane, nesm, ssm
-from app.stability.qp import distribute
+from app.stability.polygon import ccw_order, fit_plane
 
 
 @dataclasses.dataclass(frozen=True)
@@ -173,15 +173,15 @@ class StepMonitor:
 
 
 def monitor(feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray, stance: list[int]) -> StepMonitor:
-    idx = [l - 1 for l in stance]
-    order = ccw_order(feet_w[idx])
-    legs = [stance[i] for i in order]
-    poly = feet_w[[l - 1 for l in legs]]
-    f_r, n_r = net_wrench_from_contacts(feet_w, forces_w, com)  # Eq. 4 from every foot's force
-    th = np.degrees(fasm_edges(poly, com, f_r, n_r))
-    i = int(np.argmin(th))
-    return StepMonitor(margin_deg=float(th[i]), edge_legs=(legs[i], legs[(i + 1) % len(legs)]),
-                       ssm_m=ssm(poly, com)[0], nesm_m=nesm(poly, com)[0], edges_deg=th, polygon_legs=legs)
+    """The per-step margins on the scalar fast path (``app.stability.fast``, tested against
+    the batched ``fasm_edges`` / ``ssm`` / ``nesm``). Gravity is world -z."""
+    feet = feet_w.tolist()
+    sub = [feet[l - 1] for l in stance]
+    legs = [stance[i] for i in hull_ccw(sub)]
+    th, s, e = margins(feet, forces_w.tolist(), com.tolist(), [l - 1 for l in legs])
+    i = min(range(len(th)), key=th.__getitem__)
+    return StepMonitor(margin_deg=th[i], edge_legs=(legs[i], legs[(i + 1) % len(legs)]), ssm_m=s, nesm_m=e,
+                       edges_deg=np.asarray(th), polygon_legs=legs)
 
 
 class TippingController:
@@ -277,11 +277,10 @@ class TippingController:
 
     def _distribute(self, feet_w: np.ndarray, com: np.ndarray) -> None:
         sim = self.sim
-        idx = [l - 1 for l in self.stance]
-        normal, _ = fit_plane(feet_w[idx])
+        pts = [feet_w[l - 1].tolist() for l in self.stance]
         _, R = sim.body_pose()
-        sol = distribute(feet_w[idx], com, sim.mass, sim.gravity, normal=normal, mu=self.cfg.mu, lam=self.cfg.lam,
-                         body_x=R[:, 0])
+        sol = distribute_fast(pts, com.tolist(), sim.mass, tuple(sim.gravity), normal=plane_normal(pts), mu=self.cfg.mu,
+                              lam=self.cfg.lam, body_x=tuple(R[:, 0]))
         self.qp_forces = {l: sol.forces[i] for i, l in enumerate(self.stance)}
         self.qp_stability = sol.stability_constrained
         sim.apply_foot_forces(self.qp_forces)
