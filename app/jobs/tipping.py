@@ -43,7 +43,10 @@ class TiltIn(BaseModel):
     max_tilt_deg: float | None = Field(None, gt=0.0, le=60.0)
     overshoot_deg: float = Field(4.0, ge=0.0, le=15.0)
 
-    _tripod = field_validator("stance")(classmethod(lambda cls, v: _check_tripod(v)))
+    @field_validator("stance")
+    @classmethod
+    def _tripod(cls, v: list[int]) -> list[int]:
+        return _check_tripod(v)
 
     @model_validator(mode="after")
     def _one_direction(self):

@@ -47,6 +47,11 @@ class HeavyHexapodGeometry:
     name: str = "heavy_hexapod"
     body_half_size: tuple[float, float, float] = (1.9, 0.75, 0.35)
     body_mass: float = 4400.0
+    # Sec. 5.2: "the robot's center of gravity [is] in the front of the body frame". A
+    # front equipment bay of this mass (part of the 4.4 t) sits 1.2 m ahead of the centre,
+    # which puts the CoG 0.11 m forward.
+    front_bay_mass: float = 400.0
+    front_bay_x: float = 1.2
     leg_masses: tuple[float, float, float] = (40.0, 30.0, 30.0)  # coxa+swing drive, horizontal carriage, shank
     hip_x: float = 1.7
     hip_y: float = 0.75
@@ -102,7 +107,11 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
     torso = spec.worldbody.add_body(name="torso", pos=list(pos))
     torso.add_freejoint(name="root")
     torso.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(geom.body_half_size),
-                   mass=geom.body_mass, contype=1, conaffinity=1, group=ROBOT_GROUP, rgba=[0.85, 0.6, 0.15, 1])
+                   mass=geom.body_mass - geom.front_bay_mass, contype=1, conaffinity=1, group=ROBOT_GROUP,
+                   rgba=[0.85, 0.6, 0.15, 1])
+    torso.add_geom(name="front_bay", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.4, 0.6, 0.3],
+                   pos=[geom.front_bay_x, 0, 0.05], mass=geom.front_bay_mass, contype=0, conaffinity=0,
+                   group=ROBOT_GROUP, rgba=[0.7, 0.45, 0.1, 1])
     torso.add_site(name="imu", pos=[0, 0, 0])
     m_coxa, m_carriage, m_shank = geom.leg_masses
     (tlo, thi) = (math.radians(a) for a in geom.theta_range_deg)

@@ -390,7 +390,7 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
         normal = d.xmat[plat_body].reshape(3, 3)[:, 2]
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[:, 2] @ normal, -1, 1)))
-        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d)
+        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d, feet_w)
         if rel > 30.0 and tipped_at is None:
             tipped_at = t
         if tipped_at is not None and t > tipped_at + 1.0:
@@ -422,13 +422,13 @@ class _Recorder:
     def __init__(self, n: int, nq: int, qpos: bool):
         self.rows: dict[str, list] = {k: [] for k in ("time_s", "platform_tilt_deg", "fasm_deg", "edge_leg_a", "edge_leg_b",
                                                       "ssm_m", "nesm_m", "foot_fz_n", "com_m", "tilt_rel_deg", "stance",
-                                                      "qp_fz_n", "qp_stability")}
+                                                      "qp_fz_n", "qp_stability", "feet_m", "foot_contact")}
         self.qpos = qpos
         if qpos:
             self.rows["qpos"] = []
             self.rows["mocap_quat"] = []
 
-    def add(self, t, tilt, mon: StepMonitor, forces_w, com, rel, ctl: TippingController, d) -> None:
+    def add(self, t, tilt, mon: StepMonitor, forces_w, com, rel, ctl: TippingController, d, feet_w) -> None:
         r = self.rows
         r["time_s"].append(t)
         r["platform_tilt_deg"].append(tilt)
@@ -443,6 +443,8 @@ class _Recorder:
         r["stance"].append(np.array([leg in ctl.stance for leg in LEG_IDS]))
         r["qp_fz_n"].append(np.array([ctl.qp_forces.get(leg, np.zeros(3))[2] for leg in LEG_IDS]))
         r["qp_stability"].append(bool(ctl.qp_stability))
+        r["feet_m"].append(feet_w.copy())
+        r["foot_contact"].append(forces_w[:, 2] > 0.02 * ctl.sim.mass * 9.81)
         if self.qpos:
             r["qpos"].append(d.qpos.copy())
 
@@ -531,7 +533,7 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
         control_s.append(time.perf_counter() - c0)
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[2, 2], -1, 1)))
-        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d)
+        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d, feet_w)
         if rel > 30.0 and tipped_at is None:
             tipped_at = t
         if tipped_at is not None and t > tipped_at + 1.0:

@@ -1,0 +1,56 @@
+"""The paper's six tilting-platform cases (Sec. 5.2, Fig. 6): climbing (y ccw), descending
+(y cw) and the steep lateral slope, with legs 1-3-5 and with legs 2-4-6 in stance, each run
+without and with recovery. ``python -m app.stability.cases`` prints the table in
+docs/tipping.md."""
+
+from __future__ import annotations
+
+from app.jobs.tipping import TippingSpec, _simulate, run_summary
+
+PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
+    ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
+    ("y", "ccw", (2, 4, 6), 3), ("y", "cw", (2, 4, 6), 1), ("x", "cw", (2, 4, 6), 5),
+)
+
+
+def paper_cases(duration_s: float = 25.0) -> list[dict]:
+    rows = []
+    for axis, direction, stance, paper_leg in PAPER_CASES:
+        spec = TippingSpec.model_validate({"kind": "tipping", "scenario": {"type": "tilt", "axis": axis,
+                                           "direction": direction, "stance": list(stance)},
+                                           "sim": {"duration_s": duration_s}})
+        base = run_summary(_simulate(spec, False, record_qpos=False), spec.detector.threshold_deg)
+        rec = run_summary(_simulate(spec, True, record_qpos=False), spec.detector.threshold_deg)
+        rows.append({"case": f"{axis} {direction}, stance {''.join(map(str, stance))}", "paper_leg": paper_leg,
+                     "tipped_without": base["tipped"], "tipped_without_at_s": base["tipped_at_s"],
+                     "tipped_with": rec["tipped"], "detection_time_s": rec.get("detection_time_s"),
+                     "edge": rec.get("tipping_edge"), "leg": rec.get("adjustment_leg"),
+                     "foothold_body_m": rec.get("foothold_body_m"), "time_to_tip_s": rec.get("time_to_tip_s"),
+                     "adjustment_time_s": rec.get("adjustment_time_s"),
+                     "margin_at_detection_deg": rec.get("margin_at_detection_deg"),
+                     "margin_before_deg": rec.get("margin_before_landing_deg"),
+                     "margin_after_deg": rec.get("margin_after_landing_deg"),
+                     "final_margin_deg": rec["final_margin_deg"], "static_tip_deg": rec.get("static_tip_deg"),
+                     "max_tilt_deg": rec.get("max_tilt_deg"), "control_ms_mean": rec["control_ms_mean"]})
+    return rows
+
+
+def markdown(rows: list[dict]) -> str:
+    head = ("| case | detected (s) | edge | leg (paper) | foothold body (m) | t_s Eq.15 (s) | swing (s) "
+            "| margin at detection / before landing / after (deg) | no recovery | recovery |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    out = []
+    for r in rows:
+        fh = "(" + ", ".join(f"{v:.2f}" for v in r["foothold_body_m"]) + ")" if r["foothold_body_m"] else "-"
+        out.append(f"| {r['case']} | {r['detection_time_s']:.2f} | {r['edge']} | {r['leg']} ({r['paper_leg']}) | {fh} "
+                   f"| {r['time_to_tip_s']:.2f} | {r['adjustment_time_s']:.2f} | {r['margin_at_detection_deg']:.1f} / "
+                   f"{r['margin_before_deg']:.1f} / {r['margin_after_deg']:.1f} "
+                   f"| tips at {r['tipped_without_at_s']:.1f} s | {'tips' if r['tipped_with'] else 'stays up'} |")
+    return head + "\n".join(out)
+
+
+if __name__ == "__main__":
+    import json
+
+    rows = paper_cases()
+    print(markdown(rows))
+    print(json.dumps(rows, indent=1))
