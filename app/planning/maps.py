@@ -78,13 +78,16 @@ class CollisionGrid:
             bad |= np.hypot(dx, dy) < margin
         self.bad = bad
         self.nx, self.ny = nx, ny
+        # The raster's outer ring is always forbidden (margin > 0 from the border), so a point
+        # outside the map can simply be clamped onto it.
+        assert bad[0].all() and bad[-1].all() and bad[:, 0].all() and bad[:, -1].all()
+        self._flat = bad.ravel()
 
     def blocked(self, xy: np.ndarray) -> np.ndarray:
         """(..., 2) points -> (...) bool, True where forbidden (outside the map included)."""
-        ix = np.floor(xy[..., 0] / self.res).astype(np.int64)
-        iy = np.floor(xy[..., 1] / self.res).astype(np.int64)
-        out = (ix < 0) | (ix >= self.nx) | (iy < 0) | (iy >= self.ny)
-        return out | self.bad[np.clip(iy, 0, self.ny - 1), np.clip(ix, 0, self.nx - 1)]
+        ix = np.clip(xy[..., 0] * (1.0 / self.res), 0.0, self.nx - 0.5).astype(np.int64)
+        iy = np.clip(xy[..., 1] * (1.0 / self.res), 0.0, self.ny - 0.5).astype(np.int64)
+        return self._flat[iy * self.nx + ix]
 
 
 def point_clearance(pmap: PlanMap, xy: np.ndarray) -> np.ndarray:

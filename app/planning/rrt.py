@@ -23,6 +23,7 @@ nodes of the tree are assigned to cells according to their 2D positions").
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -107,7 +108,7 @@ def rrt_mp(pmap: PlanMap, expand: Expander, k: int, draws: np.ndarray, radius: f
     given, (x, y, z, yaw))."""
     B, K = draws.shape[:2]
     N = 1 + K * k
-    grid = CollisionGrid(pmap, radius)
+    grid = collision_grid(pmap, float(radius))
     ny, nx = pmap.shape
     planar = pmap.flat
     if root_pose is None:
@@ -124,23 +125,28 @@ def rrt_mp(pmap: PlanMap, expand: Expander, k: int, draws: np.ndarray, radius: f
         tree.paths[:, 0] = root_pose[:3]
     _mark(tree.covered, np.arange(B), tree.pos[:, :1], pmap)
     b = np.arange(B)
-    slots = np.arange(N)[None]
     dims = 2 if planar else 3
     for it in range(K):
+        m = int(tree.n.max())  # only the used prefix of the node arrays is searched
+        pos = tree.pos[:, :m]
+        used = np.arange(m)[None] < tree.n[:, None]
         q_rand = draws[:, it] * (pmap.width, pmap.height)
-        used = slots < tree.n[:, None]
-        d = np.where(used, np.linalg.norm(tree.pos[..., :2] - q_rand[:, None], axis=-1), np.inf)
-        near = np.argmin(d, axis=1)
+        d2 = (pos[..., 0] - q_rand[:, :1]) ** 2 + (pos[..., 1] - q_rand[:, 1:]) ** 2
+        near = np.argmin(np.where(used, d2, np.inf), axis=1)
         paths, yaw_end, st_end = expand(tree, near)
         free = ~grid.blocked(paths[..., :2]).any(axis=-1)  # (B, k)
         parent_pos = tree.pos[b, near, :dims]
         for j in range(k):
             q_new = paths[:, j, -1]
-            d_parent = np.linalg.norm(q_new[:, :dims] - parent_pos, axis=-1)
-            used = slots < tree.n[:, None]
-            used[b, near] = False
-            d_other = np.where(used, np.linalg.norm(tree.pos[..., :dims] - q_new[:, None, :dims], axis=-1), np.inf).min(axis=1)
-            add = free[:, j] & (d_other > d_parent) & (d_parent > min_move)
+            m = int(tree.n.max())
+            diff = tree.pos[:, :m, :dims] - q_new[:, None, :dims]
+            d2 = np.einsum("bnd,bnd->bn", diff, diff)
+            others = np.arange(m)[None] < tree.n[:, None]
+            others[b, near] = False
+            d_other = np.where(others, d2, np.inf).min(axis=1)
+            dp = q_new[:, :dims] - parent_pos
+            d_parent = np.einsum("bd,bd->b", dp, dp)
+            add = free[:, j] & (d_other > d_parent) & (d_parent > min_move * min_move)
             if not add.any():
                 continue
             ba, slot = b[add], tree.n[add]
@@ -155,6 +161,11 @@ def rrt_mp(pmap: PlanMap, expand: Expander, k: int, draws: np.ndarray, radius: f
             tree.n[add] += 1
             _mark(tree.covered, ba, q_new[add, None], pmap)
     return tree
+
+
+@functools.lru_cache(maxsize=32)
+def collision_grid(pmap: PlanMap, radius: float) -> CollisionGrid:
+    return CollisionGrid(pmap, radius)
 
 
 def _mark(covered: np.ndarray, bidx: np.ndarray, pts: np.ndarray, pmap: PlanMap) -> None:
