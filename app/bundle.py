@@ -31,8 +31,11 @@ def versions() -> dict[str, str]:
     import mujoco
     import scipy
 
+    import viser
+
     return {"gaitmend": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
-            "scipy": scipy.__version__, "cma": cma.__version__, "python": platform.python_version()}
+            "scipy": scipy.__version__, "cma": cma.__version__, "viser": viser.__version__,
+            "python": platform.python_version()}
 
 
 def model_sha256(xml: str) -> str:
@@ -101,7 +104,7 @@ Job `{job_id}` ({kind}, robot `{robot}`), made by gaitmend {version}.
 | `trajectories/*.npz` | per-step arrays of the best gait and of the baseline (time, CoM, body pose, Euler angles, qpos, foot positions and contacts) |
 | `trajectories/*.csv` | the same, flat: time, CoM, roll/pitch/yaw, foot contacts |
 | `robot.xml` | the damaged robot exactly as simulated (MJCF) |
-| `plots/` | convergence, body orientation, CoM position, gait diagrams (SVG and PNG) |
+| `plots/` | the job kind's figures (recovery: convergence, body orientation, CoM position, gait diagrams), SVG and PNG |
 {extra_rows}
 ## Reproduce
 
@@ -122,8 +125,17 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         plot_files = get_kind(spec.kind).plots(result, tmp / "plots")
-        extra_rows = "".join(f"| `{n}` | {'3D replay (viser scene recording)' if n.endswith('.viser') else 'extra'} |\n"
-                             for n in (extra_files or {}))
+        extra_files = dict(extra_files or {})
+        replayable = {k: v for k, v in result.traces.items() if "qpos" in v}
+        if replayable and "replay.viser" not in extra_files:
+            import mujoco
+
+            from app.replay import record
+
+            model = mujoco.MjModel.from_xml_string(result.model_xml)
+            extra_files["replay.viser"] = record(model, replayable)
+        viewer = f"3D replay: viser {man['versions']['viser']} scene recording (the dashboard plays it; `gaitmend replay`)"
+        extra_rows = "".join(f"| `{n}` | {viewer if n.endswith('.viser') else 'extra file'} |\n" for n in extra_files)
         fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")
         os.close(fd)
         try:
@@ -139,7 +151,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
                     z.writestr(f"trajectories/{name}.csv", trace_csv(tr))
                 for p in plot_files:
                     z.write(p, f"plots/{p.name}")
-                for n, data in (extra_files or {}).items():
+                for n, data in extra_files.items():
                     z.writestr(n, data)
                 z.writestr("README.md", README.format(job_id=job_id, kind=spec.kind, robot=getattr(spec, "robot", ""),
                                                       version=__version__, mujoco=man["versions"]["mujoco"],

@@ -170,6 +170,58 @@ def reproduce(
 from app import service_cli  # noqa: E402,F401  (serve, worker, submit, jobs, fetch, db, token)
 
 
+@cli.command()
+def replay(
+    target: str = typer.Argument(..., help="a bundle (.zip or unpacked folder) or a job id on --server"),
+    host: str = typer.Option("127.0.0.1", help="address the viser server binds"),
+    port: int = typer.Option(8081, min=1, max=65535),
+    server: str = typer.Option("http://127.0.0.1:8000", "--server", envvar="GAITMEND_SERVER",
+                               help="API to fetch the bundle of a job id from"),
+    token: Optional[str] = typer.Option(None, envvar="GAITMEND_TOKEN", help="API token for --server"),
+):
+    """Open a live 3D replay (timeline, play/pause, speed, recovered/baseline toggle)."""
+    import io
+
+    import mujoco
+    import numpy as np
+
+    from app.replay import serve_live
+
+    path = Path(target)
+    try:
+        if path.is_dir():
+            files = {p.relative_to(path).as_posix(): p.read_bytes() for p in path.rglob("*") if p.is_file()}
+        else:
+            if path.is_file():
+                blob = path.read_bytes()
+            else:
+                import urllib.request
+
+                req = urllib.request.Request(f"{server.rstrip('/')}/api/jobs/{target}/bundle")
+                if token:
+                    req.add_header("Authorization", f"Bearer {token}")
+                with urllib.request.urlopen(req, timeout=60) as r:
+                    blob = r.read()
+            with zipfile.ZipFile(io.BytesIO(blob)) as z:
+                files = {n: z.read(n) for n in z.namelist()}
+    except (OSError, zipfile.BadZipFile) as e:
+        fail(f"cannot load bundle {target!r}: {e}")
+    if "robot.xml" not in files:
+        fail(f"{target!r} is not a gaitmend bundle (no robot.xml)")
+    model = mujoco.MjModel.from_xml_string(files["robot.xml"].decode())
+    traces = {}
+    for name, data in sorted(files.items()):
+        if name.startswith("trajectories/") and name.endswith(".npz"):
+            tr = dict(np.load(io.BytesIO(data)))
+            if "qpos" in tr:
+                traces[name[len("trajectories/"):-4]] = tr
+    if not traces:
+        fail(f"{target!r} has no replayable trajectories")
+    traces = dict(sorted(traces.items(), key=lambda kv: (kv[0] != "best", kv[0])))  # recovered gait first
+    err.print(f"replay of {', '.join(traces)} on http://{host}:{port} (Ctrl-C to stop)")
+    serve_live(model, traces, host=host, port=port)
+
+
 def main() -> None:
     try:
         cli()

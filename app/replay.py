@@ -1,0 +1,211 @@
+"""3D replay of simulated trajectories with viser.
+
+The robot's geometry is taken from the MuJoCo model (one viser frame per body, its geoms
+as primitives under it) and sent once; every replay frame then only moves the body
+frames (poses, not meshes). ``record`` writes a ``.viser`` scene recording that viser's
+own client plays back with ``?playbackPath=``; ``serve_live`` opens a live server with a
+timeline slider, play/pause, speed and a recovered/baseline toggle.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import socket
+import threading
+import time
+from collections.abc import Mapping
+
+import mujoco
+import numpy as np
+
+_G = mujoco.mjtGeom
+COLORS = {"best": (230, 120, 30), "baseline": (90, 110, 140)}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _rgb(rgba) -> tuple[int, int, int]:
+    return tuple(int(255 * c) for c in rgba[:3])
+
+
+def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int, object]:
+    """One frame per body (world excluded) with its geoms; returns body id -> frame handle."""
+    frames = {}
+    for b in range(1, model.nbody):
+        frames[b] = scene.add_frame(f"{prefix}/body{b}", show_axes=False)
+    for g in range(model.ngeom):
+        b = int(model.geom_bodyid[g])
+        if b == 0:
+            continue
+        name = f"{prefix}/body{b}/geom{g}"
+        t = int(model.geom_type[g])
+        size = model.geom_size[g]
+        pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
+        color = tint if tint is not None and t != _G.mjGEOM_SPHERE else _rgb(model.geom_rgba[g])
+        if t == _G.mjGEOM_BOX:
+            scene.add_box(name, color=color, dimensions=tuple(2 * size), position=pos, wxyz=quat)
+        elif t == _G.mjGEOM_SPHERE:
+            scene.add_icosphere(name, radius=float(size[0]), color=color, subdivisions=2, position=pos, wxyz=quat)
+        elif t in (_G.mjGEOM_CAPSULE, _G.mjGEOM_CYLINDER):
+            # MuJoCo's capsule/cylinder axis is the geom's local z, as is viser's cylinder.
+            scene.add_cylinder(name, radius=float(size[0]), height=float(2 * size[1]), color=color,
+                               radial_segments=12, position=pos, wxyz=quat)
+            if t == _G.mjGEOM_CAPSULE:  # caps are children: positions in the cylinder's frame
+                for k, sgn in enumerate((-1, 1)):
+                    scene.add_icosphere(f"{name}/cap{k}", radius=float(size[0]), color=color, subdivisions=1,
+                                        position=(0.0, 0.0, sgn * float(size[1])))
+        elif t == _G.mjGEOM_ELLIPSOID:
+            scene.add_icosphere(name, radius=1.0, scale=tuple(size), color=color, subdivisions=2, position=pos, wxyz=quat)
+        elif t == _G.mjGEOM_MESH:
+            m = int(model.geom_dataid[g])
+            va, vn = model.mesh_vertadr[m], model.mesh_vertnum[m]
+            fa, fn = model.mesh_faceadr[m], model.mesh_facenum[m]
+            scene.add_mesh_simple(name, vertices=model.mesh_vert[va : va + vn], faces=model.mesh_face[fa : fa + fn],
+                                  color=color, position=pos, wxyz=quat)
+    return frames
+
+
+def body_poses(model: mujoco.MjModel, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World poses (T, nbody, 3) and (T, nbody, 4) of every body along a qpos trajectory."""
+    data = mujoco.MjData(model)
+    T = qpos.shape[0]
+    xpos = np.empty((T, model.nbody, 3))
+    xquat = np.empty((T, model.nbody, 4))
+    for i in range(T):  # forward kinematics of already simulated frames, at replay rate
+        data.qpos[:] = qpos[i]
+        mujoco.mj_kinematics(model, data)
+        xpos[i], xquat[i] = data.xpos, data.xquat
+    return xpos, xquat
+
+
+def _frames(traces: Mapping[str, Mapping[str, np.ndarray]], fps: float):
+    """Common replay clock: sample indices per trace at `fps` from time 0 (gait start)."""
+    out = {}
+    for name, tr in traces.items():
+        t = np.asarray(tr["time_s"])
+        clock = np.arange(max(t[0], -0.5), t[-1] + 1e-9, 1.0 / fps)
+        out[name] = np.clip(np.searchsorted(t, clock), 0, len(t) - 1)
+    n = max(len(v) for v in out.values())
+    return {k: np.pad(v, (0, n - len(v)), mode="edge") for k, v in out.items()}, n
+
+
+class _Scene:
+    """Robots of several traces side by side (baseline shifted along -x), ground, paths."""
+
+    def __init__(self, server, model: mujoco.MjModel, traces, fps: float, spacing: float = 0.6):
+        self.server, self.model = server, model
+        scene = server.scene
+        scene.set_up_direction("+z")
+        server.initial_camera.position = (0.9, -0.9, 0.7)
+        server.initial_camera.look_at = (-0.3, 0.3, 0.05)
+        idx, self.n = _frames(traces, fps)
+        self.fps = fps
+        scene.add_grid("/ground", width=4.0, height=6.0, cell_size=0.1, section_size=0.5, position=(0.0, 1.0, 0.0))
+        self.robots = {}
+        for k, (name, tr) in enumerate(traces.items()):
+            offset = np.array([-spacing * k, 0.0, 0.0])
+            root = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
+            frames = add_model(scene, f"/{name}", model, tint=COLORS.get(name))
+            xpos, xquat = body_poses(model, np.asarray(tr["qpos"])[idx[name]])
+            path = np.asarray(tr["com_m"])[idx[name]][:, :2]
+            pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
+            pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.002)], axis=2)
+            scene.add_line_segments(f"/{name}/path", points=pts, colors=COLORS.get(name, (200, 0, 0)), thickness=0.004)
+            scene.add_label(f"/{name}/label", name, position=(0.0, -0.25, 0.25))
+            feet = self._feet(tr, idx[name])
+            contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
+                                             point_size=0.025, point_shape="circle")
+            self.robots[name] = {"root": root, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
+                                 "contacts": contacts}
+        self.show(0)
+
+    @staticmethod
+    def _feet(tr, idx):
+        if "feet_m" not in tr or "foot_contact" not in tr:
+            return None
+        return np.asarray(tr["feet_m"])[idx], np.asarray(tr["foot_contact"])[idx]
+
+    def show(self, i: int) -> None:
+        for r in self.robots.values():
+            for b, h in r["frames"].items():
+                h.position = r["xpos"][i, b]
+                h.wxyz = r["xquat"][i, b]
+            if r["feet"] is not None:
+                feet, on = r["feet"][0][i], r["feet"][1][i]
+                pts = feet[on] if on.any() else np.zeros((0, 3))
+                pts = pts.copy()
+                if len(pts):
+                    pts[:, 2] = 0.003
+                r["contacts"].points = pts if len(pts) else np.full((1, 3), np.nan)
+
+
+def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]], fps: float = 25.0) -> bytes:
+    """A .viser scene recording of the traces playing in real time."""
+    import viser
+
+    quiet = io.StringIO()  # viser prints a banner even with verbose=False
+    with contextlib.redirect_stdout(quiet):
+        server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
+    try:
+        sc = _Scene(server, model, traces, fps)
+        ser = server.get_scene_serializer()
+        for i in range(sc.n):
+            sc.show(i)
+            ser.insert_sleep(1.0 / fps)
+        return ser.serialize()
+    finally:
+        with contextlib.redirect_stdout(quiet):
+            server.stop()
+
+
+def serve_live(model: mujoco.MjModel, traces, host: str = "127.0.0.1", port: int = 8081, fps: float = 25.0,
+               stop: threading.Event | None = None):
+    """Live viser server: timeline slider, play/pause, speed, recovered/baseline toggle.
+    Blocks until ``stop`` is set (or forever)."""
+    import viser
+
+    server = viser.ViserServer(host=host, port=port, verbose=False)
+    sc = _Scene(server, model, traces, fps)
+    gui = server.gui
+    # Integer frames: the client drops the connection on float slider values pushed by
+    # the server at replay rate (viser 1.1.1), so time is shown as text beside it.
+    frame = gui.add_slider(f"frame ({fps:g}/s)", min=0, max=sc.n - 1, step=1, initial_value=0)
+    clock = gui.add_text("time (s)", initial_value="0.00", disabled=True)
+    playing = gui.add_checkbox("play", initial_value=True)
+    speed = gui.add_dropdown("speed", options=("0.25x", "0.5x", "1x", "2x", "4x"), initial_value="1x")
+    toggles = {name: gui.add_checkbox(f"show {name}", initial_value=True) for name in sc.robots}
+
+    state = {"i": 0, "pos": 0.0, "own": False}
+
+    @frame.on_update
+    def _(_event) -> None:
+        if not state["own"]:  # the user dragged the slider
+            state["i"] = int(frame.value)
+            state["pos"] = float(state["i"])
+            sc.show(state["i"])
+            clock.value = f"{state['i'] / fps:.2f}"
+
+    for name, cb in toggles.items():
+        def _toggle(_event, name=name, cb=cb) -> None:
+            sc.robots[name]["root"].visible = cb.value  # hides the whole subtree
+        cb.on_update(_toggle)
+
+    stop = stop or threading.Event()
+    while not stop.wait(1.0 / fps):
+        if not playing.value:
+            continue
+        state["pos"] = (state["pos"] + float(speed.value[:-1])) % sc.n  # frames advance by the speed factor
+        state["i"] = int(state["pos"])
+        with server.atomic():
+            sc.show(state["i"])
+            state["own"] = True
+            frame.value = state["i"]
+            state["own"] = False
+            clock.value = f"{state['i'] / fps:.2f}"
+    server.stop()
+    return server
