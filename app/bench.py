@@ -4,7 +4,9 @@
     controls precomputed outside the timer; (b) the evaluator's steps/s including
     trajectory generation, IK, chunking and metrics; (c) b / a; (d) wall time of a
     paper-size recovery (DE 30 x 60, 10 s); (e) scipy's differential_evolution
-    (currenttobest1bin, same population, generations, CR, F and evaluator) as a peer.
+    (currenttobest1bin, same population, generations, CR, F and evaluator) as a peer;
+and the other kinds' hot paths: tipping's per-step FASM + judgment + QP, multigait's
+paper-size generation and RRT-MP cost evaluation.
 """
 
 from __future__ import annotations
@@ -101,6 +103,14 @@ def run_bench(quick: bool = False, log: Callable[[str], None] = print) -> dict:
     figures["baseline_fitness"] = s["baseline"]["fitness"]
     log("(e) scipy differential_evolution, same budget and evaluator ...")
     figures |= scipy_peer(spec)
+    log("tipping: FASM + judgment + QP per control step ...")
+    from app.stability.bench import bench_tipping
+
+    figures["tipping"] = bench_tipping(steps=100 if quick else 500)
+    log("multigait: one paper-size generation and one RRT-MP cost evaluation ...")
+    from app.planning.bench import bench_multigait
+
+    figures["multigait"] = bench_multigait(quick=quick)
     if quick:
         return figures
     figures["targets"] = {"ratio_min": 0.9, "paper_recovery_wall_s_max": 90.0,
