@@ -24,6 +24,8 @@ cli.add_typer(db_app, name="db")
 cli.add_typer(token_app, name="token")
 
 FINAL = ("succeeded", "failed", "cancelled")
+# `python -m app.cli` would load a second copy of app.cli without these commands.
+ENTRY = "from app.cli import main; main()"
 
 
 def settings_or_exit() -> Settings:
@@ -55,7 +57,7 @@ class EmbeddedWorker:
 
     def _spawn(self) -> None:
         env = os.environ | {"GAITMEND_PARENT_PID": str(os.getpid())}
-        self.proc = subprocess.Popen([sys.executable, "-m", "app.cli", "worker"], env=env, start_new_session=True)
+        self.proc = subprocess.Popen([sys.executable, "-c", ENTRY, "worker"], env=env, start_new_session=True)
 
     def _watch(self) -> None:
         while not self.stopping.wait(1.0):

@@ -72,13 +72,16 @@ def proc_env(env: dict[str, str]) -> dict[str, str]:
     return base | env | {"PYTHONUNBUFFERED": "1"}
 
 
+ENTRY = "from app.cli import main; main()"  # `-m app.cli` would run a second copy of app.cli
+
+
 class Proc:
     """A gaitmend process in its own process group (so kill -9 takes its children too)."""
 
     def __init__(self, args: list[str], env: dict[str, str], log: Path):
         self.log = log
         self._fh = open(log, "ab")
-        self.p = subprocess.Popen([sys.executable, "-m", "app.cli", *args], env=proc_env(env),
+        self.p = subprocess.Popen([sys.executable, "-c", ENTRY, *args], env=proc_env(env),
                                   stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
 
     @property
