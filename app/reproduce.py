@@ -37,17 +37,33 @@ class _Ctx:
         return False
 
 
-def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[str], None] = print) -> list[dict]:
+def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
+                  raw_path: Path | None = None) -> list[dict]:
+    """Runs every (scenario, seed). With raw_path, each finished run is appended to that
+    JSON file at once, and runs already there (same budget) are not run again: an
+    interrupted reproduction resumes where it stopped."""
     rows = []
+    if raw_path is not None and raw_path.exists():
+        rows = [r for r in json.loads(raw_path.read_text())
+                if r.get("generations") == generations and r.get("population") == population]
+    done = {(tuple(r["lost_legs"]), r["seed"]) for r in rows}
     for lost in SCENARIOS:
         for seed in range(seeds):
+            if (lost, seed) in done:
+                continue
             spec = RecoverySpec(damage={"lost_legs": list(lost)},
                                 search={"population": population, "generations": generations, "seed": seed})
             t = time.perf_counter()
             s = run(spec, _Ctx()).summary
-            rows.append({"lost_legs": list(lost), "seed": seed, "baseline": s["baseline"]["metrics"],
-                         "best": s["best"]["metrics"], "best_fitness": s["best"]["fitness"],
-                         "gait": s["gait"]["name"], "wall_s": s["timing"]["wall_s"]})
+            rows.append({"lost_legs": list(lost), "seed": seed, "generations": generations, "population": population,
+                         "baseline": s["baseline"]["metrics"], "best": s["best"]["metrics"],
+                         "best_fitness": s["best"]["fitness"], "gait": s["gait"]["name"],
+                         "wall_s": s["timing"]["wall_s"]})
+            if raw_path is not None:
+                raw_path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = raw_path.with_suffix(".part")
+                tmp.write_text(json.dumps(rows, indent=1))
+                tmp.replace(raw_path)
             m = s["best"]["metrics"]
             log(f"legs {lost} seed {seed}: x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
                 f"yaw {m['yaw_f_deg']:.1f} deg ({time.perf_counter() - t:.0f} s)")
@@ -96,8 +112,6 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
 
 def run_table2(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
                raw_path: Path | None = Path("docs/table2.json")) -> str:
-    rows = run_scenarios(seeds, generations, population, log)
-    if raw_path is not None:
-        raw_path.parent.mkdir(parents=True, exist_ok=True)
-        raw_path.write_text(json.dumps(rows, indent=1))
+    rows = run_scenarios(seeds, generations, population, log, raw_path)
+    rows = [r for r in rows if r["seed"] < seeds]
     return table_markdown(rows, generations, population)
