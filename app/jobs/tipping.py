@@ -93,7 +93,7 @@ class Recovery(BaseModel):
     safety_margin: float = Field(0.9, gt=0.0, lt=1.0)  # rho, Eq. 11-13
     cone_lambda: float = Field(0.9, gt=0.0, lt=1.0)  # lambda, Eq. 21
     qp: bool = True
-    mu_qp: float = Field(0.8, gt=0.0, le=2.0)
+    mu_qp: float = Field(1.2, gt=0.0, le=2.0)
     swing_min_s: float = Field(0.4, gt=0.0, le=5.0)
     swing_max_s: float = Field(1.5, gt=0.0, le=5.0)
     clearance_m: float = Field(0.25, ge=0.0, le=0.8)

@@ -69,6 +69,8 @@ class HeavyHexapodGeometry:
     force_limit: tuple[float, float, float] = (4e5, 2e5, 2e5)
     armature: tuple[float, float, float] = (200.0, 20.0, 20.0)
     timestep: float = 0.002
+    impratio: float = 10.0
+    noslip_iterations: int = 0
 
     @property
     def total_mass(self) -> float:
@@ -162,6 +164,10 @@ def base_spec(geom: HeavyHexapodGeometry = HEAVY) -> mujoco.MjSpec:
     spec.option.timestep = geom.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # the QP's pyramid is inscribed in this cone
+    # Soft friction creeps under a sustained tangential load (a 5 t robot on a 40 deg slope);
+    # a high impratio makes it stick, as the paper assumes ("no foot slipping").
+    spec.option.impratio = geom.impratio
+    spec.option.noslip_iterations = geom.noslip_iterations
     spec.compiler.degree = False
     spec.worldbody.add_light(pos=[0, 0, 12], dir=[0, 0, -1])
     return spec

@@ -25,7 +25,7 @@ class ControllerConfig:
     kappa: float = 0.8  # Eq. 15
     rho: float = 0.9  # safety margin of the reachable space (Eq. 11-13)
     lam: float = 0.9  # radius factor of the stability cone's base (Eq. 21)
-    mu: float = 0.8  # friction coefficient the QP assumes (below the simulated one)
+    mu: float = 1.2  # friction the QP assumes: below the simulated 1.5; its inscribed pyramid holds 40 deg slopes
     parallel_deg: float = 15.0  # boundary-vs-axis angle under which L or R is taken (Sec. 4.2)
     swing_min_s: float = 0.4
     swing_max_s: float = 1.5  # the paper's adjustments took 0.74-2.31 s
@@ -355,15 +355,22 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
     tipped_at = None
     control_s = []
     def tilt_at(tt: float) -> float:
-        """Constant rate after a 1 s linear ramp of the rate (a rate step would jolt a 5 t robot)."""
+        """Trapezoidal rate profile: 1 s ramps up to ``rate_deg_s`` and back down to rest at
+        the final tilt (a rate step at either end would jolt a 5 t robot on a 20 t table)."""
         if max_tilt is None:
             return 0.0
-        s = tt - scen.settle_s
-        ramp = 1.0
+        s, R = tt - scen.settle_s, scen.rate_deg_s
+        ramp = min(1.0, max_tilt / R)
+        total = max_tilt / R + ramp
         if s <= 0:
             return 0.0
-        ang = scen.rate_deg_s * (s * s / (2 * ramp) if s < ramp else s - ramp / 2)
-        return min(ang, max_tilt)
+        if s < ramp:
+            return R * s * s / (2 * ramp)
+        if s < total - ramp:
+            return R * (s - ramp / 2)
+        if s < total:
+            return max_tilt - R * (total - s) ** 2 / (2 * ramp)
+        return max_tilt
 
     mujoco.mj_forward(m, d)
     forces_avg = sim.foot_forces()
@@ -499,6 +506,9 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
     from app.robots.heavy_hexapod import build_cliff_spec
 
     g = geom if friction is None else dataclasses.replace(geom, friction=friction)
+    # Walking on level ground needs no anti-creep friction, and with it (impratio 10) the
+    # position-controlled stance tripod chatters (+-20 kN) as its feet sweep back together.
+    g = dataclasses.replace(g, impratio=1.0)
     side = -1 if sc.side == "right" else 1
     sim = HexapodSim(build_cliff_spec(g, cliff_x=sc.cliff_x, side=side, drop=sc.drop_m), g)
     m, d = sim.model, sim.data
