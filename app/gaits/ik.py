@@ -1,11 +1,12 @@
 """Closed-form inverse kinematics of a 3-DoF coxa-femur-tibia leg (paper 000, Eq. 11).
 
 Coordinates are in the leg frame (origin at the coxa axis, x outward, z up). The typeset
-Eq. 11 uses arcsin for q2 and q3; arcsin(D) - pi/2 equals -arccos(D) (knee bent down)
-and arcsin(z/A) - gamma equals atan2(z, r) - gamma wherever the foot is outside the
-femur joint (r > 0), which is the whole workspace the bounds allow. We use the atan2
-form because it stays exact near the edges of that branch; the test suite checks both
-against MuJoCo forward kinematics.
+Eq. 11 uses arcsin for q2 and q3: arcsin(D) - pi/2 equals -arccos(D) (knee bent down),
+and arcsin(z/A) - gamma equals atan2(z, r) - atan2(L3 s3, L2 + L3 c3) only while
+L2 + L3 cos(q3) > 0 and |q2 + gamma| < pi/2 (the typeset arctan loses the quadrant when
+the knee folds past arccos(-L2/L3)). We use the atan2 form, exact on the whole branch
+with the foot outside the femur joint; tests check both against MuJoCo forward
+kinematics and show where the typeset one breaks.
 """
 
 from __future__ import annotations
