@@ -296,21 +296,21 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
 
 
 def sweep_table(rows: list[dict], directions: int) -> dict:
-    """Recovery success per direction: over the swept tripods, the share of runs where the
-    robot tips without recovery and stays up with it; with the tip rate without recovery."""
+    """Per downhill direction, over the swept tripods: ``success_rate`` = share of recovery
+    runs that end upright; ``tip_rate_without_recovery``; ``recovered_rate`` = share where
+    the robot tips without recovery and stays up with it (recovery made the difference)."""
     dirs = [360.0 * k / directions for k in range(directions)]
-    success, tip_without, stays_with = [], [], []
+    success, tip_without, recovered = [], [], []
     for psi in dirs:
         base = {r["stance"]: r for r in rows if r["downhill_deg"] == psi and not r["recovery"]}
         rec = {r["stance"]: r for r in rows if r["downhill_deg"] == psi and r["recovery"]}
         st = sorted(set(base) & set(rec))
-        success.append(float(np.mean([base[s]["tipped"] and not rec[s]["tipped"] for s in st])) if st else None)
+        success.append(float(np.mean([not rec[s]["tipped"] for s in st])) if st else None)
         tip_without.append(float(np.mean([base[s]["tipped"] for s in st])) if st else None)
-        stays_with.append(float(np.mean([not rec[s]["tipped"] for s in st])) if st else None)
+        recovered.append(float(np.mean([base[s]["tipped"] and not rec[s]["tipped"] for s in st])) if st else None)
     done = [s for s in success if s is not None]
     return {"directions_deg": dirs, "success_rate": success, "tip_rate_without_recovery": tip_without,
-            "upright_rate_with_recovery": stays_with,
-            "overall_success_rate": float(np.mean(done)) if done else None}
+            "recovered_rate": recovered, "overall_success_rate": float(np.mean(done)) if done else None}
 
 
 def plots(result: JobResult, out):

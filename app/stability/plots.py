@@ -78,8 +78,9 @@ def sweep(sw: dict, out: Path) -> list[Path]:
     fig = plt.figure(figsize=(5, 5))
     ax = fig.add_subplot(projection="polar")
     width = 2 * np.pi / max(len(th), 1) * 0.8
-    ax.bar(th, sw["success_rate"], width=width, alpha=0.6, label="recovered (tips without, upright with)")
-    ax.plot(np.append(th, th[:1]), np.append(sw["tip_rate_without_recovery"], sw["tip_rate_without_recovery"][:1]),
+    ax.bar(th, [v or 0.0 for v in sw["success_rate"]], width=width, alpha=0.6, label="upright with recovery")
+    tw = [v or 0.0 for v in sw["tip_rate_without_recovery"]]
+    ax.plot(np.append(th, th[:1]), np.append(tw, tw[:1]),
             "r.-", label="tips without recovery")
     ax.set_ylim(0, 1)
     ax.set_title("Recovery success per downhill direction\n(0 deg = robot front down, 90 = left side down)", fontsize=9)

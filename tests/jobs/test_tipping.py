@@ -116,15 +116,16 @@ def test_sweep_table_and_checkpointed_resume(tmp_path):
             {"downhill_deg": 180.0, "stance": "135", "recovery": 1, "tipped": 0}]
     sw = sweep_table(rows, 2)
     assert sw["directions_deg"] == [0.0, 180.0]
-    assert sw["success_rate"] == [0.5, 0.0] and sw["tip_rate_without_recovery"] == [1.0, 0.0]
-    assert sw["overall_success_rate"] == 0.25
+    assert sw["success_rate"] == [0.5, 1.0] and sw["tip_rate_without_recovery"] == [1.0, 0.0]
+    assert sw["recovered_rate"] == [0.5, 0.0]
+    assert sw["overall_success_rate"] == 0.75
     # A run that restarts from a checkpoint with the sweep done skips straight to the table.
     spec = parse_spec({"kind": "tipping", "sweep": {"enabled": True, "directions": 2, "stances": [[1, 3, 5]]},
                        "recovery": {"enabled": False}, "sim": {"duration_s": 2.0}})
     done = [{"run": i, "downhill_deg": 180.0 * (i // 2), "stance": "135", "recovery": i % 2, "tipped": 1 - i % 2,
              "sim_steps": 0} for i in range(4)]
     res = run(spec, Ctx(tmp_path, checkpoint={"rows": done, "wall_s": 1.0}))
-    assert res.summary["sweep"]["success_rate"] == [1.0, 1.0]
+    assert res.summary["sweep"]["success_rate"] == [1.0, 1.0] and res.summary["sweep"]["recovered_rate"] == [1.0, 1.0]
     assert res.summary["timing"]["wall_s"] > 1.0
     with pytest.raises(Cancelled):
         run(spec, Ctx(tmp_path, cancel=True))
