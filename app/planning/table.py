@@ -1,6 +1,7 @@
 """Paper 001's Table I-IV experiments at a chosen budget, written as markdown.
 
-    python -m app.planning.table --particles 12 --generations 15 --out docs/multigait_tables.md
+    python -m app.planning.table --particles 12 --generations 20 --distance --seed 0 --json s0.json
+    python -m app.planning.table --from-json s0.json s1.json --particles 12 --generations 20 --out t.md
 
 Table I: coverage-based gaits on Empty for each robot healthy and with its 1 and 2 stuck
 modules (final best and first-generation best / mean). Table II: distance-based gaits.
@@ -15,6 +16,8 @@ import argparse
 import json
 import time
 from pathlib import Path
+
+import numpy as np
 
 from app.jobs.multigait import MultigaitSpec, run
 from app.robots.modular import SHAPES
@@ -52,43 +55,54 @@ def one(robot: str, stuck: list[int], cost: str, particles: int, generations: in
             "wall_s": time.perf_counter() - t}
 
 
+def _ms(vals) -> str:
+    v = np.asarray(vals, dtype=float)
+    return f"{v.mean():.1f}" if v.size == 1 else f"{v.mean():.1f} / {v.std():.1f}"
+
+
 def markdown(rows: list[dict], particles: int, generations: int) -> str:
+    seeds = sorted({r["seed"] for r in rows})
     out = [f"Budget: {particles} particles x {generations} generations (paper: 20 x 150), k = 3, "
-           "tau = 30 s, K = 150 (coverage) / 100 (distance), PSO w = 0.1, phi1 = phi2 = 2, Empty map.\n"]
-    for cost, unit in (("coverage", "coverage % (final best; in parentheses first-generation best / mean)"),
-                       ("distance", "distance to the goal 15 mu ahead, mu (final best; first-generation best / mean)")):
-        sel = [r for r in rows if r["cost"] == cost]
+           "tau = 30 s, K = 150 (coverage) / 100 (distance), PSO w = 0.1, phi1 = phi2 = 2, Empty map; "
+           f"seeds {seeds}" + (" (cells: mean / std over seeds)" if len(seeds) > 1 else "") + ".\n"]
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["cost"], r["robot"], tuple(r["stuck"])), []).append(r)
+    for cost, unit in (("coverage", "coverage % of cells"), ("distance", "distance (mu) to the goal 15 mu ahead")):
+        sel = [(key, g) for key, g in groups.items() if key[0] == cost]
         if not sel:
             continue
         out.append(f"\n### {cost}-based cost: {unit}\n")
-        out.append("| robot | stuck modules | final best | first generation best / mean | gens | wall (s) |")
+        out.append("| robot | stuck modules | final best | first generation: best | first generation: mean | wall per run (s) |")
         out.append("|---|---|---|---|---|---|")
-        for r in sel:
-            res = r["result"]
-            out.append(f"| {r['robot']} | {r['stuck'] or '-'} | {res['final_best']:.2f} | "
-                       f"{res['initial_best']:.2f} / {res['initial_mean']:.2f} | {len(r['history'])} | {r['wall_s']:.0f} |")
+        for (_, robot, stuck), g in sel:
+            res = [r["result"] for r in g]
+            out.append(f"| {robot} | {list(stuck) or '-'} | {_ms([x['final_best'] for x in res])} | "
+                       f"{_ms([x['initial_best'] for x in res])} | {_ms([x['initial_mean'] for x in res])} | "
+                       f"{np.mean([r['wall_s'] for r in g]):.0f} |")
     reuse = [r for r in rows if not r["stuck"] and r["reuse"]]
     if reuse:
-        out.append("\n### Reuse (Sec. V-C): goal 30 mu away, K = 100, 20 plans per gait set: distance mu / coverage %, mean (std)\n")
-        out.append("| robot | gaits | 1: Empty, same | 2: Column, same | 3: Column, opposite |")
-        out.append("|---|---|---|---|---|")
+        out.append("\n### Reuse (Sec. V-C): goal 30 mu away, K = 100, 20 plans per gait set: "
+                   "distance to goal (mu) and coverage (%), mean (std) over plans\n")
+        out.append("| robot | gaits | seed | 1: Empty, same | 2: Column, same | 3: Column, opposite |")
+        out.append("|---|---|---|---|---|---|")
         for r in reuse:
             cells = []
             for sc in ("empty_same", "column_same", "column_opposite"):
                 v = r["reuse"][sc]
                 cells.append(f"{v['distance_mu']['mean']:.1f} ({v['distance_mu']['std']:.1f}) / "
                              f"{v['coverage_pct']['mean']:.1f} ({v['coverage_pct']['std']:.1f})")
-            out.append(f"| {r['robot']} | {r['cost']} | " + " | ".join(cells) + " |")
+            out.append(f"| {r['robot']} | {r['cost']} | {r['seed']} | " + " | ".join(cells) + " |")
     comp = [r for r in rows if r["composition"]]
     if comp:
-        out.append("\n### Composition error: first 60 nodes of the best tree replayed in full simulation\n")
-        out.append("| robot | stuck | cost | mean edge (mu) | depth-1 error (mu) | mean / max position error (mu) | "
+        out.append("\n### Composition error: the first 60 nodes of the best tree replayed in full simulation\n")
+        out.append("| robot | stuck | cost | seed | mean edge (mu) | depth-1 error (mu) | position error mean / max (mu) | "
                    "error per edge / edge length | heading error mean (deg) |")
-        out.append("|---|---|---|---|---|---|---|---|")
+        out.append("|---|---|---|---|---|---|---|---|---|")
         for r in comp:
             c = r["composition"]
-            out.append(f"| {r['robot']} | {r['stuck'] or '-'} | {r['cost']} | {c['mean_edge_length_mu']:.2f} | "
-                       f"{c['depth1_position_error_mu']:.1e} | {c['position_error_mu']['mean']:.2f} / "
+            out.append(f"| {r['robot']} | {r['stuck'] or '-'} | {r['cost']} | {r['seed']} | {c['mean_edge_length_mu']:.2f} | "
+                       f"{c['depth1_position_error_mu']:.0e} | {c['position_error_mu']['mean']:.2f} / "
                        f"{c['position_error_mu']['max']:.2f} | {c['relative_error_per_edge']:.2f} | "
                        f"{c['heading_error_deg']['mean']:.1f} |")
     return "\n".join(out) + "\n"
@@ -104,7 +118,14 @@ def main() -> None:
     ap.add_argument("--distance", action="store_true", help="also distance-based runs of the healthy robots")
     ap.add_argument("--out", type=Path, default=Path("docs/multigait_tables.md"))
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--from-json", type=Path, nargs="*", default=None,
+                    help="only write the markdown from the rows of earlier runs' --json files")
     a = ap.parse_args()
+    if a.from_json:
+        rows = [r for f in a.from_json for r in json.loads(f.read_text())]
+        a.json = None
+        _write(a, rows)
+        return
     rows = []
     for robot in a.robots.split(","):
         f1, f2 = SHAPES[robot].failures
