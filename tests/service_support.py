@@ -69,7 +69,7 @@ def free_port() -> int:
 
 def proc_env(env: dict[str, str]) -> dict[str, str]:
     base = {k: v for k, v in os.environ.items() if not k.startswith("GAITMEND_")}
-    return base | env | {"PYTHONUNBUFFERED": "1"}
+    return base | env | {"PYTHONUNBUFFERED": "1", "COLUMNS": "240"}  # rich wraps messages at 80
 
 
 ENTRY = "from app.cli import main; main()"  # `-m app.cli` would run a second copy of app.cli

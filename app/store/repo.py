@@ -34,8 +34,12 @@ def find_by_idempotency_key(s: Session, owner: str, key: str) -> Job | None:
     return s.scalar(select(Job).where(Job.owner == owner, Job.idempotency_key == key))
 
 
-def count_queued(s: Session, owner: str) -> int:
-    return s.scalar(select(func.count()).select_from(Job).where(Job.owner == owner, Job.status == "queued"))
+def count_queued(s: Session, owner: str, cap: int | None = None) -> int:
+    """Queued jobs of an owner, counted up to `cap` (a limit check need not count further)."""
+    q = select(Job.seq).where(Job.owner == owner, Job.status == "queued")
+    if cap is not None:
+        q = q.limit(cap)
+    return s.scalar(select(func.count()).select_from(q.subquery()))
 
 
 def create_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: dict, evaluations_budget: int,

@@ -105,7 +105,7 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     def create(s):
         if idempotency_key and (job := existing(s)) is not None:
             return job, False
-        if repo.count_queued(s, who.name) >= settings.max_queued_per_owner:
+        if repo.count_queued(s, who.name, cap=settings.max_queued_per_owner) >= settings.max_queued_per_owner:
             raise ApiError(429, f"{settings.max_queued_per_owner} jobs are already queued for {who.name!r} "
                                 f"(GAITMEND_MAX_QUEUED_PER_OWNER); wait or cancel some", field="owner")
         job = repo.create_job(s, owner=who.name, kind=spec.kind, robot=getattr(spec, "robot", None), spec=full,

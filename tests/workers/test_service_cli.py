@@ -1,0 +1,132 @@
+"""The commands a user types: `gaitmend serve` (embedded worker, restarted after kill -9),
+`submit --wait`, `jobs`, `fetch`, `cancel`, `token`, `db`, and `gaitmend run manifest.json`
+reproducing a fetched bundle."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import zipfile
+
+import httpx
+import pytest
+from service_support import SMALL, Proc, deployment, free_port, job_row, settings_of, spec, wait_for
+
+
+def gaitmend(env, *args):
+    """The CLI in this process (a fresh interpreter costs seconds of imports); the server
+    it talks to is a real process."""
+    from typer.testing import CliRunner
+
+    from app.cli import cli
+
+    r = CliRunner().invoke(cli, list(args), env=env | {"COLUMNS": "240"}, catch_exceptions=False)
+    r.returncode = r.exit_code
+    return r
+
+
+@pytest.fixture
+def served(tmp_path):
+    procs = []
+
+    def start(env, *extra):
+        port = free_port()
+        p = Proc(["serve", "--port", str(port), *extra], env, tmp_path / f"serve{len(procs)}.log")
+        procs.append(p)
+        base = f"http://127.0.0.1:{port}"
+
+        def up():
+            try:
+                return httpx.get(f"{base}/api/health", timeout=2).status_code == 200
+            except httpx.HTTPError:
+                return p.p.poll() is not None and pytest.fail(f"serve exited:\n{p.tail()}")
+
+        wait_for(up, 60, "the server", proc=p)
+        return base, p
+
+    yield start
+    for p in procs:
+        p.stop()
+
+
+def test_serve_submit_wait_fetch_and_reproduce(tmp_path, served):
+    env = deployment(tmp_path)
+    base, server = served(env)
+    env_c = env | {"GAITMEND_SERVER": base}
+    (tmp_path / "spec.json").write_text(json.dumps(SMALL))
+    r = gaitmend(env_c, "submit", str(tmp_path / "spec.json"), "--wait", "--json")
+    assert r.returncode == 0, r.stderr
+    job = json.loads(r.stdout)
+    assert job["status"] == "succeeded" and job["progress"]["done"] == 4
+    listed = json.loads(gaitmend(env_c, "jobs", "--json").stdout)
+    assert [j["id"] for j in listed["items"]] == [job["id"]]
+    r = gaitmend(env_c, "fetch", job["id"], "--out", str(tmp_path / "got"), "--json")
+    assert r.returncode == 0, r.stderr
+    bundle = json.loads(r.stdout)["bundle"]
+    with zipfile.ZipFile(bundle) as z:
+        z.extractall(tmp_path / "unzipped")
+    r = gaitmend(env_c, "run", str(tmp_path / "unzipped" / "manifest.json"), "--json", "--quiet",
+                 "--out", str(tmp_path / "again"))
+    assert r.returncode == 0, r.stderr
+    again = json.loads(r.stdout.strip().splitlines()[-1])
+    assert again["best"] == job["summary"]["best"] and again["history"] == job["summary"]["history"]
+    # client-side errors: bad spec (exit 2, field named, nothing sent), unknown job
+    (tmp_path / "bad.json").write_text(json.dumps(SMALL | {"search": {"population": 1}}))
+    r = gaitmend(env_c, "submit", str(tmp_path / "bad.json"))
+    assert r.returncode == 2 and "search.population" in r.stderr
+    r = gaitmend(env_c, "fetch", "nope")
+    assert r.returncode == 2 and "no job" in r.stderr
+    assert len(json.loads(gaitmend(env_c, "jobs", "--json").stdout)["items"]) == 1
+
+
+def test_serve_restarts_its_embedded_worker_after_kill9_and_the_job_resumes(tmp_path, served):
+    env = deployment(tmp_path)
+    settings = settings_of(env)
+    base, server = served(env)
+    jid = httpx.post(f"{base}/api/jobs", json=spec(generations=14, population=8, seed=3)).json()["id"]
+    wait_for(lambda: job_row(settings, jid).progress_done >= 3, 90, "three generations", proc=server)
+    child = int(job_row(settings, jid).worker.rsplit(":", 1)[1])
+    os.killpg(os.getpgid(child), signal.SIGKILL)  # the embedded worker, main process and pool
+    job = wait_for(lambda: (j := job_row(settings, jid)).status in ("succeeded", "failed") and j, 120,
+                   "the job to finish", proc=server)
+    assert (job.status, job.attempt) == ("succeeded", 2), job.error
+    assert "restarting it" in server.log.read_text()
+    r = gaitmend(env | {"GAITMEND_SERVER": base}, "cancel", jid)
+    assert r.returncode == 0 and "succeeded" in r.stdout  # cancelling a finished job changes nothing
+
+
+def test_public_bind_needs_a_token(tmp_path, served):
+    env = deployment(tmp_path)
+    r = gaitmend(env, "token", "create", "alice")
+    assert r.returncode == 0, r.stderr
+    token = r.stdout.strip()
+    assert token.startswith("gm_")
+    assert gaitmend(env, "token", "create", "alice").returncode == 2  # names are unique
+    assert gaitmend(env, "token", "create", "bad name!").returncode == 2
+    base, _ = served(env | {"GAITMEND_AUTH": "on"}, "--no-worker")  # same code path as a 0.0.0.0 bind
+    assert httpx.get(f"{base}/api/jobs").status_code == 401
+    r = httpx.get(f"{base}/api/jobs", headers={"Authorization": f"Bearer {token}"})
+    assert r.status_code == 200
+    (tmp_path / "spec.json").write_text(json.dumps(SMALL))
+    env_c = env | {"GAITMEND_SERVER": base}
+    assert gaitmend(env_c, "submit", str(tmp_path / "spec.json")).returncode == 1  # 401: not a usage error
+    r = gaitmend(env_c | {"GAITMEND_TOKEN": token}, "submit", str(tmp_path / "spec.json"), "--json")
+    assert r.returncode == 0 and json.loads(r.stdout)["owner"] == "alice"
+    listed = json.loads(gaitmend(env, "token", "list", "--json").stdout)
+    assert [t["name"] for t in listed] == ["alice"] and token not in json.dumps(listed)
+
+
+def test_bad_settings_and_db_commands(tmp_path):
+    env = deployment(tmp_path)
+    r = gaitmend(env | {"GAITMEND_LEASE_S": "0"}, "db", "upgrade")
+    assert r.returncode == 2 and "GAITMEND_LEASE_S" in r.stderr and "greater than or equal to 1" in r.stderr
+    r = gaitmend(env | {"GAITMEND_BROKER_URL": "amqp://x"}, "worker")
+    assert r.returncode == 2 and "GAITMEND_BROKER_URL" in r.stderr
+    r = gaitmend(env | {"GAITMEND_MAX_JOB_S": "50000"}, "db", "upgrade")
+    assert r.returncode == 2 and "GAITMEND_VISIBILITY_TIMEOUT_S" in r.stderr
+    r = gaitmend(env, "worker")  # no schema yet: a clear message, not a traceback
+    assert r.returncode == 1 and "gaitmend db upgrade" in r.stderr
+    r = gaitmend(env, "db", "upgrade")
+    assert r.returncode == 0 and r.stdout.strip() == "0001"
+    assert "0001 (head: 0001)" in gaitmend(env, "db", "current").stdout
