@@ -42,6 +42,7 @@ class TiltIn(BaseModel):
     settle_s: float = Field(3.0, ge=0.5, le=20.0)
     max_tilt_deg: float | None = Field(None, gt=0.0, le=60.0)
     overshoot_deg: float = Field(4.0, ge=0.0, le=15.0)
+    hold_s: float = Field(6.0, ge=0.0, le=60.0)  # runs last until the final tilt has been held this long
 
     @field_validator("stance")
     @classmethod
@@ -61,7 +62,8 @@ class TiltIn(BaseModel):
 
     def build(self) -> TiltScenario:
         return TiltScenario(downhill_deg=self.resolved_downhill(), stance=tuple(self.stance), rate_deg_s=self.rate_deg_s,
-                            settle_s=self.settle_s, max_tilt_deg=self.max_tilt_deg, overshoot_deg=self.overshoot_deg)
+                            settle_s=self.settle_s, max_tilt_deg=self.max_tilt_deg, overshoot_deg=self.overshoot_deg,
+                            hold_s=self.hold_s)
 
 
 class CliffIn(BaseModel):
@@ -108,7 +110,9 @@ class Recovery(BaseModel):
 
 class Sim(BaseModel):
     model_config = Strict
-    duration_s: float | None = Field(None, gt=1.0, le=120.0)  # None: 25 s tilt, 32 s cliff
+    # None: 25 s tilt, 32 s cliff. A tilt run is extended until the platform has held its
+    # final tilt for scenario.hold_s.
+    duration_s: float | None = Field(None, gt=1.0, le=120.0)
     friction: float = Field(1.5, gt=0.1, le=3.0)  # the paper assumes feet never slip
     control_dt: float = Field(0.02, ge=0.002, le=0.05)
 
@@ -250,7 +254,7 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
             if ctx.is_cancelled():
                 raise Cancelled()
             sc = TiltScenario(downhill_deg=psi, stance=st, rate_deg_s=s.rate_deg_s, settle_s=s.settle_s,
-                              max_tilt_deg=s.max_tilt_deg, overshoot_deg=s.overshoot_deg)
+                              max_tilt_deg=s.max_tilt_deg, overshoot_deg=s.overshoot_deg, hold_s=s.hold_s)
             r = _simulate(spec, rec, sc, record_qpos=False)
             first = _first_catch(r["adjustments"])
             rows.append({"run": i, "downhill_deg": psi, "stance": "".join(map(str, st)), "recovery": int(rec),

@@ -179,9 +179,9 @@ def build_tilt_spec(geom: HeavyHexapodGeometry = HEAVY, platform_half: float = 4
     about ``axis`` through the centre of its top face (the world origin), driven by a stiff
     position servo ("tilt") as the paper's Stewart platform is. A real joint, not a mocap
     body: the contacts then see the platform's velocity instead of a jump every step. A
-    deep floor lies below to catch a robot that falls off."""
+    floor 8 m below (deeper than the table's corner at 60 deg) catches a robot that falls off."""
     spec = base_spec(geom)
-    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.1], pos=[0, 0, -4.0],
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.1], pos=[0, 0, -8.0],
                             friction=[geom.friction, 0.005, 1e-4], rgba=[0.5, 0.55, 0.6, 1])
     plat = spec.worldbody.add_body(name="platform", pos=[0, 0, 0])
     plat.add_joint(name="tilt", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(axis), range=[-1.2, 1.2],

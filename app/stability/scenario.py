@@ -65,6 +65,11 @@ class Adjustment:
         return d
 
 
+# Tipped over: the body turned this far off the ground plane, i.e. it rotated about a
+# support edge until something else hit the ground (the controlled robot stays within 3 deg).
+TIPPED_DEG = 10.0
+AFTER_TIP_S = 3.0  # keep simulating the fall this long, for the plots and the replay
+
 PAPER_EDGES = ("a13", "a35", "a51", "a24", "a46", "a62")  # Table II's names
 
 
@@ -301,6 +306,7 @@ class TiltScenario:
     settle_s: float = 3.0
     max_tilt_deg: float | None = None
     overshoot_deg: float = 4.0
+    hold_s: float = 6.0  # the run lasts at least until the platform has held its final tilt this long
     lift_m: float = 0.45
 
 
@@ -374,8 +380,14 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
 
     mujoco.mj_forward(m, d)
     forces_avg = sim.foot_forces()
-    for k in range(n_ctl):
+    k = -1
+    while True:
+        k += 1
         t = k * cfg.control_dt
+        if max_tilt is not None:  # long enough to reach the final tilt and hold it
+            n_ctl = max(n_ctl, int(round((scen.settle_s + max_tilt / scen.rate_deg_s + 1.0 + scen.hold_s) / cfg.control_dt)))
+        if k >= n_ctl:
+            break
         if max_tilt is None and t >= scen.settle_s:  # the stance polygon as it stands, flat
             feet = sim.feet_world()[[l - 1 for l in stance]]
             com = sim.com()
@@ -398,9 +410,9 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[:, 2] @ normal, -1, 1)))
         rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d, feet_w)
-        if rel > 30.0 and tipped_at is None:
+        if rel > TIPPED_DEG and tipped_at is None:
             tipped_at = t
-        if tipped_at is not None and t > tipped_at + 1.0:
+        if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
             break
         # The platform moves every physics step (a 20 ms jump would bounce the feet), and
         # the force sensors report the mean over the control interval (50 Hz sampling).
@@ -544,9 +556,9 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[2, 2], -1, 1)))
         rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d, feet_w)
-        if rel > 30.0 and tipped_at is None:
+        if rel > TIPPED_DEG and tipped_at is None:
             tipped_at = t
-        if tipped_at is not None and t > tipped_at + 1.0:
+        if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
             break
         forces_avg = np.zeros((6, 3))
         for _ in range(n_sub):
