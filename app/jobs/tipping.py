@@ -83,13 +83,13 @@ class CliffIn(BaseModel):
                              period_s=self.period_s, stand_s=self.stand_s)
 
 
-class Detector(BaseModel):
+class TippingDetector(BaseModel):
     model_config = Strict
     threshold_deg: float = Field(20.0, gt=0.0, le=60.0)  # xi_f, Sec. 3
     kappa: float = Field(0.8, gt=0.0, lt=1.0)  # Eq. 15
 
 
-class Recovery(BaseModel):
+class TippingRecovery(BaseModel):
     model_config = Strict
     enabled: bool = True
     safety_margin: float = Field(0.9, gt=0.0, lt=1.0)  # rho, Eq. 11-13
@@ -108,7 +108,7 @@ class Recovery(BaseModel):
         return self
 
 
-class Sim(BaseModel):
+class TippingSim(BaseModel):
     model_config = Strict
     # None: 25 s tilt, 32 s cliff. A tilt run is extended until the platform has held its
     # final tilt for scenario.hold_s.
@@ -125,7 +125,7 @@ class Sim(BaseModel):
         return v
 
 
-class Sweep(BaseModel):
+class TippingSweep(BaseModel):
     model_config = Strict
     enabled: bool = False
     directions: int = Field(12, ge=1, le=36)
@@ -142,10 +142,10 @@ class TippingSpec(BaseModel):
     kind: Literal["tipping"] = "tipping"
     robot: Literal["heavy_hexapod"] = "heavy_hexapod"
     scenario: Annotated[Union[TiltIn, CliffIn], Field(discriminator="type")] = Field(default_factory=TiltIn)
-    detector: Detector = Field(default_factory=Detector)
-    recovery: Recovery = Field(default_factory=Recovery)
-    sim: Sim = Field(default_factory=Sim)
-    sweep: Sweep = Field(default_factory=Sweep)
+    detector: TippingDetector = Field(default_factory=TippingDetector)
+    recovery: TippingRecovery = Field(default_factory=TippingRecovery)
+    sim: TippingSim = Field(default_factory=TippingSim)
+    sweep: TippingSweep = Field(default_factory=TippingSweep)
     seed: int = Field(0, ge=0, le=2**32 - 1)  # recorded; the scenarios draw nothing at random
 
     @model_validator(mode="after")
