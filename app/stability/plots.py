@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from app.plots import _save  # noqa: E402
+from app.stability.scenario import edge_name  # noqa: E402
 
 STYLE = {"no_recovery": ("tab:red", "without recovery"), "recovery": ("tab:blue", "with recovery")}
 
@@ -20,13 +21,18 @@ STYLE = {"no_recovery": ("tab:red", "without recovery"), "recovery": ("tab:blue"
 def margin_timeline(traces: dict, summary: dict, out: Path) -> list[Path]:
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
     thr = summary.get("threshold_deg", 20.0)
+    codes: dict[str, int] = {}
     for name, tr in traces.items():
         color, label = STYLE.get(name, ("k", name))
-        t = tr["time_s"]
-        m = np.clip(tr["fasm_deg"], -60, 90)
+        keep = tr["time_s"] >= 1.0  # the first second is the drop onto the feet
+        t = tr["time_s"][keep]
+        m = np.clip(tr["fasm_deg"][keep], -60, 90)
         ax.plot(t, m, color=color, label=f"FASM {label}")
-        edge = tr["edge_leg_a"] * 10 + tr["edge_leg_b"]
-        ax2.plot(t, edge, ".", ms=2, color=color)
+        names = [edge_name(int(a), int(b)) for a, b in zip(tr["edge_leg_a"][keep], tr["edge_leg_b"][keep])]
+        for n in names:
+            codes.setdefault(n, len(codes))
+        ax2.plot(t, [codes[n] for n in names], ".", ms=2, color=color)
+    ax2.set_yticks(range(len(codes)), list(codes))
     rs = summary.get("runs", {}).get("recovery", {})
     if rs.get("detection_time_s") is not None:
         ax.axvline(rs["detection_time_s"], color="tab:orange", ls="--", lw=1, label="tipping detected")
@@ -39,7 +45,7 @@ def margin_timeline(traces: dict, summary: dict, out: Path) -> list[Path]:
     ax.set_title("Stability margin and tipping edge")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower left")
-    ax2.set_ylabel("edge (legs ij)")
+    ax2.set_ylabel("critical edge")
     ax2.set_xlabel("time (s)")
     ax2.grid(alpha=0.3)
     return _save(fig, out, "margin_timeline")

@@ -207,12 +207,10 @@ class TippingController:
         self.pending_after: list[tuple[float, Adjustment]] = []
 
     def support(self, forces_w: np.ndarray) -> list[int]:
-        """The support polygon's legs: those commanded to stance plus any foot still
-        carrying load (a lifting tripod unloads over a few steps; leaving its force out of
-        the polygon but in Eq. 4 would read as a false tip)."""
+        """The support polygon's legs: those commanded to stance plus any foot carrying load
+        (a lifting tripod unloads over a few steps, an adjustment foot loads as it lands;
+        a force in Eq. 4 whose foot is left out of the polygon would read as a false tip)."""
         loaded = [leg for leg in LEG_IDS if forces_w[leg - 1, 2] > 0.02 * self.sim.mass * 9.81]
-        if self.swing is not None and self.swing[0] in loaded and self.swing[0] not in self.stance:
-            loaded.remove(self.swing[0])
         return sorted(set(self.stance) | set(loaded))
 
     def step(self, t: float, feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray) -> StepMonitor:
@@ -271,8 +269,9 @@ class TippingController:
         tau = t - t0
         self.sim.set_foot_target(leg, plan.at(tau + self.cfg.control_dt)[0])
         loaded = forces_w[leg - 1] @ np.array([0.0, 0.0, 1.0]) > 0.02 * self.sim.mass * 9.81
-        if tau >= plan.duration and (loaded or tau >= plan.duration + 1.0):
+        if not loaded:  # the margin the moment before the foot takes load
             adj.margin_before_landing_deg = mon.margin_deg
+        if tau >= plan.duration and (loaded or tau >= plan.duration + 1.0):
             adj.land_time_s = t
             self.stance.append(leg)
             self.swing = None
