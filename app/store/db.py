@@ -70,6 +70,18 @@ def forget_engines() -> None:
                 del _engines[(url, pid)]
 
 
+def _after_fork_in_child() -> None:
+    # A lock held by another thread of the parent at fork time stays held forever in
+    # the child: start the child with fresh ones.
+    global _lock
+    _lock = threading.Lock()
+    _sqlite_writers.clear()
+    forget_engines()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
 @contextlib.contextmanager
 def session_scope(url: str, readonly: bool = False) -> Iterator[Session]:
     """One short transaction: commits on success, rolls back on error."""

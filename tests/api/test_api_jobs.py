@@ -12,6 +12,7 @@ from service_support import SMALL, deployment, migrated, spec
 from sqlalchemy import func, select
 
 from app.api import create_app
+from app.jobs import registry
 from app.store import repo
 from app.store.db import session_scope
 from app.store.models import Job
@@ -191,7 +192,14 @@ def test_robots_health_and_openapi(client):
     schema = client.get("/openapi.json").json()
     body = schema["paths"]["/api/jobs"]["post"]["requestBody"]["content"]["application/json"]["schema"]
     assert body == {"$ref": "#/components/schemas/JobSpec"}
-    assert "Search" in schema["components"]["schemas"]
+    comps = schema["components"]["schemas"]
+    spec_schema = comps["JobSpec"]
+    if len(registry.KINDS) > 1:  # one oneOf branch per registered kind, chosen by `kind`
+        mapping = spec_schema["discriminator"]["mapping"]
+        assert set(mapping) == set(registry.KINDS)
+        assert all(ref.rsplit("/", 1)[1] in comps for ref in mapping.values())
+    else:
+        assert spec_schema["properties"]["kind"]["const"] == next(iter(registry.KINDS))
     assert client.get("/docs").status_code == 200
 
 

@@ -114,13 +114,23 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
         job.dispatched_at = utcnow()
         return job, True
 
+    def create_and_send():
+        # One trip to the thread pool: commit the row, then send its id.
+        try:
+            with session_scope(settings.db_url) as s:
+                job, created = create(s)
+        except IntegrityError:  # a concurrent request with the same Idempotency-Key won
+            with session_scope(settings.db_url, readonly=True) as s:
+                return existing(s), False
+        if created:
+            send(settings, [job.id])
+        return job, created
+
     try:
-        job, created = await _db(request, create)
-    except IntegrityError:  # a concurrent request with the same Idempotency-Key won
-        job, created = await _db(request, existing), False
-    if created:
-        await run_in_threadpool(send, settings, [job.id])
-    else:
+        job, created = await run_in_threadpool(create_and_send)
+    except repo.Conflict as e:
+        raise ApiError(409, str(e)) from None
+    if not created:
         response.status_code = 200
     response.headers["Location"] = f"/api/jobs/{job.id}"
     return JobOut.of(job)
