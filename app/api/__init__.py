@@ -7,7 +7,7 @@ import threading
 
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
-from fastapi.responses import JSONResponse, RedirectResponse
+from fastapi.responses import JSONResponse
 
 from app import __version__
 from app.api import errors
@@ -61,9 +61,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     app.include_router(meta.router, prefix="/api")
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
-    @app.get("/", include_in_schema=False)
-    async def root():
-        return RedirectResponse("/docs")
+    from app.web import install_dashboard
+
+    install_dashboard(app)  # the browser dashboard at / (app/web.py)
 
     def openapi():
         if app.openapi_schema is None:

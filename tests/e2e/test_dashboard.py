@@ -1,0 +1,208 @@
+"""The dashboard in a real browser against a real server and worker: the form, the live jobs
+list, the job page's plots, viser's client playing replay.viser, the bundle download, the
+compare page, and the layout at desktop and phone sizes."""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+import zipfile
+
+import numpy as np
+import pytest
+PHONE = {"width": 390, "height": 844}
+from PIL import Image
+from playwright.sync_api import expect
+
+SMALL = {"kind": "recovery", "damage": {"lost_legs": [2, 5]},
+         "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 2.0}}
+JOB_TIMEOUT_MS = 120_000
+STATE: dict = {}  # the job the main flow made, for the tests after it
+
+
+def job_ids(server, owner="alice") -> list[str]:
+    with server.client(owner) as c:
+        return [j["id"] for j in c.get("/api/jobs", params={"limit": 500}).json()["items"]]
+
+
+def non_background_share(png: bytes) -> float:
+    """Share of pixels that differ clearly from the most common colour (the background)."""
+    a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    flat = a.reshape(-1, 3)
+    colors, counts = np.unique(flat, axis=0, return_counts=True)
+    bg = colors[counts.argmax()]
+    return float((np.abs(flat - bg).sum(axis=1) > 30).mean())
+
+
+def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
+    before = job_ids(server)
+    page.goto(server.url + "/")
+    expect(page.locator("#robot option")).to_have_count(1)
+    page.fill("#population", "2")
+    page.click("#submit")
+    err = page.locator("#form-error")
+    expect(err).to_be_visible()
+    expect(err).to_contain_text("search.population")
+    expect(err).to_contain_text("greater than or equal to 4")
+    expect(page.locator("#population")).to_have_attribute("aria-invalid", "true")
+    expect(page.locator("#population-err")).to_contain_text("greater than or equal to 4")
+
+    # an infeasible damage picked on the drawing: the API's morphology message, inline
+    page.fill("#population", "6")
+    page.click('.leg[data-leg="1"]')
+    page.click('.leg[data-leg="3"]')
+    expect(page.locator('.leg[data-leg="3"]')).to_have_attribute("aria-pressed", "true")
+    page.click("#submit")
+    expect(err).to_contain_text("infeasible morphology")
+    expect(page.locator("#form-ok")).to_be_hidden()
+    page.wait_for_timeout(2500)  # one live refresh of the list later: still no new row
+    assert job_ids(server) == before
+    expect(page.locator("#jobs-body tr")).to_have_count(len(before))
+
+
+def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
+    page.goto(server.url + "/")
+    expect(page.locator("#robot option")).to_have_count(1)
+    page.screenshot(path=shots / "jobs-empty-1280.png")
+    # legs 2 and 5 lost, by keyboard on one and mouse on the other
+    page.focus('.leg[data-leg="2"]')
+    page.keyboard.press("Enter")
+    page.click('.leg[data-leg="5"]')
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 2, 5.")
+    page.select_option("#optimizer", "de")
+    page.fill("#population", "6")
+    page.fill("#generations", "3")
+    page.fill("#seed", "2")
+    page.fill("#duration", "2")
+    expect(page.locator("#budget")).to_contain_text("= 24 evaluations")
+
+    t_submit = time.monotonic()
+    page.click("#submit")
+    ok = page.locator("#form-ok")
+    expect(ok).to_be_visible()
+    job_id = ok.locator("a").get_attribute("href").rsplit("/", 1)[1]
+    with server.client() as c:
+        spec = c.get(f"/api/jobs/{job_id}").json()["spec"]
+    assert spec["damage"]["lost_legs"] == [2, 5] and spec["search"]["population"] == 6
+    assert spec["sim"]["duration_s"] == 2.0
+
+    # the job page, opened right away, draws its first convergence plot from the event stream
+    jp = new_page()
+    jp.goto(f"{server.url}/jobs/{job_id}")
+    expect(jp.locator('#plot-convergence[data-rendered="1"]')).to_be_attached(timeout=JOB_TIMEOUT_MS)
+    first_plot_s = time.monotonic() - t_submit
+    STATE["first_plot_s"] = first_plot_s
+    print(f"\nsubmit to first convergence plot: {first_plot_s:.1f} s")
+
+    # meanwhile the list follows the job live to succeeded
+    row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
+    expect(row).to_be_visible()
+    expect(row).to_have_attribute("data-status", "succeeded", timeout=JOB_TIMEOUT_MS)
+    expect(row).to_contain_text("lost 2,5")
+    assert float(row.locator("td").nth(6).inner_text()) != 0
+    page.screenshot(path=shots / "jobs-1280.png")
+
+    # the job page saw the end of the stream and shows everything
+    expect(jp.locator("#status-line .badge")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    headline = jp.locator("#headline table tbody tr")
+    expect(headline).to_have_count(2)
+    expect(headline.nth(1)).to_contain_text("Recovered")
+    for plot_id, min_traces in (("plot-convergence", 3), ("plot-orientation", 6), ("plot-com", 6), ("plot-gait", 4)):
+        div = jp.locator(f"#{plot_id}")
+        expect(div.locator(".main-svg").first).to_be_visible(timeout=30_000)
+        n = jp.evaluate(f"document.getElementById('{plot_id}').data.length")
+        assert n >= min_traces, (plot_id, n)
+    points = jp.evaluate("document.getElementById('plot-convergence').data[0].x.length")
+    assert points == 4  # generations 0..3
+    # the plots are interactive: dragging across the convergence plot zooms into it
+    jp.locator("#plot-convergence").scroll_into_view_if_needed()
+    box = jp.locator("#plot-convergence .nsewdrag").first.bounding_box()
+    jp.mouse.move(box["x"] + box["width"] * 0.2, box["y"] + 20)
+    jp.mouse.down()
+    jp.mouse.move(box["x"] + box["width"] * 0.6, box["y"] + box["height"] - 20, steps=8)
+    jp.mouse.up()
+    lo, hi = jp.evaluate("document.getElementById('plot-convergence').layout.xaxis.range")
+    assert 0 < lo < hi < 3, (lo, hi)
+
+    # the 3D replay: viser's client fetched replay.viser through a signed link and drew it
+    frame = jp.frame_locator("#replay")
+    canvas = frame.locator("canvas").first
+    expect(canvas).to_be_visible(timeout=60_000)
+    src = jp.locator("#replay").get_attribute("src")
+    assert src.startswith("/viser/?playbackPath=") and "sig%3D" in src
+    jp.locator("#replay").scroll_into_view_if_needed()
+    share = 0.0
+    for _ in range(20):  # the scene arrives over a few frames in software GL
+        jp.wait_for_timeout(1000)
+        bb = canvas.bounding_box()
+        png = jp.screenshot(clip={"x": bb["x"] + bb["width"] * 0.25, "y": bb["y"] + bb["height"] * 0.2,
+                                  "width": bb["width"] * 0.5, "height": bb["height"] * 0.6})
+        share = non_background_share(png)
+        if share > 0.02:
+            break
+    assert share > 0.02, f"the replay canvas looks blank ({share:.2%} non-background pixels)"
+    jp.screenshot(path=shots / "job-1280.png", full_page=True)
+
+    # the bundle download carries the token (blob) and is the real zip
+    with jp.expect_download() as dl:
+        jp.click("#download")
+    path = dl.value.path()
+    with zipfile.ZipFile(path) as z:
+        names = set(z.namelist())
+        manifest = json.loads(z.read("manifest.json"))
+    assert {"result.json", "replay.viser", "trajectories/best.csv"} <= names
+    assert manifest["job_id"] == job_id
+    assert dl.value.suggested_filename == f"gaitmend-{job_id}.zip"
+    STATE["job_id"] = job_id
+
+
+def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
+    job_id = STATE.get("job_id") or pytest.fail("needs the job of the main flow")
+    pg = new_page(viewport=PHONE)
+    pg.goto(server.url + "/")
+    expect(pg.locator(f'#jobs-body tr[data-id="{job_id}"]')).to_be_visible()
+    pg.screenshot(path=shots / "jobs-390.png", full_page=True)
+    assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+    pg.goto(f"{server.url}/jobs/{job_id}")
+    expect(pg.locator("#plot-gait .main-svg").first).to_be_visible(timeout=30_000)
+    pg.locator("#replay").scroll_into_view_if_needed()  # the frame loads lazily, once near the screen
+    expect(pg.frame_locator("#replay").locator("canvas").first).to_be_visible(timeout=60_000)
+    pg.wait_for_timeout(1500)
+    pg.screenshot(path=shots / "job-390.png", full_page=True)
+    assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+    # keyboard: the skip link comes first and leads to the content
+    pg.keyboard.press("Tab")
+    assert pg.evaluate("document.activeElement.className") == "skip"
+
+
+def test_compare_two_jobs(page, server, shots):
+    first = STATE.get("job_id") or pytest.fail("needs the job of the main flow")
+    with server.client() as c:
+        second = c.post("/api/jobs", json=SMALL | {"search": {"optimizer": "cmaes", "population": 6,
+                                                               "generations": 2, "seed": 3}}).json()["id"]
+    page.goto(f"{server.url}/compare?ids={first},{second}")
+    # the running job's curve grows while the page is open; both end in the metrics table
+    expect(page.locator('#plot-compare[data-rendered="1"]')).to_be_attached(timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#picked .badge").nth(1)).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    page.wait_for_function("document.getElementById('plot-compare').data.length >= 4")
+    header = page.locator("#metrics thead th")
+    expect(header).to_have_count(3)
+    table = page.locator("#metrics")
+    expect(table).to_contain_text("F recovered")
+    expect(table).to_contain_text("CMAES 6 × 2")
+    page.screenshot(path=shots / "compare-1280.png", full_page=True)
+
+
+def test_jobs_of_other_owners_stay_hidden(new_page, server):
+    """bob's dashboard lists none of alice's jobs, and her job page answers 'not found'."""
+    job_id = STATE.get("job_id") or pytest.fail("needs the job of the main flow")
+    pg = new_page(owner="bob")
+    pg.goto(server.url + "/")
+    expect(pg.locator("#jobs-count")).to_contain_text("No jobs match")
+    pg.goto(f"{server.url}/jobs/{job_id}")
+    expect(pg.locator("#job-title")).to_have_text("Job not found")
+    anon = new_page(owner=None)
+    anon.goto(server.url + "/")
+    expect(anon.locator("#auth")).to_be_visible()
+    expect(anon.locator("#auth .auth-msg")).to_contain_text("API token is required")

@@ -1,0 +1,179 @@
+// Shared by every dashboard page: API calls (with an optional bearer token), formatting,
+// server-sent events read through fetch (so the token can ride in a header), plot defaults.
+"use strict";
+
+const GM = (() => {
+  const TOKEN_KEY = "gaitmend.token";
+  const FINAL = new Set(["succeeded", "failed", "cancelled"]);
+  const COLORS = { best: "#0b5cad", baseline: "#c2410c", mean: "#5b6472", worst: "#b91c1c" };
+  const PALETTE = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"];
+
+  const token = () => localStorage.getItem(TOKEN_KEY) || "";
+  const authHeaders = () => (token() ? { Authorization: `Bearer ${token()}` } : {});
+
+  class ApiError extends Error {
+    constructor(status, body) {
+      super((body && body.detail) || `HTTP ${status}`);
+      this.status = status;
+      this.body = body || {};
+    }
+  }
+
+  async function api(path, opts = {}) {
+    const headers = Object.assign({ Accept: "application/json" }, authHeaders(), opts.headers || {});
+    if (opts.json !== undefined) {
+      headers["Content-Type"] = "application/json";
+      opts = Object.assign({}, opts, { body: JSON.stringify(opts.json) });
+    }
+    const r = await fetch(path, Object.assign({}, opts, { headers }));
+    const type = r.headers.get("content-type") || "";
+    const body = type.includes("json") ? await r.json().catch(() => null) : null;
+    if (!r.ok) {
+      if (r.status === 401) showAuth(body && body.detail);
+      throw new ApiError(r.status, body);
+    }
+    return body;
+  }
+
+  // Reads a text/event-stream with fetch; calls onEvent(name, data). Resolves when the
+  // stream closes (the server sends `end` last), rejects on network errors.
+  async function events(path, onEvent, signal) {
+    const r = await fetch(path, { headers: Object.assign({ Accept: "text/event-stream" }, authHeaders()), signal });
+    if (!r.ok || !r.body) throw new ApiError(r.status, await r.json().catch(() => null));
+    const reader = r.body.getReader();
+    const dec = new TextDecoder();
+    let buf = "";
+    for (;;) {
+      const { value, done } = await reader.read();
+      if (done) return;
+      buf += dec.decode(value, { stream: true });
+      let i;
+      while ((i = buf.indexOf("\n\n")) >= 0) {
+        const block = buf.slice(0, i);
+        buf = buf.slice(i + 2);
+        let name = "message";
+        const data = [];
+        for (const line of block.split("\n")) {
+          if (line.startsWith("event:")) name = line.slice(6).trim();
+          else if (line.startsWith("data:")) data.push(line.slice(5).trimStart());
+        }
+        if (data.length) onEvent(name, JSON.parse(data.join("\n")));
+      }
+    }
+  }
+
+  function el(tag, attrs = {}, ...children) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs)) {
+      if (v === null || v === undefined || v === false) continue;
+      if (k === "class") e.className = v;
+      else if (k === "text") e.textContent = v;
+      else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+      else e.setAttribute(k, v === true ? "" : v);
+    }
+    for (const c of children.flat()) if (c !== null && c !== undefined) e.append(c.nodeType ? c : String(c));
+    return e;
+  }
+
+  function num(v, digits = 3) {
+    if (v === null || v === undefined || Number.isNaN(v)) return "–";
+    if (typeof v !== "number") return String(v);
+    if (Number.isInteger(v)) return String(v);
+    const a = Math.abs(v);
+    if (a !== 0 && (a < 1e-3 || a >= 1e5)) return v.toExponential(2);
+    return v.toFixed(digits);
+  }
+
+  function age(iso) {
+    const s = (Date.now() - Date.parse(iso)) / 1000;
+    if (!Number.isFinite(s)) return "–";
+    if (s < 60) return `${Math.max(0, Math.round(s))} s ago`;
+    if (s < 3600) return `${Math.round(s / 60)} min ago`;
+    if (s < 86400) return `${Math.round(s / 3600)} h ago`;
+    return `${Math.round(s / 86400)} d ago`;
+  }
+
+  function badge(status) {
+    return el("span", { class: `badge ${status}`, text: status });
+  }
+
+  function progressText(job) {
+    const p = job.progress || {};
+    if (!p.total) return job.status === "queued" ? "waiting for a worker" : "";
+    return `${p.done}/${p.total} (${Math.round(100 * p.fraction)} %)`;
+  }
+
+  function damageText(spec) {
+    const d = (spec && spec.damage) || {};
+    const parts = [];
+    if (d.lost_legs && d.lost_legs.length) parts.push(`lost ${d.lost_legs.join(",")}`);
+    for (const j of d.locked_joints || []) parts.push(`locked ${j.leg}.${j.joint}`);
+    for (const j of d.weak_joints || []) parts.push(`weak ${j.leg}.${j.joint}`);
+    return parts.join("; ") || "none";
+  }
+
+  // Plotly with the same look everywhere; responsive, no logo, hover on.
+  function plot(div, traces, layout = {}) {
+    const base = {
+      margin: { l: 56, r: 16, t: 36, b: 44 }, font: { family: "system-ui, sans-serif", size: 13, color: "#18202b" },
+      paper_bgcolor: "#ffffff", plot_bgcolor: "#ffffff", hovermode: "x unified",
+      legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
+      xaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" }, yaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" },
+    };
+    if (div.classList.contains("plot-empty")) { // a placeholder text, not a graph yet
+      div.classList.remove("plot-empty");
+      div.textContent = "";
+    }
+    return Plotly.react(div, traces, Object.assign(base, layout),
+      { responsive: true, displaylogo: false, modeBarButtonsToRemove: ["lasso2d", "select2d"] });
+  }
+
+  function empty(div, text) {
+    if (div.data) Plotly.purge(div);
+    div.classList.add("plot-empty");
+    div.textContent = text;
+  }
+
+  // Header: an API token box, shown when the server asks for one (non-loopback servers).
+  function showAuth(message) {
+    const box = document.getElementById("auth");
+    if (!box) return;
+    box.hidden = false;
+    const msg = box.querySelector(".auth-msg");
+    if (msg && message) msg.textContent = message;
+  }
+
+  function initAuth() {
+    const box = document.getElementById("auth");
+    if (!box) return;
+    const input = box.querySelector("input");
+    input.value = token();
+    box.hidden = !token();
+    box.querySelector("form").addEventListener("submit", (e) => {
+      e.preventDefault();
+      if (input.value.trim()) localStorage.setItem(TOKEN_KEY, input.value.trim());
+      else localStorage.removeItem(TOKEN_KEY);
+      location.reload();
+    });
+  }
+
+  // A download that carries the token when one is set (an <a href> cannot send headers).
+  async function download(path, filename) {
+    if (!token()) {
+      location.href = path;
+      return;
+    }
+    const r = await fetch(path, { headers: authHeaders() });
+    if (!r.ok) throw new ApiError(r.status, await r.json().catch(() => null));
+    const url = URL.createObjectURL(await r.blob());
+    const a = el("a", { href: url, download: filename });
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  }
+
+  document.addEventListener("DOMContentLoaded", initAuth);
+  return { api, events, el, num, age, badge, progressText, damageText, plot, empty, download, token, authHeaders,
+           ApiError, FINAL, COLORS, PALETTE };
+})();
