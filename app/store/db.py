@@ -3,6 +3,7 @@ reuses its parent's connections."""
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import os
 import threading
@@ -11,13 +12,42 @@ from collections.abc import Iterator
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.orm import Session, sessionmaker
 
+class FifoLock:
+    """A lock handed to waiters in arrival order (threading.Lock lets a newcomer overtake
+    a woken waiter that is still waiting for the GIL, so some requests starved for seconds)."""
+
+    def __init__(self):
+        self._mutex = threading.Lock()
+        self._waiters: collections.deque[threading.Lock] = collections.deque()
+        self._held = False
+
+    def __enter__(self):
+        with self._mutex:
+            if not self._held:
+                self._held = True
+                return self
+            gate = threading.Lock()
+            gate.acquire()
+            self._waiters.append(gate)
+        gate.acquire()  # released by the holder: ownership passes directly to us
+        return self
+
+    def __exit__(self, *exc):
+        with self._mutex:
+            if self._waiters:
+                self._waiters.popleft().release()
+            else:
+                self._held = False
+        return False
+
+
 _lock = threading.Lock()
 _engines: dict[tuple[str, int], tuple[Engine, sessionmaker]] = {}
 # SQLite has one writer at a time. Threads of one process queue on this lock instead of
 # polling in SQLite's busy handler (which sleeps up to 100 ms a try and lets newcomers
 # overtake: p99 of concurrent submissions was seconds). Other processes still meet the
 # busy timeout, but they write rarely (a few rows per generation).
-_sqlite_writers: dict[str, threading.Lock] = {}
+_sqlite_writers: dict[str, FifoLock] = {}
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
 
@@ -89,7 +119,7 @@ def session_scope(url: str, readonly: bool = False) -> Iterator[Session]:
     guard = contextlib.nullcontext()
     if not readonly and url.startswith("sqlite"):
         with _lock:
-            guard = _sqlite_writers.setdefault(url, threading.Lock())
+            guard = _sqlite_writers.setdefault(url, FifoLock())
     with guard, factory() as session:
         if readonly:
             session.connection(execution_options={"readonly": True})
