@@ -37,6 +37,7 @@ def bench_tipping(steps: int = 500, seed: int = 0) -> dict:
     mass = HEAVY.total_mass
     g = (0.0, 0.0, -9.81)
     times = {"fasm": [], "judgment": [], "qp": [], "step": []}
+    cpu0 = time.process_time()
     for k in range(steps):
         feet, forces, com, stance = states[k % len(states)]
         t0 = time.perf_counter()
@@ -52,7 +53,10 @@ def bench_tipping(steps: int = 500, seed: int = 0) -> dict:
         times["judgment"].append(t2 - t1)
         times["qp"].append(t3 - t2)
         times["step"].append(t3 - t0)
+    cpu = time.process_time() - cpu0
     out = {f"{k}_ms": 1e3 * float(np.mean(v[steps // 10:])) for k, v in times.items()}
+    # CPU time is the fair "one core" figure on a shared machine; wall time is above.
+    out["tipping_step_cpu_ms"] = 1e3 * cpu / steps
     out["tipping_step_ms"] = out.pop("step_ms")
     out["tipping_step_p95_ms"] = 1e3 * float(np.percentile(times["step"][steps // 10:], 95))
     out["qp_stability_constrained"] = bool(sol.stability_constrained)
