@@ -38,7 +38,7 @@ def server(tmp_path_factory):
     env = deployment(tmp, auth="on", lease_s=30, redispatch_after_s=120)
     settings = migrated(env)
     with session_scope(settings.db_url) as s:
-        tokens = {name: repo.create_token(s, name) for name in ("alice", "bob")}
+        tokens = {name: repo.create_token(s, name) for name in ("alice", "bob", "carol")}
     port = free_port()
     proc = Proc(["serve", "--host", "127.0.0.1", "--port", str(port)], env, tmp / "serve.log")
     url = f"http://127.0.0.1:{port}"

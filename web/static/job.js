@@ -25,7 +25,7 @@
     if (j.status === "running" && typeof info.best === "number") extra.push(`best F ${num(info.best, 4)}`);
     if (typeof info.sim_steps_per_s === "number") extra.push(`${Math.round(info.sim_steps_per_s)} sim steps/s`);
     if (j.cancel_requested && !FINAL.has(j.status)) extra.push("cancel requested");
-    $("status-line").replaceChildren(badge(j.status), bar, el("span", { class: "small", text: progressText(j) }),
+    $("status-line").replaceChildren(...[badge(j.status), bar].filter(Boolean), el("span", { class: "small", text: progressText(j) }),
                                      el("span", { class: "small muted", text: extra.join(" · ") }));
     $("job-error").hidden = !j.error;
     $("job-error").textContent = j.error || "";
@@ -173,6 +173,7 @@
       plot(div, traces, layout);
       return true;
     };
+    $("trace-plots").hidden = false; // Plotly sizes a graph by its container: show it first
     const a = panels([["roll_deg", "roll", 1], ["pitch_deg", "pitch", 1], ["yaw_deg", "yaw", 1]], $("plot-orientation"), "°");
     const b = panels([["com_m_0", "CoM x", 100], ["com_m_1", "CoM y", 100], ["com_m_2", "CoM z", 100]], $("plot-com"), "cm");
     $("trace-plots").hidden = !(a || b);

@@ -22,7 +22,7 @@ const RobotPicker = (() => {
     const seg = [l1, l2 * 0.95, l3 * 0.6]; // lengths seen from above at the nominal stance
     const reach = seg.reduce((a, b) => a + b, 0);
     const xs = legs.map((l) => hips[l][0]), ys = legs.map((l) => hips[l][1]);
-    const halfW = Math.max(...xs.map(Math.abs)) + reach + 0.03, halfH = Math.max(...ys.map(Math.abs)) + reach * 0.6 + 0.04;
+    const halfW = Math.max(...xs.map(Math.abs)) + reach + 0.06, halfH = Math.max(...ys.map(Math.abs)) + reach * 0.6 + 0.04;
     const root = svg("svg", { viewBox: `${-halfW * S} ${-halfH * S} ${2 * halfW * S} ${2 * halfH * S}`, class: "robot-svg",
                               role: "group", "aria-label": `${robot.name} seen from above, front at the top` });
     const order = [...legs].sort((a, b) => Math.atan2(-hips[a][1], hips[a][0]) - Math.atan2(-hips[b][1], hips[b][0]));
