@@ -102,3 +102,23 @@ def test_time_to_tip_eq15():
     v, a = det.rates()
     assert v == pytest.approx(-3.0 - 0.58, abs=1e-6) and a == pytest.approx(-1.0, abs=1e-6)
     assert not tipping and det.update(1.0, 19.0)
+
+
+def _rot(rng):
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+def test_fasm_is_frame_independent_and_scale_free():
+    # A rigid motion of the whole scene, or scaling every force and moment, leaves the
+    # angles unchanged (FASM is a geometric measure of the wrench).
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        feet = SQUARE + rng.normal(0, 0.1, (4, 3))
+        com = COM + rng.normal(0, 0.2, 3)
+        f, n = WEIGHT + rng.normal(0, 200, 3), rng.normal(0, 100, 3)
+        ref = fasm_edges(feet, com, f, n)
+        R, t = _rot(rng), rng.normal(0, 5, 3)
+        moved = fasm_edges(feet @ R.T + t, R @ com + t, R @ f, R @ n)
+        np.testing.assert_allclose(moved, ref, atol=1e-10)
+        np.testing.assert_allclose(fasm_edges(feet, com, 7.5 * f, 7.5 * n), ref, atol=1e-10)
