@@ -94,6 +94,8 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     first_plot_s = time.monotonic() - t_submit
     STATE["first_plot_s"] = first_plot_s
     print(f"\nsubmit to first convergence plot: {first_plot_s:.1f} s")
+    expect(jp.locator("#facts")).to_contain_text("lost 2,5")  # live events must not wipe the spec
+    expect(jp.locator("#facts")).to_contain_text("DE, population 6, 3 generations, seed 2")
 
     # meanwhile the list follows the job live to succeeded
     row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')

@@ -27,7 +27,7 @@
       ["Damage", damageText(spec)],
       ["Search", search.optimizer ? `${search.optimizer.toUpperCase()} ${search.population} × ${search.generations}, seed ${search.seed}` : "–"],
       ["Walk (s)", spec.sim && spec.sim.duration_s],
-      ["Wall time (s)", job.wall_s === null || job.wall_s === undefined ? null : Number(job.wall_s.toFixed(1))],
+      ["Wall time (s)", job.wall_s === null || job.wall_s === undefined ? null : job.wall_s.toFixed(1)],
     ];
     if (s.kind === "recovery" && s.best) {
       const b = s.best.metrics, a = s.baseline.metrics;
@@ -80,7 +80,8 @@
       }
     });
     if (traces.length) {
-      plot(div, traces, { xaxis: { title: { text: "generation" } }, yaxis: { title: { text: "best fitness F so far" } } });
+      const maxX = Math.max(...traces.map((t) => t.x.length));
+      plot(div, traces, { xaxis: { title: { text: "generation" }, dtick: maxX <= 12 ? 1 : undefined }, yaxis: { title: { text: "best fitness F so far" } } });
       div.dataset.rendered = "1";
     } else empty(div, ids.length < 2 ? "Add two or more jobs." : "None of these jobs has a fitness history yet.");
 

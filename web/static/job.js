@@ -265,7 +265,11 @@
   async function follow() {
     if (live) return;
     live = new AbortController();
-    const onJob = (j) => { job = Object.assign({}, job, j); header(job); };
+    const onJob = (j) => { // events carry the short form (no spec, no summary): keep what we have
+      const keep = Object.fromEntries(Object.entries(j).filter(([k, v]) => !(v === null && (k === "spec" || k === "summary"))));
+      job = Object.assign({}, job, keep);
+      header(job);
+    };
     try {
       await GM.events(`/api/jobs/${jobId}/events`, (name, data) => {
         if (name === "progress") { onJob(data); refreshHistory(); }
