@@ -57,13 +57,23 @@ class EmbeddedWorker:
 
     def _spawn(self) -> None:
         env = os.environ | {"GAITMEND_PARENT_PID": str(os.getpid())}
+        self.started = time.monotonic()
         self.proc = subprocess.Popen([sys.executable, "-c", ENTRY, "worker"], env=env, start_new_session=True)
 
     def _watch(self) -> None:
+        backoff = 1.0
         while not self.stopping.wait(1.0):
-            if self.proc.poll() is not None and not self.stopping.is_set():
-                err.print(f"embedded worker exited ({self.proc.returncode}); restarting it")
-                self._spawn()
+            if self.proc.poll() is None or self.stopping.is_set():
+                continue
+            # One that dies right after starting (bad settings, database away) is retried
+            # ever more slowly rather than in a tight loop.
+            quick = time.monotonic() - self.started < 10
+            backoff = min(backoff * 2, 30.0) if quick else 1.0
+            err.print(f"embedded worker exited ({self.proc.returncode}); restarting it"
+                      + (f" in {backoff:.0f} s" if quick else ""))
+            if quick and self.stopping.wait(backoff):
+                return
+            self._spawn()
 
     def stop(self) -> None:
         self.stopping.set()

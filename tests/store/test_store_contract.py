@@ -171,6 +171,17 @@ def test_reaper_requeues_expired_leases_then_fails_after_max_attempts(url):
     assert "worker lost 2 times" in get(url, jid).error
 
 
+def test_reaper_cancels_a_dead_workers_job_that_was_asked_to_stop(url):
+    jid = new_job(url)
+    with session_scope(url) as s:
+        repo.claim(s, jid, worker="w", lease_s=1)
+    with session_scope(url) as s:
+        repo.request_cancel(s, jid, None)
+    with session_scope(url) as s:
+        assert repo.reap(s, now=utcnow() + dt.timedelta(seconds=5)) == []
+    assert get(url, jid).status == "cancelled"
+
+
 def test_claim_of_an_expired_lease_counts_an_attempt_and_fences_the_old_worker(url):
     jid = new_job(url)
     with session_scope(url) as s:

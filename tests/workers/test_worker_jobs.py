@@ -158,6 +158,9 @@ def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worke
         holder["w2"] = start_worker(env)
 
     t = kill_and_resume(settings, client, jid, start_worker, env, kill)
+    health = client.get("/api/health").json()
+    assert health["broker"] == "ok" and health["broker_url"].startswith("redis://")
+    assert any(f".{holder['w2'].pid}@" in w["name"] for w in health["workers"])
     print(f"redis broker: kill -9 -> resumed in {t['kill_to_resume_s']:.1f} s, "
           f"finished {t['kill_to_done_s']:.1f} s after the kill")
     job = client.get(f"/api/jobs/{jid}").json()
