@@ -100,6 +100,9 @@ class TippingRecovery(BaseModel):
     swing_max_s: float = Field(1.5, gt=0.0, le=5.0)
     clearance_m: float = Field(0.25, ge=0.0, le=0.8)
     max_adjustments: int = Field(2, ge=1, le=3)
+    # 0: the QP forces act as joint feed-forward; > 0 (e.g. 2.5e-6 m/s per N) the stance
+    # feet also press until their normal forces match the QP's internal-force share.
+    force_tracking_gain: float = Field(0.0, ge=0.0, le=1e-5)
 
     @model_validator(mode="after")
     def _swing_order(self):
@@ -171,7 +174,8 @@ class TippingSpec(BaseModel):
         return ControllerConfig(recovery=recovery, threshold_deg=self.detector.threshold_deg, kappa=self.detector.kappa,
                                 rho=r.safety_margin, lam=r.cone_lambda, mu=r.mu_qp, swing_min_s=r.swing_min_s,
                                 swing_max_s=r.swing_max_s, clearance_m=r.clearance_m, qp=r.qp,
-                                control_dt=self.sim.control_dt, max_adjustments=r.max_adjustments)
+                                control_dt=self.sim.control_dt, max_adjustments=r.max_adjustments,
+                                force_gain=r.force_tracking_gain)
 
 
 Spec = TippingSpec
