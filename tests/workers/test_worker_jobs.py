@@ -145,8 +145,9 @@ def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_wo
     assert comparable(job["summary"]) == comparable(reference_result(RESUME_SPEC))
 
 
-def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worker, redis_url):
-    env = deployment(tmp_path, broker=redis_url)
+def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worker, redis_url, pg_url):
+    """The distributed mode: Redis broker and PostgreSQL store."""
+    env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
     settings = migrated(env)
     client = TestClient(create_app(settings))
     w1 = start_worker(env)
