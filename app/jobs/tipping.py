@@ -14,7 +14,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.robots.heavy_hexapod import HEAVY, TRIPODS
-from app.stability.scenario import CliffScenario, ControllerConfig, TiltScenario, paper_direction, run_cliff, run_tilt
+from app.stability.scenario import (CliffScenario, ControllerConfig, TiltScenario, first_catch, paper_direction,
+                                    run_cliff, run_summary, run_tilt)
 
 Strict = ConfigDict(extra="forbid")
 Tripod = list[Annotated[int, Field(ge=1, le=6)]]
@@ -191,38 +192,6 @@ def _simulate(spec: TippingSpec, recovery: bool, scenario=None, record_qpos: boo
     return run_cliff(sc, cfg, spec.duration(), friction=spec.sim.friction, record_qpos=record_qpos)
 
 
-def _first_catch(adjs: list[dict]) -> dict | None:
-    return next((a for a in adjs if a["leg"] is not None), None)
-
-
-def run_summary(r: dict, threshold: float) -> dict:
-    """What a user reads about one simulation."""
-    tr = r["trace"]
-    t, m = tr["time_s"], tr["fasm_deg"]
-    active = t >= 1.0
-    below = np.where(active & (m < threshold))[0]
-    first = _first_catch(r["adjustments"])
-    out = {
-        "tipped": r["tipped"], "tipped_at_s": r["tipped_at_s"],
-        "first_below_threshold_s": float(t[below[0]]) if len(below) else None,
-        "min_margin_deg": float(m[active].min()), "final_margin_deg": float(m[-1]),
-        "final_body_tilt_deg": float(tr["tilt_rel_deg"][-1]),
-        "adjustments": r["adjustments"], "final_stance": r["final_stance"],
-        "control_ms_mean": r["control_ms_mean"], "control_ms_p95": r["control_ms_p95"],
-    }
-    for k in ("static_tip_deg", "max_tilt_deg", "distance_m"):
-        if k in r:
-            out[k] = r[k]
-    if first is not None:
-        out.update(detection_time_s=first["detect_time_s"], tipping_edge=first["edge"], adjustment_leg=first["leg"],
-                   foothold_body_m=first["foothold_body_m"], foothold_label=first["foothold_label"],
-                   time_to_tip_s=first["time_to_tip_s"], adjustment_time_s=first["adjustment_time_s"],
-                   margin_at_detection_deg=first["margin_at_detection_deg"],
-                   margin_before_landing_deg=first["margin_before_landing_deg"],
-                   margin_after_landing_deg=first["margin_after_landing_deg"])
-    return out
-
-
 def _trace_out(tr: dict) -> dict[str, np.ndarray]:
     out = dict(tr)
     out["stance"] = tr["stance"].astype(bool)
@@ -260,7 +229,7 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
             sc = TiltScenario(downhill_deg=psi, stance=st, rate_deg_s=s.rate_deg_s, settle_s=s.settle_s,
                               max_tilt_deg=s.max_tilt_deg, overshoot_deg=s.overshoot_deg, hold_s=s.hold_s)
             r = _simulate(spec, rec, sc, record_qpos=False)
-            first = _first_catch(r["adjustments"])
+            first = first_catch(r["adjustments"])
             rows.append({"run": i, "downhill_deg": psi, "stance": "".join(map(str, st)), "recovery": int(rec),
                          "tipped": int(r["tipped"]), "tipped_at_s": r["tipped_at_s"],
                          "static_tip_deg": r["static_tip_deg"],

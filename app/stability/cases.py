@@ -5,7 +5,7 @@ docs/tipping.md."""
 
 from __future__ import annotations
 
-from app.jobs.tipping import TippingSpec, _simulate, run_summary
+from app.stability.scenario import ControllerConfig, TiltScenario, paper_direction, run_summary, run_tilt
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
     ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
@@ -16,11 +16,10 @@ PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
 def paper_cases(duration_s: float = 25.0) -> list[dict]:
     rows = []
     for axis, direction, stance, paper_leg in PAPER_CASES:
-        spec = TippingSpec.model_validate({"kind": "tipping", "scenario": {"type": "tilt", "axis": axis,
-                                           "direction": direction, "stance": list(stance)},
-                                           "sim": {"duration_s": duration_s}})
-        base = run_summary(_simulate(spec, False, record_qpos=False), spec.detector.threshold_deg)
-        rec = run_summary(_simulate(spec, True, record_qpos=False), spec.detector.threshold_deg)
+        # The job's defaults (app/jobs/tipping.py): friction 1.5, threshold 20 deg, ...
+        sc = TiltScenario(downhill_deg=paper_direction(axis, direction), stance=stance)
+        base, rec = (run_summary(run_tilt(sc, ControllerConfig(recovery=r), duration_s, friction=1.5, record_qpos=False),
+                                 ControllerConfig().threshold_deg) for r in (False, True))
         rows.append({"case": f"{axis} {direction}, stance {''.join(map(str, stance))}", "paper_leg": paper_leg,
                      "tipped_without": base["tipped"], "tipped_without_at_s": base["tipped_at_s"],
                      "tipped_with": rec["tipped"], "detection_time_s": rec.get("detection_time_s"),

@@ -328,6 +328,41 @@ class TippingController:
             sim.set_foot_target(leg, self.hold_targets[leg] - self.press[leg] * n_body)
 
 
+# -- results ----------------------------------------------------------------------------------
+
+def first_catch(adjs: list[dict]) -> dict | None:
+    """The first adjustment that actually swung a leg."""
+    return next((a for a in adjs if a["leg"] is not None), None)
+
+
+def run_summary(r: dict, threshold: float) -> dict:
+    """What a user reads about one simulation."""
+    tr = r["trace"]
+    t, m = tr["time_s"], tr["fasm_deg"]
+    active = t >= 1.0
+    below = np.where(active & (m < threshold))[0]
+    first = first_catch(r["adjustments"])
+    out = {
+        "tipped": r["tipped"], "tipped_at_s": r["tipped_at_s"],
+        "first_below_threshold_s": float(t[below[0]]) if len(below) else None,
+        "min_margin_deg": float(m[active].min()), "final_margin_deg": float(m[-1]),
+        "final_body_tilt_deg": float(tr["tilt_rel_deg"][-1]),
+        "adjustments": r["adjustments"], "final_stance": r["final_stance"],
+        "control_ms_mean": r["control_ms_mean"], "control_ms_p95": r["control_ms_p95"],
+    }
+    for k in ("static_tip_deg", "max_tilt_deg", "distance_m"):
+        if k in r:
+            out[k] = r[k]
+    if first is not None:
+        out.update(detection_time_s=first["detect_time_s"], tipping_edge=first["edge"], adjustment_leg=first["leg"],
+                   foothold_body_m=first["foothold_body_m"], foothold_label=first["foothold_label"],
+                   time_to_tip_s=first["time_to_tip_s"], adjustment_time_s=first["adjustment_time_s"],
+                   margin_at_detection_deg=first["margin_at_detection_deg"],
+                   margin_before_landing_deg=first["margin_before_landing_deg"],
+                   margin_after_landing_deg=first["margin_after_landing_deg"])
+    return out
+
+
 # -- tilting platform -----------------------------------------------------------------------
 
 @dataclasses.dataclass(frozen=True)
