@@ -208,3 +208,21 @@ def test_jobs_of_other_owners_stay_hidden(new_page, server):
     anon.goto(server.url + "/")
     expect(anon.locator("#auth")).to_be_visible()
     expect(anon.locator("#auth .auth-msg")).to_contain_text("API token is required")
+
+
+def test_cancel_and_retry_from_the_job_page(page, server):
+    long = SMALL | {"search": {"population": 6, "generations": 400, "seed": 5}}
+    with server.client() as c:
+        jid = c.post("/api/jobs", json=long).json()["id"]
+    page.goto(f"{server.url}/jobs/{jid}")
+    expect(page.locator("#status-line .badge")).to_have_text("running", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#download")).to_be_hidden()
+    page.click("#cancel")
+    expect(page.locator("#status-line .badge")).to_have_text("cancelled", timeout=60_000)
+    expect(page.locator("#cancel")).to_be_hidden()
+    page.click("#retry")
+    expect(page.locator("#status-line .badge")).not_to_have_text("cancelled")
+    expect(page.locator("#status-line .badge")).to_have_text("running", timeout=JOB_TIMEOUT_MS)
+    with server.client() as c:  # free the worker for the next tests
+        assert c.post(f"/api/jobs/{jid}/cancel").status_code == 202
+        assert c.get(f"/api/jobs/{jid}").json()["attempt"] >= 1

@@ -60,6 +60,8 @@
     }
     if (!keys.length) {
       empty(div, "This job kind reports no fitness per generation; its rows are in the table below.");
+      const d = $("history-table").querySelector("details");
+      if (d) d.open = true;
       return;
     }
     const x = rows.map((r, i) => (xKey ? r[xKey] : i));
@@ -125,7 +127,12 @@
         if (depth < 3) flatten(v, key, out, depth + 1);
       } else if (Array.isArray(v)) {
         if (v.length <= 8 && v.every((x) => x === null || typeof x !== "object")) out.push([key, v.map((x) => num(x, 3)).join(", ")]);
-        else if (v.length <= 8) out.push([key, JSON.stringify(v)]);
+        else if (v.length <= 8) {
+          const text = JSON.stringify(v);
+          out.push([key, text.length > 240 ? `${text.slice(0, 240)}… (${v.length} items; all in the bundle's result.json)` : text]);
+        }
+      } else if (typeof v === "string" && v.length > 240) {
+        out.push([key, `${v.slice(0, 240)}…`]);
       } else out.push([key, typeof v === "number" ? num(v, 4) : v === null ? "–" : String(v)]);
     }
     return out;
@@ -154,7 +161,8 @@
     // body angles and CoM: three stacked panels each, one legend entry per trajectory
     const panels = (specs, div, unit) => {
       const present = specs.filter(([k]) => has(k));
-      if (!present.length) { empty(div, "Not recorded for this job kind."); return false; }
+      div.closest("section").hidden = !present.length;
+      if (!present.length) return false;
       const n = present.length, gap = 0.06, h = (1 - gap * (n - 1)) / n;
       const traces = [], layout = { hovermode: "x unified", height: 150 * n + 90, showlegend: true };
       present.forEach(([k, title, scale], p) => {
@@ -177,6 +185,7 @@
     const a = panels([["roll_deg", "roll", 1], ["pitch_deg", "pitch", 1], ["yaw_deg", "yaw", 1]], $("plot-orientation"), "°");
     const b = panels([["com_m_0", "CoM x", 100], ["com_m_1", "CoM y", 100], ["com_m_2", "CoM z", 100]], $("plot-com"), "cm");
     $("trace-plots").hidden = !(a || b);
+    $("trace-plots").style.gridTemplateColumns = a && b ? "" : "minmax(0, 1fr)";
 
     // gait diagram: swing (dark) and support (light) bars per leg and trajectory
     const withLegs = names.filter((n) => Object.keys(tr[n].swing).length);
@@ -188,7 +197,7 @@
         const T = tr[name].duration_s;
         const sw = { x: [], base: [], y: [], text: [] }, su = { x: [], base: [], y: [], text: [] };
         for (const leg of tr[name].legs) {
-          const y = `${label(name).split(" ")[0]} · leg ${leg}`;
+          const y = `${{ best: "recovered", baseline: "baseline" }[name] || name.replace(/_/g, " ")} · leg ${leg}`;
           cats.push(y);
           let t0 = 0;
           for (const [s, e] of tr[name].swing[String(leg)] || []) {
@@ -237,6 +246,7 @@
       const link = await api(`/api/jobs/${jobId}/file-link?path=replay.viser`);
       const src = `/viser/?playbackPath=${encodeURIComponent(link.url)}`;
       $("replay-card").hidden = false;
+      if (job.kind !== "recovery") $("replay-what").textContent = "the job's recorded runs side by side";
       $("replay").src = src;
       $("replay-open").href = src;
     } catch (e) {
