@@ -224,3 +224,22 @@ def joint_targets(geom: HeavyHexapodGeometry, feet_body: dict[int, np.ndarray]) 
         x, d, th = leg_ik(geom.workspace(leg), p)
         out[leg] = np.array([th, x, d])
     return out
+
+
+def describe(geom: HeavyHexapodGeometry = HEAVY) -> dict:
+    """Catalog entry in the shape of ``RobotEntry.describe()`` (for /api/robots)."""
+    return {
+        "name": geom.name,
+        "description": "Heavy-duty 18-DoF hexapod (paper 002): 5 t, 4.7 m, pantograph legs as swing hinge + two slides",
+        "legs": list(LEG_IDS),
+        "joints": list(JOINT_NAMES),
+        "leg_sides": {str(l): ("left" if geom.side(l) > 0 else "right") for l in LEG_IDS},
+        "hips_m": {str(l): list(geom.hip(l)) for l in LEG_IDS},
+        "nominal_feet_m": {str(l): geom.nominal_foot(l).tolist() for l in LEG_IDS},
+        "total_mass_kg": geom.total_mass,
+        "parameters": {
+            "l1_m": geom.l1, "leg_length_range_m": list(geom.d_range), "swing_range_deg": list(geom.theta_range_deg),
+            "horizontal_range_m": list(geom.x_range), "tripods": [list(t) for t in TRIPODS],
+            "pid": {"kp": list(geom.kp), "kd": list(geom.kv), "ki": 0.0}, "friction": geom.friction,
+        },
+    }

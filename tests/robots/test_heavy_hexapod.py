@@ -40,3 +40,13 @@ def test_mujoco_feet_follow_eq1():
             th, x, dd = q[leg]
             body = R.T @ (d.site(f"leg{leg}_tip").xpos - d.body("torso").xpos)
             np.testing.assert_allclose(body, leg_fk(HEAVY.workspace(leg), x, dd, th), atol=1e-9)
+
+
+def test_describe_is_json_and_matches_the_model():
+    import json
+
+    from app.robots.heavy_hexapod import describe
+
+    d = json.loads(json.dumps(describe()))
+    assert d["name"] == "heavy_hexapod" and d["total_mass_kg"] == pytest.approx(5000.0)
+    assert d["leg_sides"]["1"] == "left" and d["leg_sides"]["4"] == "right"
