@@ -177,6 +177,9 @@ def _damage_text(spec: dict | None) -> str:
         for j in d.get(key) or []:
             if isinstance(j, dict):
                 parts.append(f"{word} {j.get('leg')}.{j.get('joint')}")
+    for key, v in d.items():  # other kinds' damage, e.g. stuck_modules
+        if key not in ("lost_legs", "locked_joints", "weak_joints") and isinstance(v, list) and v:
+            parts.append(f"{key.replace('_', ' ')} " + ",".join(str(x) for x in v))
     if not parts:
         sc = (spec or {}).get("scenario")
         if isinstance(sc, dict) and sc.get("type"):

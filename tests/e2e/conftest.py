@@ -13,6 +13,10 @@ import httpx
 import pytest
 from service_support import Proc, deployment, free_port, migrated, wait_for
 
+# A second, different job for the compare page and the route tests: CMA-ES, legs 1 and 6.
+SECOND = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
+          "search": {"optimizer": "cmaes", "population": 6, "generations": 2, "seed": 4}, "sim": {"duration_s": 1.5}}
+
 CHROMIUM = os.environ.get("GAITMEND_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--use-gl=swiftshader", "--enable-unsafe-swiftshader"]
@@ -54,6 +58,18 @@ def server(tmp_path_factory):
         yield Server(url, settings, tokens, proc)
     finally:
         proc.stop()
+
+
+@pytest.fixture(scope="session")
+def second_job(server) -> str:
+    """alice's SECOND job, submitted through the API and finished (succeeded)."""
+    with server.client("alice") as c:
+        jid = c.post("/api/jobs", json=SECOND).json()["id"]
+        wait_for(lambda: c.get(f"/api/jobs/{jid}").json()["status"] in ("succeeded", "failed", "cancelled"), 120,
+                 "the second job to finish", interval=0.3, proc=server.proc)
+        job = c.get(f"/api/jobs/{jid}").json()
+    assert job["status"] == "succeeded", job["error"]
+    return jid
 
 
 @pytest.fixture(scope="session")

@@ -39,8 +39,17 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     before = job_ids(server)
     page.goto(server.url + "/")
     expect(page.locator("#robot option")).to_have_count(1)
+    # lock leg 2's femur at 20 degrees on the drawing; the request carries it
+    page.check("input[name=mode][value=lock]")
+    page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')
+    expect(page.locator("#damage-summary")).to_have_text("Damage: leg 2 femur locked.")
+    page.fill("#angle-2-femur", "20")
     page.fill("#population", "2")
-    page.click("#submit")
+    with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
+        page.click("#submit")
+    sent = req.value.post_data_json
+    assert sent["damage"] == {"lost_legs": [], "locked_joints": [{"leg": 2, "joint": "femur", "angle_deg": 20}]}
+    assert sent["search"]["population"] == 2
     err = page.locator("#form-error")
     expect(err).to_be_visible()
     expect(err).to_contain_text("search.population")
@@ -50,6 +59,8 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
 
     # an infeasible damage picked on the drawing: the API's morphology message, inline
     page.fill("#population", "6")
+    page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')  # unlock again
+    page.check("input[name=mode][value=lost]")
     page.click('.leg[data-leg="1"]')
     page.click('.leg[data-leg="3"]')
     expect(page.locator('.leg[data-leg="3"]')).to_have_attribute("aria-pressed", "true")
@@ -178,21 +189,18 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
     assert pg.evaluate("document.activeElement.className") == "skip"
 
 
-def test_compare_two_jobs(page, server, shots):
+def test_compare_two_jobs(page, server, shots, second_job):
     first = STATE.get("job_id") or pytest.fail("needs the job of the main flow")
-    with server.client() as c:
-        second = c.post("/api/jobs", json=SMALL | {"search": {"optimizer": "cmaes", "population": 6,
-                                                               "generations": 2, "seed": 3}}).json()["id"]
-    page.goto(f"{server.url}/compare?ids={first},{second}")
-    # the running job's curve grows while the page is open; both end in the metrics table
-    expect(page.locator('#plot-compare[data-rendered="1"]')).to_be_attached(timeout=JOB_TIMEOUT_MS)
-    expect(page.locator("#picked .badge").nth(1)).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
-    page.wait_for_function("document.getElementById('plot-compare').data.length >= 4")
+    page.goto(f"{server.url}/compare?ids={first},{second_job}")
+    expect(page.locator('#plot-compare[data-rendered="1"]')).to_be_attached(timeout=30_000)
+    expect(page.locator("#picked .badge")).to_have_text(["succeeded", "succeeded"])
+    assert page.evaluate("document.getElementById('plot-compare').data.length") == 4  # best and mean of each
     header = page.locator("#metrics thead th")
     expect(header).to_have_count(3)
     table = page.locator("#metrics")
     expect(table).to_contain_text("F recovered")
     expect(table).to_contain_text("CMAES 6 × 2")
+    expect(table).to_contain_text("DE 6 × 3")
     page.screenshot(path=shots / "compare-1280.png", full_page=True)
 
 

@@ -8,23 +8,13 @@ import time
 
 import httpx
 from playwright.sync_api import expect
-from service_support import wait_for
 
 SPEC = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
         "search": {"population": 6, "generations": 2, "seed": 4}, "sim": {"duration_s": 1.5}}
 
 
-def _succeeded(server, owner="alice") -> str:
-    with server.client(owner) as c:
-        jid = c.post("/api/jobs", json=SPEC).json()["id"]
-        wait_for(lambda: c.get(f"/api/jobs/{jid}").json()["status"] in ("succeeded", "failed"), 120,
-                 "the job to finish", interval=0.3, proc=server.proc)
-        assert c.get(f"/api/jobs/{jid}").json()["status"] == "succeeded"
-    return jid
-
-
-def test_bundle_members_links_and_traces(server):
-    jid = _succeeded(server)
+def test_bundle_members_links_and_traces(server, second_job):
+    jid = second_job
     with server.client("alice") as c:
         files = c.get(f"/api/jobs/{jid}/files").json()
         assert files["replay.viser"] > 1000 and "trajectories/best.csv" in files

@@ -109,6 +109,10 @@ const GM = (() => {
     if (d.lost_legs && d.lost_legs.length) parts.push(`lost ${d.lost_legs.join(",")}`);
     for (const j of d.locked_joints || []) parts.push(`locked ${j.leg}.${j.joint}`);
     for (const j of d.weak_joints || []) parts.push(`weak ${j.leg}.${j.joint}`);
+    for (const [k, v] of Object.entries(d)) { // other kinds' damage, e.g. stuck_modules
+      if (["lost_legs", "locked_joints", "weak_joints"].includes(k) || !Array.isArray(v) || !v.length) continue;
+      parts.push(`${k.replace(/_/g, " ")} ${v.map((x) => (typeof x === "object" ? JSON.stringify(x) : x)).join(",")}`);
+    }
     return parts.join("; ") || "none";
   }
 

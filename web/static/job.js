@@ -38,7 +38,11 @@
     const spec = j.spec || {};
     const s = spec.search || {};
     const facts = [["Robot", j.robot || "–"], ["Damage", damageText(spec)]];
-    if (s.optimizer) facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
+    if (s.optimizer && s.population !== undefined) {
+      facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
+    } else if (Object.keys(s).length) {
+      facts.push(["Search", Object.entries(s).map(([k, v]) => `${k} ${typeof v === "string" ? v.toUpperCase() : v}`).join(", ")]);
+    }
     if (spec.sim && spec.sim.duration_s) facts.push(["Walk", `${spec.sim.duration_s} s`]);
     facts.push(["Created", new Date(j.created_at).toLocaleString()]);
     if (j.wall_s !== null && j.wall_s !== undefined) facts.push(["Wall time", `${num(j.wall_s, 1)} s`]);
@@ -181,11 +185,15 @@
       plot(div, traces, layout);
       return true;
     };
-    $("trace-plots").hidden = false; // Plotly sizes a graph by its container: show it first
-    const a = panels([["roll_deg", "roll", 1], ["pitch_deg", "pitch", 1], ["yaw_deg", "yaw", 1]], $("plot-orientation"), "°");
-    const b = panels([["com_m_0", "CoM x", 100], ["com_m_1", "CoM y", 100], ["com_m_2", "CoM z", 100]], $("plot-com"), "cm");
+    const ORIENT = [["roll_deg", "roll", 1], ["pitch_deg", "pitch", 1], ["yaw_deg", "yaw", 1]];
+    const COM = [["com_m_0", "CoM x", 100], ["com_m_1", "CoM y", 100], ["com_m_2", "CoM z", 100]];
+    const both = ORIENT.some(([k]) => has(k)) && COM.some(([k]) => has(k));
+    // Plotly sizes a graph by its container: lay the cards out before drawing
+    $("trace-plots").hidden = false;
+    $("trace-plots").style.gridTemplateColumns = both ? "" : "minmax(0, 1fr)";
+    const a = panels(ORIENT, $("plot-orientation"), "°");
+    const b = panels(COM, $("plot-com"), "cm");
     $("trace-plots").hidden = !(a || b);
-    $("trace-plots").style.gridTemplateColumns = a && b ? "" : "minmax(0, 1fr)";
 
     // gait diagram: swing (dark) and support (light) bars per leg and trajectory
     const withLegs = names.filter((n) => Object.keys(tr[n].swing).length);
