@@ -12,9 +12,10 @@ from collections.abc import Iterator
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.orm import Session, sessionmaker
 
+
 class FifoLock:
     """A lock handed to waiters in arrival order (threading.Lock lets a newcomer overtake
-    a woken waiter that is still waiting for the GIL, so some requests starved for seconds)."""
+    a woken waiter that is still waiting for the GIL, which stretches the latency tail)."""
 
     def __init__(self):
         self._mutex = threading.Lock()
@@ -43,10 +44,10 @@ class FifoLock:
 
 _lock = threading.Lock()
 _engines: dict[tuple[str, int], tuple[Engine, sessionmaker]] = {}
-# SQLite has one writer at a time. Threads of one process queue on this lock instead of
-# polling in SQLite's busy handler (which sleeps up to 100 ms a try and lets newcomers
-# overtake: p99 of concurrent submissions was seconds). Other processes still meet the
-# busy timeout, but they write rarely (a few rows per generation).
+# SQLite has one writer at a time. Threads of one process queue on this lock, in order,
+# instead of polling in SQLite's busy handler (which sleeps up to 100 ms a try and lets
+# newcomers overtake). Other processes still meet the busy timeout, but they write
+# rarely (a few rows per generation).
 _sqlite_writers: dict[str, FifoLock] = {}
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000

@@ -251,6 +251,30 @@ def test_tokens_are_stored_hashed(url):
         assert repo.resolve_token(s, tok) is None
 
 
+def test_concurrent_writers_all_succeed(url):
+    """Many API threads writing at once: none sees 'database is locked' or loses a row."""
+    import threading
+
+    errors = []
+
+    def writer(i):
+        try:
+            for k in range(10):
+                new_job(url, owner=f"o{i}", key=f"k{k}")
+        except Exception as e:  # noqa: BLE001 - collected and asserted below
+            errors.append(repr(e))
+
+    threads = [threading.Thread(target=writer, args=(i,)) for i in range(12)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    with session_scope(url, readonly=True) as s:
+        rows, _ = repo.list_jobs(s, owner=None, limit=500)
+    assert len(rows) == 120
+
+
 def test_workers_seen(url):
     with session_scope(url) as s:
         repo.worker_seen(s, "w@host", "embedded")
