@@ -183,7 +183,6 @@ async def get_history(request: Request, job_id: JobId, who: Principal = Depends(
                                                           "description": "progress events, then one final 'end'"}})
 async def events(request: Request, job_id: JobId, who: Principal = Depends(principal)):
     """Server-sent events: `progress` whenever the job changes, then `end` with its final state."""
-    settings = _settings(request)
     first = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
 
     async def stream():
