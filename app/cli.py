@@ -48,6 +48,20 @@ def load_spec(path: Optional[Path]):
         raise typer.Exit(2) from None
 
 
+def progress_text(info: dict[str, Any]) -> str:
+    """One line for a progress bar from a kind's progress info: searches report their
+    best F, throughput and evaluations; other kinds show their own scalar fields."""
+    if "best" in info:
+        parts = [f"best F {info['best']:.4f}"]
+        if "sim_steps_per_s" in info:
+            parts.append(f"{info['sim_steps_per_s'] / 1e3:.0f}k steps/s")
+        if "evaluations" in info:
+            parts.append(f"{info['evaluations']} evals")
+        return "  ".join(parts)
+    return "  ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                     for k, v in info.items() if isinstance(v, (int, float, str, bool)))[:80]
+
+
 class LocalContext:
     """Run context for `gaitmend run`: a progress bar, checkpoints kept in memory."""
 
@@ -58,10 +72,7 @@ class LocalContext:
 
     def progress(self, done: int, total: int, info: dict[str, Any]) -> None:
         if self._progress is not None:
-            self._progress.update(self._task, completed=done, total=total,
-                                  best=f"{info.get('best', float('nan')):.4f}",
-                                  rate=f"{info.get('sim_steps_per_s', 0.0) / 1e3:.0f}k steps/s",
-                                  evals=info.get("evaluations", 0))
+            self._progress.update(self._task, completed=done, total=total, info=progress_text(info))
 
     def save_checkpoint(self, state: dict) -> None:
         self._ckpt = state
@@ -93,11 +104,10 @@ def run(
     kind = get_kind(spec.kind)
     job_id = local_job_id(spec)
     progress = None if quiet else Progress(
-        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("gen"),
-        TextColumn("best F {task.fields[best]}"), TextColumn("{task.fields[rate]}"),
-        TextColumn("{task.fields[evals]} evals"), TimeElapsedColumn(), console=err, transient=False)
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=err, transient=False)
     with (progress or _nullcontext()):
-        task = progress.add_task(spec.kind, total=None, best="-", rate="-", evals=0) if progress else None
+        task = progress.add_task(spec.kind, total=None, info="") if progress else None
         result = kind.run(spec, LocalContext(out, progress, task))
     bundle = write_bundle(out / f"{job_id}.zip", job_id, spec, result)
     with zipfile.ZipFile(bundle) as z:
@@ -131,8 +141,30 @@ def _print_summary(s: dict, bundle: Path) -> None:
                       f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}",
                       f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}")
         con.print(t)
+    elif s.get("kind") == "tipping":
+        t = Table(title=f"{s['robot']}: {s['scenario']['type']} scenario, threshold {s['threshold_deg']} deg")
+        for c in ("run", "tipped (s)", "below threshold (s)", "detected (s)", "edge", "leg", "adjust (s)",
+                  "margin before/after (deg)", "final tilt (deg)"):
+            t.add_column(c)
+        for name, r in s.get("runs", {}).items():
+            def f(k, fmt="{:.2f}"):
+                v = r.get(k)
+                return "-" if v is None else fmt.format(v) if isinstance(v, float) else str(v)
+            margins = "-" if r.get("margin_before_landing_deg") is None else \
+                f"{r['margin_before_landing_deg']:.1f} / {r['margin_after_landing_deg']:.1f}"
+            t.add_row(name, f("tipped_at_s") if r.get("tipped") else "no", f("first_below_threshold_s"),
+                      f("detection_time_s"), f("tipping_edge"), f("adjustment_leg"), f("adjustment_time_s"),
+                      margins, f("final_body_tilt_deg", "{:.1f}"))
+        con.print(t)
+        if s.get("sweep"):
+            con.print(s["sweep"] if isinstance(s["sweep"], str) else json.dumps(s["sweep"])[:2000])
     tm = s["timing"]
-    con.print(f"{tm['evaluations']} evaluations in {tm['wall_s']:.1f} s ({tm['sim_steps_per_s'] / 1e3:.0f}k sim steps/s); bundle: {bundle}")
+    parts = [f"{tm['wall_s']:.1f} s"]
+    if "evaluations" in tm:
+        parts.insert(0, f"{tm['evaluations']} evaluations in")
+    if tm.get("sim_steps_per_s"):
+        parts.append(f"({tm['sim_steps_per_s'] / 1e3:.1f}k sim steps/s)")
+    con.print(" ".join(parts) + f"; bundle: {bundle}")
 
 
 @cli.command()

@@ -20,7 +20,9 @@ import mujoco
 import numpy as np
 
 _G = mujoco.mjtGeom
-COLORS = {"best": (230, 120, 30), "baseline": (90, 110, 140)}
+COLORS = {"best": (230, 120, 30), "baseline": (90, 110, 140), "recovery": (230, 120, 30),
+          "no_recovery": (90, 110, 140)}
+PALETTE = [(230, 120, 30), (90, 110, 140), (60, 150, 90), (170, 80, 160), (200, 170, 40)]
 
 
 def _free_port() -> int:
@@ -40,9 +42,9 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
         frames[b] = scene.add_frame(f"{prefix}/body{b}", show_axes=False)
     for g in range(model.ngeom):
         b = int(model.geom_bodyid[g])
-        if b == 0:
-            continue
-        name = f"{prefix}/body{b}/geom{g}"
+        if b == 0 and int(model.geom_type[g]) == _G.mjGEOM_PLANE:
+            continue  # the ground is drawn as a grid
+        name = f"{prefix}/body{b}/geom{g}" if b else f"{prefix}/static/geom{g}"
         t = int(model.geom_type[g])
         size = model.geom_size[g]
         pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
@@ -70,6 +72,26 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
     return frames
 
 
+def _root_body(model: mujoco.MjModel) -> int:
+    """The robot's floating base: the body of the first free joint (else body 1)."""
+    free = np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
+    return int(model.jnt_bodyid[free[0]]) if free.size else 1
+
+
+def _robot_size(model: mujoco.MjModel, root: int, xpos: np.ndarray, xquat: np.ndarray) -> float:
+    """Radius of the robot (its base's subtree) at the first frame."""
+    sub = [b for b in range(model.nbody) if b == root or _descends(model, b, root)]
+    return max(0.1, float(np.linalg.norm(xpos[0, sub] - xpos[0, root], axis=1).max()))
+
+
+def _descends(model: mujoco.MjModel, b: int, root: int) -> bool:
+    while b > 0:
+        b = int(model.body_parentid[b])
+        if b == root:
+            return True
+    return False
+
+
 def body_poses(model: mujoco.MjModel, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """World poses (T, nbody, 3) and (T, nbody, 4) of every body along a qpos trajectory."""
     data = mujoco.MjData(model)
@@ -95,33 +117,42 @@ def _frames(traces: Mapping[str, Mapping[str, np.ndarray]], fps: float):
 
 
 class _Scene:
-    """Robots of several traces side by side (baseline shifted along -x), ground, paths."""
+    """Robots of several traces side by side (the second and later shifted along -x),
+    ground, body paths, foot contacts. Sizes scale with the robot (a JetHexa is 0.3 m, a
+    heavy-duty hexapod 5 m)."""
 
-    def __init__(self, server, model: mujoco.MjModel, traces, fps: float, spacing: float = 0.6):
+    def __init__(self, server, model: mujoco.MjModel, traces, fps: float):
         self.server, self.model = server, model
         scene = server.scene
         scene.set_up_direction("+z")
-        server.initial_camera.position = (0.9, -0.9, 0.7)
-        server.initial_camera.look_at = (-0.3, 0.3, 0.05)
         idx, self.n = _frames(traces, fps)
         self.fps = fps
-        scene.add_grid("/ground", width=4.0, height=6.0, cell_size=0.1, section_size=0.5, position=(0.0, 1.0, 0.0))
+        poses = {name: body_poses(model, np.asarray(tr["qpos"])[idx[name]]) for name, tr in traces.items()}
+        root = _root_body(model)
+        size = _robot_size(model, root, *next(iter(poses.values())))
+        spacing = 3.2 * size
+        start = next(iter(poses.values()))[0][0, root]
+        server.initial_camera.position = tuple(start + size * np.array([3.6, -3.6, 2.8]))
+        server.initial_camera.look_at = tuple(start + np.array([-spacing * (len(traces) - 1) / 2, 1.2 * size, 0.0]))
+        scene.add_grid("/ground", width=16 * size, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
+                       position=(start[0], start[1] + 4 * size, 0.0))
         self.robots = {}
         for k, (name, tr) in enumerate(traces.items()):
+            color = COLORS.get(name, PALETTE[k % len(PALETTE)])
             offset = np.array([-spacing * k, 0.0, 0.0])
-            root = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
-            frames = add_model(scene, f"/{name}", model, tint=COLORS.get(name))
-            xpos, xquat = body_poses(model, np.asarray(tr["qpos"])[idx[name]])
-            path = np.asarray(tr["com_m"])[idx[name]][:, :2]
+            node = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
+            frames = add_model(scene, f"/{name}", model, tint=color)
+            xpos, xquat = poses[name]
+            path = xpos[:, root, :2]
             pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
-            pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.002)], axis=2)
-            scene.add_line_segments(f"/{name}/path", points=pts, colors=COLORS.get(name, (200, 0, 0)), thickness=0.004)
-            scene.add_label(f"/{name}/label", name, position=(0.0, -0.25, 0.25))
+            pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
+            scene.add_line_segments(f"/{name}/path", points=pts, colors=color, thickness=0.015 * size)
+            scene.add_label(f"/{name}/label", name, position=tuple(start + np.array([0.0, -size, size])))
             feet = self._feet(tr, idx[name])
             contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
-                                             point_size=0.025, point_shape="circle")
-            self.robots[name] = {"root": root, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
-                                 "contacts": contacts}
+                                             point_size=0.1 * size, point_shape="circle")
+            self.robots[name] = {"root": node, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
+                                 "contacts": contacts, "lift": 0.01 * size}
         self.show(0)
 
     @staticmethod
@@ -140,7 +171,7 @@ class _Scene:
                 pts = feet[on] if on.any() else np.zeros((0, 3))
                 pts = pts.copy()
                 if len(pts):
-                    pts[:, 2] = 0.003
+                    pts[:, 2] += r["lift"]
                 r["contacts"].points = pts if len(pts) else np.full((1, 3), np.nan)
 
 

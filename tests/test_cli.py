@@ -24,7 +24,7 @@ def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp
     summary = json.loads(p.stdout.strip().splitlines()[-1])
     assert {"baseline", "best", "gait", "history", "timing"} <= set(summary)
     assert set(summary["timing"]) >= {"wall_s", "evaluations", "sim_steps_per_s"}
-    assert "gen" in p.stderr  # the progress bar went to stderr
+    assert "best F" in p.stderr and "evals" in p.stderr  # the progress bar went to stderr
 
     bundle = out / f"{summary['job_id']}.zip"
     with zipfile.ZipFile(bundle) as z:
