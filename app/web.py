@@ -26,7 +26,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
-from app.api.auth import LOCAL_OWNER, Principal, principal
+from app.api.auth import Principal, principal
 from app.api.errors import ApiError
 from app.api.schemas import JobOut, Status
 from app.store import repo
@@ -260,8 +260,7 @@ def install_dashboard(app: FastAPI) -> None:
             return items, nxt
 
         items, nxt = await db(fetch)
-        return {"items": items, "next_cursor": repo.encode_cursor(nxt) if nxt is not None else None,
-                "owner": who.name if who.restricted else LOCAL_OWNER}
+        return {"items": items, "next_cursor": repo.encode_cursor(nxt) if nxt is not None else None}
 
     @app.get("/api/jobs/{job_id}/files", tags=["dashboard"])
     async def list_files(job_id: JobId, who: Principal = Depends(principal)) -> dict[str, int]:

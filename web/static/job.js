@@ -11,6 +11,11 @@
   let resultShown = false;
   let live = null;
 
+  const tint = (hex, f) => { // mix with white: the legend shows the same light colour as the bars
+    const n = parseInt(hex.slice(1), 16);
+    const ch = [16, 8, 0].map((sh) => Math.round(((n >> sh) & 255) * (1 - f) + 255 * f));
+    return `rgb(${ch.join(",")})`;
+  };
   const colorOf = (name, i) => COLORS[name] || PALETTE[(i + 2) % PALETTE.length];
   const label = (name) => ({ best: "recovered (best)", baseline: "baseline (tripod)" }[name] || name.replace(/_/g, " "));
 
@@ -219,7 +224,7 @@
         traces.push(Object.assign({ type: "bar", orientation: "h", name: `${label(name)}: swing`, marker: { color: c }, textposition: "none",
                                     hovertemplate: "%{y}: %{text}<extra></extra>", legendgroup: name }, sw));
         traces.push(Object.assign({ type: "bar", orientation: "h", name: `${label(name)}: support`,
-                                    marker: { color: c, opacity: 0.22 }, textposition: "none", hovertemplate: "%{y}: %{text}<extra></extra>",
+                                    marker: { color: tint(c, 0.75) }, textposition: "none", hovertemplate: "%{y}: %{text}<extra></extra>",
                                     legendgroup: name }, su));
       });
       const period = (summary.gait && summary.gait.period_s) || null;
