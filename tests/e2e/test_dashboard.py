@@ -114,6 +114,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     expect(row).to_have_attribute("data-status", "succeeded", timeout=JOB_TIMEOUT_MS)
     expect(row).to_contain_text("lost 2,5")
     assert float(row.locator("td").nth(6).inner_text()) != 0
+    page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=shots / "jobs-1280.png")
 
     # the job page saw the end of the stream and shows everything
@@ -121,6 +122,15 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     headline = jp.locator("#headline table tbody tr")
     expect(headline).to_have_count(2)
     expect(headline.nth(1)).to_contain_text("Recovered")
+    with server.client() as c:
+        summary = c.get(f"/api/jobs/{job_id}").json()["summary"]
+    y_best, y_base = (summary[k]["metrics"]["y_f_m"] * 100 for k in ("best", "baseline"))
+    y_cell = headline.nth(1).locator("td").nth(1)  # y: forward progress, in cm
+    expect(y_cell).to_have_text(f"{y_best:.2f}")
+    if y_best > y_base:
+        expect(y_cell).to_have_class("better")
+    else:
+        expect(y_cell).not_to_have_class("better")
     for plot_id, min_traces in (("plot-convergence", 3), ("plot-orientation", 6), ("plot-com", 6), ("plot-gait", 4)):
         div = jp.locator(f"#{plot_id}")
         expect(div.locator(".main-svg").first).to_be_visible(timeout=30_000)

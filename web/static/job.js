@@ -108,14 +108,14 @@
     const card = $("headline-card");
     if (summary.kind !== "recovery" || !summary.best || !summary.baseline) { card.hidden = true; return; }
     card.hidden = false;
-    const cols = [["x (cm)", (m) => m.x_f_m * 100, "max"], ["y (cm)", (m) => m.y_f_m * 100, "absmin"],
+    const cols = [["x (cm)", (m) => m.x_f_m * 100, "absmin"], ["y (cm)", (m) => m.y_f_m * 100, "max"],
                   ["yaw (°)", (m) => m.yaw_f_deg, "absmin"], ["roll amp. (°)", (m) => m.roll_amp_deg, "min"],
                   ["pitch amp. (°)", (m) => m.pitch_amp_deg, "min"], ["fell", (m) => (m.fell ? "yes" : "no"), null]];
     const rows = [["Baseline (tripod)", summary.baseline], ["Recovered (best)", summary.best]];
     const better = (kind, a, b) => kind === "max" ? b > a : kind === "min" ? b < a : kind === "absmin" ? Math.abs(b) < Math.abs(a) : false;
     const table = el("table", { class: "headline" },
       el("caption", { class: "small muted", style: "text-align:left;caption-side:bottom;padding-top:.4rem",
-                      text: "Final position x (forward) and y (sideways drift), final yaw, roll and pitch amplitude, as in the paper's Table II; F is the fitness (Eq. 5), higher is better." }),
+                      text: "Final position x (sideways drift) and y (forward, the walking direction), final yaw, roll and pitch amplitude, as in the paper's Table II; F is the fitness (Eq. 5), higher is better. Bold green: better than the baseline." }),
       el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Gait" }), cols.map(([h]) => el("th", { scope: "col", text: h })),
                          el("th", { scope: "col", text: "F" }))),
       el("tbody", {}, rows.map(([name, r], i) => el("tr", {}, el("th", { scope: "row", text: name }),
