@@ -77,13 +77,13 @@ def _median(rows, key):
 def table_markdown(rows: list[dict], generations: int, population: int) -> str:
     seeds = len({r["seed"] for r in rows})
     out = [
-        f"Simulated Table II: JetHexa-like model, DE {population} x {generations}, 10 s, "
-        f"{seeds} seeds per scenario (seeds 0-{seeds - 1}); after-recovery columns are medians "
+        f"Simulated Table II: JetHexa-like model, DE {population} x {generations}, 10 s walks, up to "
+        f"{seeds} seeds per scenario (column 'seeds'); after-recovery columns are medians "
         "over seeds [min, max]. Before = the nominal tripod on the damaged robot (deterministic).",
         "",
-        "| damage | gait | before x (cm) | before y (cm) | before yaw (deg) | after x (cm) | after y (cm) | after yaw (deg) "
-        "| fell after | target met | paper after x / y / yaw |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| damage | gait | seeds | before x (cm) | before y (cm) | before yaw (deg) | after x (cm) | after y (cm) "
+        "| after yaw (deg) | fell after | target met | paper after x / y / yaw |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for lost in SCENARIOS:
         rs = [r for r in rows if tuple(r["lost_legs"]) == lost]
@@ -101,7 +101,7 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
               and abs(_median(rs, "yaw_f_deg")) <= TARGET["yaw_abs_max_deg"])
         p = PAPER[lost]["after"]
         name = "Legs " + " & ".join(str(l) for l in lost) + " lost"
-        out.append(f"| {name} | {rs[0]['gait']} | {before[0]} | {before[1]} | {before[2]} | {cell('x_f_m', 100)} | "
+        out.append(f"| {name} | {rs[0]['gait']} | {len(rs)} | {before[0]} | {before[1]} | {before[2]} | {cell('x_f_m', 100)} | "
                    f"{cell('y_f_m', 100)} | {cell('yaw_f_deg', 1)} | {sum(r['best']['fell'] for r in rs)}/{len(rs)} | "
                    f"{'yes' if ok else 'no'} | {p[0]} / {p[1]} / {p[2]} |")
     walls = [r["wall_s"] for r in rows]

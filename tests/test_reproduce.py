@@ -12,7 +12,7 @@ def test_table2_resumes_and_formats(tmp_path, monkeypatch):
     md = reproduce.run_table2(seeds=1, generations=1, population=4, raw_path=raw, log=calls.append)
     rows = json.loads(raw.read_text())
     assert len(rows) == 1 and rows[0]["lost_legs"] == [3, 4] and len(calls) == 1
-    assert "| Legs 3 & 4 lost | modified_pentagonal |" in md
+    assert "| Legs 3 & 4 lost | modified_pentagonal | 1 |" in md
     assert "10.1 / 52.7 / 5.8" in md  # the paper's row beside ours
     # A second call finds the run on disk and does not simulate again.
     md2 = reproduce.run_table2(seeds=1, generations=1, population=4, raw_path=raw, log=calls.append)
