@@ -13,6 +13,7 @@ from sqlalchemy import func, select
 
 from app.api import create_app
 from app.jobs import registry
+from app.robots.catalog import ROBOTS
 from app.store import repo
 from app.store.db import session_scope
 from app.store.models import Job
@@ -185,8 +186,9 @@ def test_history_as_json_and_csv(client, settings):
 
 
 def test_robots_health_and_openapi(client):
-    robots = client.get("/api/robots").json()
-    assert robots[0]["name"] == "jethexa" and robots[0]["legs"] == [1, 2, 3, 4, 5, 6]
+    robots = {r["name"]: r for r in client.get("/api/robots").json()}
+    assert set(robots) == set(ROBOTS)
+    assert robots["jethexa"]["legs"] == [1, 2, 3, 4, 5, 6] and "parameters" in robots["jethexa"]
     h = client.get("/api/health").json()
     assert h["database"] == "ok" and h["broker"] == "ok" and h["workers"] == []
     schema = client.get("/openapi.json").json()
