@@ -312,7 +312,7 @@
     try {
       job = await api(`/api/jobs/${jobId}`);
     } catch (e) {
-      $("job-title").textContent = "Job not found";
+      $("job-title").textContent = e.status === 404 ? "Job not found" : "Could not load the job";
       $("job-error").textContent = e.message;
       $("job-error").hidden = false;
       empty($("plot-convergence"), "–");
