@@ -140,8 +140,11 @@ def reference_result(spec_dict: dict) -> dict:
     from app.jobs.base import dumps
     from app.jobs.registry import get_kind, parse_spec
 
+    import tempfile
+
     sp = parse_spec(spec_dict)
-    res = get_kind(sp.kind).run(sp, LocalContext(Path("/nonexistent"), None))
+    with tempfile.TemporaryDirectory() as tmp:
+        res = get_kind(sp.kind).run(sp, LocalContext(Path(tmp), None))
     return json.loads(dumps(res.summary))
 
 
