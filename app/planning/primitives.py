@@ -80,7 +80,7 @@ class ModularSim:
         self.nstep = self.n_gait + self.n_settle
         self.stride = max(1, int(round(sample_s / self.dt)))
         self.limit = float(self.model.jnt_range[self.model.actuator_trnid[0, 0], 1]) if self.model.nu else 0.0
-        self.nthread = nthread or min(os.cpu_count() or 1, 2)
+        self.nthread = nthread or os.cpu_count() or 1  # rollout results do not depend on it
         self._datas = [mujoco.MjData(self.model) for _ in range(self.nthread)]
         self._runner = rollout.Rollout(nthread=self.nthread)
         d = mujoco.MjData(self.model)

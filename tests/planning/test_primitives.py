@@ -61,3 +61,14 @@ def test_tree_replay_in_full_simulation(sim):
     assert v["position_error_mu"]["max"] >= v["position_error_mu"]["mean"] >= 0.0
     assert v["nodes"] == min(len(tree["pos"]), 20) - 1
     assert v["depth"].max() >= 2
+
+
+def test_thread_count_does_not_change_the_numbers(sim):
+    g = _gaits(sim, 3, 9)
+    one = ModularSim(sim.shape, (), sim.pmap, gait_s=6.0, settle_s=1.0, nthread=1)
+    try:
+        a = one.primitives(g, 1)
+    finally:
+        one.close()
+    b = sim.primitives(g, 1)
+    assert np.array_equal(a.path, b.path) and np.array_equal(a.dyaw, b.dyaw)
