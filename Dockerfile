@@ -8,6 +8,7 @@ COPY pyproject.toml README.md alembic.ini ./
 COPY app app
 COPY workers workers
 COPY migrations migrations
+COPY web web
 # Editable, so `gaitmend db upgrade` finds migrations/ beside the app package.
 RUN pip install -e .
 

@@ -12,7 +12,7 @@ SMALL = {"kind": "recovery", "damage": {"lost_legs": [3, 4]},
 
 
 def gaitmend(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "app.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    return subprocess.run([sys.executable, "-m", "app", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
 def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp_path):

@@ -26,6 +26,8 @@ def broker_options(settings: Settings) -> tuple[str, dict]:
         (folder / "processed").mkdir(parents=True, exist_ok=True)
         return "filesystem://", {"data_folder_in": str(folder), "data_folder_out": str(folder),
                                  "processed_folder": str(folder / "processed"), "store_processed": False,
+                                 # exchange tables; kombu's default is ./control in the cwd
+                                 "control_folder": str(folder / "control"),
                                  "polling_interval": settings.poll_interval_s}
     return settings.broker_url, {"visibility_timeout": settings.visibility_timeout_s,
                                  "global_keyprefix": settings.redis_key_prefix}

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from app.optim.cmaes import CMAES
 from app.optim.de import DifferentialEvolution
 from app.optim.pso import ParticleSwarm
 
@@ -14,6 +13,8 @@ def make_optimizer(name: str, lower, upper, population: int, seed: int, cr: floa
     if name == "de":
         return DifferentialEvolution(lower, upper, population=population, cr=cr, f=f, seed=seed)
     if name == "cmaes":
+        from app.optim.cmaes import CMAES  # imports cma (and matplotlib): ~2.5 s, so only when asked
+
         return CMAES(lower, upper, population=population, seed=seed)
     if name == "pso":
         return ParticleSwarm(lower, upper, population=population, w=w, phi1=phi1, phi2=phi2, seed=seed)
