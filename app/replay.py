@@ -13,7 +13,6 @@ import contextlib
 import io
 import socket
 import threading
-import time
 from collections.abc import Mapping
 
 import mujoco

@@ -28,7 +28,6 @@ from fastapi.staticfiles import StaticFiles
 
 from app.api.auth import Principal, principal
 from app.api.errors import ApiError
-from app.api.schemas import JobOut, Status
 from app.store import repo
 from app.store.db import session_scope
 
@@ -156,37 +155,6 @@ def _traces(bundle: str, mtime_ns: int) -> dict[str, Any]:
 
 # -- routes ------------------------------------------------------------------------------------
 
-def _best_fitness(job) -> float | None:
-    s = job.summary or {}
-    for path in (("best", "fitness"), ("result", "best_fitness")):
-        v: Any = s
-        for k in path:
-            v = v.get(k) if isinstance(v, dict) else None
-        if isinstance(v, (int, float)):
-            return float(v)
-    info = job.progress_info or {}
-    return float(info["best"]) if isinstance(info.get("best"), (int, float)) else None
-
-
-def _damage_text(spec: dict | None) -> str:
-    d = (spec or {}).get("damage") or {}
-    parts = []
-    if d.get("lost_legs"):
-        parts.append("lost " + ",".join(str(x) for x in d["lost_legs"]))
-    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak")):
-        for j in d.get(key) or []:
-            if isinstance(j, dict):
-                parts.append(f"{word} {j.get('leg')}.{j.get('joint')}")
-    for key, v in d.items():  # other kinds' damage, e.g. stuck_modules
-        if key not in ("lost_legs", "locked_joints", "weak_joints") and isinstance(v, list) and v:
-            parts.append(f"{key.replace('_', ' ')} " + ",".join(str(x) for x in v))
-    if not parts:
-        sc = (spec or {}).get("scenario")
-        if isinstance(sc, dict) and sc.get("type"):
-            return str(sc["type"])
-    return "; ".join(parts) or "none"
-
-
 def install_dashboard(app: FastAPI) -> None:
     """Pages at /, /jobs/{id}, /compare; static files; plotly and viser's client; the read
     routes under /api/web and /api/jobs/{id}/files."""
@@ -236,31 +204,6 @@ def install_dashboard(app: FastAPI) -> None:
         if not Path(job.bundle_path).is_file():
             raise ApiError(410, f"the bundle file is gone from the data folder: {Path(job.bundle_path).name}")
         return job.bundle_path
-
-    @app.get("/api/web/jobs", tags=["dashboard"])
-    async def web_jobs(request: Request, who: Principal = Depends(principal), status: Status | None = None,
-                       kind: Annotated[str | None, Query(max_length=32)] = None,
-                       robot: Annotated[str | None, Query(max_length=64)] = None,
-                       limit: Annotated[int, Query(ge=1, le=500)] = 50,
-                       cursor: Annotated[str | None, Query(max_length=64)] = None):
-        """GET /api/jobs for the jobs table: each item also carries `damage` (text) and
-        `best_fitness`, which the plain list leaves out."""
-        before = None
-        if cursor:
-            try:
-                before = repo.decode_cursor(cursor)
-            except ValueError as e:
-                raise ApiError(422, str(e), field="cursor") from None
-
-        def fetch(s):
-            rows, nxt = repo.list_jobs(s, owner=who.owner_filter, status=status, kind=kind or None,
-                                       robot=robot or None, limit=limit, before_seq=before)
-            items = [JobOut.of(j, detail=False).model_dump(mode="json") | {
-                "damage": _damage_text(j.spec), "best_fitness": _best_fitness(j)} for j in rows]
-            return items, nxt
-
-        items, nxt = await db(fetch)
-        return {"items": items, "next_cursor": repo.encode_cursor(nxt) if nxt is not None else None}
 
     @app.get("/api/jobs/{job_id}/files", tags=["dashboard"])
     async def list_files(job_id: JobId, who: Principal = Depends(principal)) -> dict[str, int]:

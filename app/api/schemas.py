@@ -13,6 +13,37 @@ from app.store.models import Job
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 
+def best_fitness(job) -> float | None:
+    s = job.summary or {}
+    for path in (("best", "fitness"), ("result", "best_fitness")):
+        v: Any = s
+        for k in path:
+            v = v.get(k) if isinstance(v, dict) else None
+        if isinstance(v, (int, float)):
+            return float(v)
+    info = job.progress_info or {}
+    return float(info["best"]) if isinstance(info.get("best"), (int, float)) else None
+
+
+def damage_text(spec: dict | None) -> str:
+    d = (spec or {}).get("damage") or {}
+    parts = []
+    if d.get("lost_legs"):
+        parts.append("lost " + ",".join(str(x) for x in d["lost_legs"]))
+    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak")):
+        for j in d.get(key) or []:
+            if isinstance(j, dict):
+                parts.append(f"{word} {j.get('leg')}.{j.get('joint')}")
+    for key, v in d.items():  # other kinds' damage, e.g. stuck_modules
+        if key not in ("lost_legs", "locked_joints", "weak_joints") and isinstance(v, list) and v:
+            parts.append(f"{key.replace('_', ' ')} " + ",".join(str(x) for x in v))
+    if not parts:
+        sc = (spec or {}).get("scenario")
+        if isinstance(sc, dict) and sc.get("type"):
+            return str(sc["type"])
+    return "; ".join(parts) or "none"
+
+
 class FieldError(BaseModel):
     field: str
     message: str
@@ -46,6 +77,8 @@ class JobOut(BaseModel):
     updated_at: dt.datetime
     wall_s: float | None = Field(None, description="started to finished (or now), seconds")
     error: str | None
+    damage: str = Field(description="the spec's damage in words, e.g. 'lost 1,6; locked 2.femur'")
+    best_fitness: float | None = Field(None, description="best objective so far (final once succeeded)")
     summary: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     links: dict[str, str]
@@ -64,7 +97,8 @@ class JobOut(BaseModel):
             created_at=job.created_at, started_at=job.started_at, finished_at=job.finished_at,
             updated_at=job.updated_at,
             wall_s=(end - job.started_at).total_seconds() if job.started_at else None,
-            error=job.error, summary=job.summary if detail else None, spec=job.spec if detail else None,
+            error=job.error, damage=damage_text(job.spec), best_fitness=best_fitness(job),
+            summary=job.summary if detail else None, spec=job.spec if detail else None,
             links={"self": base, "history": f"{base}/history", "events": f"{base}/events",
                    "bundle": f"{base}/bundle"})
 

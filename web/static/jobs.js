@@ -170,7 +170,7 @@
     if (busy && !force) return;
     busy = true;
     try {
-      const page = await api(`/api/web/jobs?${filterQuery({ limit: 50 })}`);
+      const page = await api(`/api/jobs?${filterQuery({ limit: 50 })}`);
       const firstIds = page.items.map((i) => i.id);
       page.items.forEach(upsert);
       const seen = new Set(firstIds);
@@ -200,7 +200,7 @@
     if (!cursor) return;
     $("more").disabled = true;
     try {
-      const page = await api(`/api/web/jobs?${filterQuery({ limit: 100, cursor })}`);
+      const page = await api(`/api/jobs?${filterQuery({ limit: 100, cursor })}`);
       page.items.forEach(upsert);
       order = order.concat(page.items.map((i) => i.id).filter((id) => !order.includes(id)));
       cursor = page.next_cursor;
