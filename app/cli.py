@@ -158,6 +158,22 @@ def _print_summary(s: dict, bundle: Path) -> None:
         con.print(t)
         if s.get("sweep"):
             con.print(s["sweep"] if isinstance(s["sweep"], str) else json.dumps(s["sweep"])[:2000])
+    elif s.get("kind") == "multigait":
+        r = s["result"]
+        stuck = s["damage"].get("stuck_modules") or "none"
+        t = Table(title=f"{s['robot']}: {s['gaits']} gaits, cost {s['cost']} ({s['cost_units']}), stuck modules {stuck}")
+        for c in ("", "first generation best", "first generation mean", "final best", "final mean"):
+            t.add_column(c)
+
+        def g(v):
+            return "-" if v is None else f"{v:.2f}"
+        t.add_row(s["cost"], g(r["initial_best"]), g(r["initial_mean"]), g(r["final_best"]), g(r["final_mean"]))
+        con.print(t)
+        con.print(f"best tree: {r['tree_nodes']} nodes, {r['goal_distance_mu']:.2f} mu from the goal; "
+                  f"re-planned cost matches the search: {r['reproduced']}")
+        for name, sc in (s.get("reuse") or {}).items():
+            con.print(f"reuse {name}: distance {sc['distance_mu']['mean']:.2f} ({sc['distance_mu']['std']:.2f}) mu, "
+                      f"coverage {sc['coverage_pct']['mean']:.1f} ({sc['coverage_pct']['std']:.1f}) %")
     tm = s["timing"]
     parts = [f"{tm['wall_s']:.1f} s"]
     if "evaluations" in tm:

@@ -100,7 +100,7 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
         ok = (_median(rs, "y_f_m") >= TARGET["y_min_m"] and abs(_median(rs, "x_f_m")) <= TARGET["x_abs_max_m"]
               and abs(_median(rs, "yaw_f_deg")) <= TARGET["yaw_abs_max_deg"])
         p = PAPER[lost]["after"]
-        name = "Legs " + " & ".join(str(l) for l in lost) + " lost"
+        name = ("Legs " if len(lost) > 1 else "Leg ") + " & ".join(str(l) for l in lost) + " lost"
         out.append(f"| {name} | {rs[0]['gait']} | {len(rs)} | {before[0]} | {before[1]} | {before[2]} | {cell('x_f_m', 100)} | "
                    f"{cell('y_f_m', 100)} | {cell('yaw_f_deg', 1)} | {sum(r['best']['fell'] for r in rs)}/{len(rs)} | "
                    f"{'yes' if ok else 'no'} | {p[0]} / {p[1]} / {p[2]} |")

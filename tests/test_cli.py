@@ -69,3 +69,18 @@ def test_unreadable_spec_exits_2(tmp_path):
     (tmp_path / "x.json").write_text("{not json")
     assert gaitmend("run", str(tmp_path / "x.json"), "--out", str(tmp_path / "o")).returncode == 2
     assert gaitmend("run", str(tmp_path / "missing.json"), "--out", str(tmp_path / "o")).returncode == 2
+
+
+def test_multigait_run_prints_its_coverage_table(tmp_path):
+    spec = tmp_path / "mg.json"
+    spec.write_text(json.dumps({"kind": "multigait", "robot": "lizard", "damage": {"stuck_modules": [3]},
+                                "search": {"particles": 4, "generations": 2}, "planner": {"iterations": 20},
+                                "reuse": {"plans": 2, "iterations": 10}, "verify": {"nodes": 5},
+                                "gait_duration_s": 5.0}))
+    p = gaitmend("run", str(spec), "--out", str(tmp_path / "out"))
+    assert p.returncode == 0, p.stderr
+    text = " ".join(p.stdout.split())  # rich wraps the title at the terminal width
+    assert "lizard: 3 gaits, cost coverage" in text and "stuck modules [3]" in text
+    assert "first generation" in text and "final best" in text
+    assert "re-planned cost matches the search: True" in text
+    assert "reuse column_opposite: distance" in text
