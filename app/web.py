@@ -32,7 +32,11 @@ from app.store import repo
 from app.store.db import session_scope
 
 WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR", Path(__file__).resolve().parent.parent / "web"))
-PAGES = {"jobs": "index.html", "job": "job.html", "compare": "compare.html"}
+# page name -> (template, title, the nav link marked as the current page)
+PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
+         "compare": ("compare.html", "compare", "/compare")}
+NAV = (("/", "Jobs"), ("/compare", "Compare"), ("/docs", "API"))
+HEADER_MARK = "<!-- gaitmend: header -->"
 # Trace columns a plot uses; the rest (joint angles, quaternions, feet) stay in the bundle.
 SKIP_PREFIXES = ("qpos_", "torso_quat_", "feet_m_", "torso_pos_m_")
 MAX_POINTS = 800
@@ -153,6 +157,15 @@ def _traces(bundle: str, mtime_ns: int) -> dict[str, Any]:
     return out
 
 
+def render_page(path: Path, title: str, current: str | None) -> str:
+    """A page template with the shared head and header (``templates/_header.html``) put in
+    place of its first line's mark; the current page's nav link gets ``aria-current``."""
+    current_attr = ' aria-current="page"'
+    nav = "".join(f'<a href="{href}"{current_attr if href == current else ""}>{text}</a>' for href, text in NAV)
+    header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
+    return path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
+
+
 # -- routes ------------------------------------------------------------------------------------
 
 def install_dashboard(app: FastAPI) -> None:
@@ -162,13 +175,14 @@ def install_dashboard(app: FastAPI) -> None:
     settings = app.state.settings
 
     def page(name: str):
-        path = WEB_DIR / "templates" / PAGES[name]
+        template, title, current = PAGES[name]
+        path = WEB_DIR / "templates" / template
 
         async def handler():
             if not path.is_file():
                 return HTMLResponse(f"<h1>gaitmend</h1><p>The dashboard files are missing ({path}); "
                                     "the API is at <a href='/docs'>/docs</a>.</p>", status_code=503)
-            return FileResponse(path, media_type="text/html", headers={"Cache-Control": "no-cache"})
+            return HTMLResponse(render_page(path, title, current), headers={"Cache-Control": "no-cache"})
 
         return handler
 

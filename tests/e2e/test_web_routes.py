@@ -52,11 +52,17 @@ def test_static_assets_come_from_installed_packages(server):
     assert js.status_code == 200 and b"plotly.js" in js.content[:200]
     viser = httpx.get(server.url + "/viser/")
     assert viser.status_code == 200 and b"Viser" in viser.content[:2000]
-    for page in ("/", "/compare", "/jobs/whatever"):
+    for page, title, current in (("/", "jobs", "/"), ("/compare", "compare", "/compare"),
+                                 ("/jobs/whatever", "job", None)):
         r = httpx.get(server.url + page)
         assert r.status_code == 200 and "text/html" in r.headers["content-type"]
         for src in ("/static/common.js", "/static/app.css"):
             assert src in r.text
+        # the shared header is put in once, with this page's title and nav link marked
+        assert r.text.startswith("<!doctype html>") and "gaitmend: header" not in r.text
+        assert r.text.count('<header class="top">') == 1 and f"<title>gaitmend · {title}</title>" in r.text
+        marked = [a for a in ('href="/"', 'href="/compare"') if f'<a {a} aria-current="page">' in r.text]
+        assert marked == ([f'href="{current}"'] if current else [])
     assert httpx.get(server.url + "/static/jobs.js").status_code == 200
 
 
