@@ -147,6 +147,10 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     jp.mouse.up()
     lo, hi = jp.evaluate("document.getElementById('plot-convergence').layout.xaxis.range")
     assert 0 < lo < hi < 3, (lo, hi)
+    # and a double-click zooms back out to every generation
+    jp.mouse.dblclick(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
+    jp.wait_for_function("() => { const r = document.getElementById('plot-convergence').layout.xaxis.range;"
+                         " return r[0] <= 0 && r[1] >= 3; }", timeout=10_000)
 
     # the 3D replay: viser's client fetched replay.viser through a signed link and drew it
     frame = jp.frame_locator("#replay")
