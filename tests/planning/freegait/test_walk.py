@@ -1,0 +1,53 @@
+"""The gait in MuJoCo: a walk over zones that never touches one, the unaware walk that
+does, determinism."""
+
+import numpy as np
+import pytest
+
+from app.planning.freegait.route import Route
+from app.planning.freegait.walk import WalkConfig, stand_pose, walk
+from app.robots.silo6 import SILO6
+from app.sim.terrain import Minefield, make_terrain
+
+TERRAIN = make_terrain((-1.0, 2.5), (-1.5, 1.5), 0.04, seed=1)
+ROUTE = Route(speed=0.02, distance=0.45)
+
+
+@pytest.fixture(scope="module")
+def blind_run():
+    empty = Minefield(np.zeros((0, 2)), 0.025, 0.075)
+    return walk(TERRAIN, empty, WalkConfig(route=ROUTE, aware=False))
+
+
+def test_walks_the_route(blind_run):
+    s = blind_run.summary()
+    assert s["finished"] and s["footholds"] >= 9
+    assert s["tracking_error_max_m"] < 0.05 and s["max_tilt_deg"] < 10
+    pos = blind_run.steps["pos"]
+    assert pos[-1, 0] - pos[0, 0] == pytest.approx(0.45, abs=0.05)  # the body really moved, in MuJoCo
+    assert s["min_sm_m"] > 0.05  # SM_min held throughout
+
+
+def test_zones_on_the_blind_footholds_are_avoided_when_known(blind_run):
+    # Put a zone on every foothold the zone-blind planner chose after its first transfer.
+    _, feet = stand_pose(SILO6, TERRAIN)
+    spots = np.array([[f["x"], f["y"]] for f in blind_run.footholds[3:]])
+    field = Minefield(spots, 0.025, 0.075)
+    unaware = walk(TERRAIN, field, WalkConfig(route=ROUTE, aware=False))
+    aware = walk(TERRAIN, field, WalkConfig(route=ROUTE, aware=True))
+    su, sa = unaware.summary(), aware.summary()
+    assert su["footholds_in_zones"] >= 3  # it walks into the zones it ignores
+    assert sa["footholds_in_zones"] == 0 and sa["footholds"] > 0
+    assert all(not f["in_zone"] for f in aware.footholds)
+    assert sa["finished"]
+    # Ignoring zones, the unaware planner is unaffected by them: same footholds as on an empty field.
+    a = np.array([[f["x"], f["y"]] for f in unaware.footholds])
+    b = np.array([[f["x"], f["y"]] for f in blind_run.footholds])
+    np.testing.assert_array_equal(a, b)
+
+
+def test_deterministic(blind_run):
+    empty = Minefield(np.zeros((0, 2)), 0.025, 0.075)
+    again = walk(TERRAIN, empty, WalkConfig(route=ROUTE, aware=False))
+    for k in ("pos", "phase", "sm", "k_r", "qpos"):
+        np.testing.assert_array_equal(again.steps[k], blind_run.steps[k])
