@@ -34,7 +34,7 @@ from mujoco import rollout
 from app.planning.freegait.geometry import Motion, kinematic_margin, polygon_margin, transfer_points, triangle_margin
 from app.planning.freegait.params import GaitParams, nominal_re, r1, r3
 from app.planning.freegait.route import Route
-from app.planning.freegait.search import SearchInput, candidate_grid, search
+from app.planning.freegait.search import SearchInput, SearchResult, candidate_grid, evaluate, search
 from app.robots import silo6
 from app.robots.silo6 import SENSOR_SLICES, SILO6, Silo6Geometry
 from app.sim.terrain import Minefield, Terrain, add_heightfield, add_zone_markers
@@ -208,6 +208,7 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
     transfers: list[dict] = []
     footholds: list[dict] = []
     last_touchdown = {0: 0.0, 1: 0.0}
+    lifted_before: set[int] = set()
     stall = 0.0
     searches = 0
     rec = {k: [] for k in ("t", "pos", "rpy", "phase", "sm", "k_r", "v", "stop", "progress", "cmd_xy", "track_err",
@@ -347,8 +348,7 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
                         searches += 1
                         if not res.found:
                             # the same search with the body stopped for this transfer
-                            inp0 = dataclasses.replace(inp, motion=Motion(0.0, alpha, 0.0), re=re)
-                            res0 = _search_stopped(inp0, motion, params, re, pick)
+                            res0 = _search_stopped(inp, pick)
                             searches += 1
                             if res0 is not None and res0.found:
                                 transfer["stopped"] = True
@@ -410,9 +410,10 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
                     if transfer["touched"].all():
                         row.update(t_touchdown=round(t, 3), transfer_s=round(t - transfer["t_lift"], 3),
                                    failed_legs=transfer["failed_legs"])
-                        prev = last_touchdown[1 - transfer["tri"]]
-                        row["support_s"] = round(transfer["t_lift"] - last_touchdown[transfer["tri"]], 3) if transfers else None
-                        del prev
+                        # the tripod's support phase before this transfer (none before the first lift)
+                        first = transfer["tri"] not in lifted_before
+                        row["support_s"] = None if first else round(transfer["t_lift"] - last_touchdown[transfer["tri"]], 3)
+                        lifted_before.add(transfer["tri"])
                         planned = transfer.get("planned_w")
                         for n_, l in enumerate(legs):
                             xy = tips_w[l, :2]
@@ -462,30 +463,24 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
                       sim_steps=sim_steps, wall_s=time.perf_counter() - t_wall, searches=searches)
 
 
-def _search_stopped(inp: SearchInput, motion: Motion, params: GaitParams, re: float, pick):
-    """Support conditions with the body stopped during this transfer: R_1, R_T2, R_3 of this
-    transfer are zero, K keeps the R_1 of the next lift at speed, R_e stays the nominal one."""
-    from app.planning.freegait.search import evaluate
-
-    stopped = dataclasses.replace(inp, motion=Motion(motion.speed, motion.alpha, motion.omega))
-    e = evaluate(dataclasses.replace(stopped, params=params))
-    # Recompute the conditions that involve this transfer's displacement with zero motion.
+def _search_stopped(inp: SearchInput, pick):
+    """Support conditions with the body stopped during this transfer: its R_T2 and R are
+    zero (so conditions 2 and 6 lose that term and F' = F), while K keeps the R_1 of the
+    next lift at speed and R_e stays the nominal one (the next transfer is at speed)."""
+    e = evaluate(inp)
     conds = dict(e["conds"])
-    zero = np.zeros_like(e["r_t2"])
     if "c2_support_margin" in conds:
-        conds["c2_support_margin"] = e["l"] < inp.k_support - zero
-        conds["c6_displacement"] = np.ones_like(zero, dtype=bool)
         conds["c1_zones"] = _zones_unshifted(inp)
+        conds["c2_support_margin"] = e["l"] < inp.k_support
+        conds["c6_displacement"] = np.ones_like(conds["c6_displacement"])
     else:
-        conds["t4_turn"] = np.ones_like(zero, dtype=bool)
         conds["t1_zones"] = _zones_unshifted(inp)
+        conds["t4_turn"] = np.ones_like(conds["t4_turn"])
     valid = np.logical_and.reduce(list(conds.values()))
     if not valid.any():
         return None
     flat = int(np.argmax(np.where(valid, e["ev"], -np.inf))) if pick is None else int(pick.choice(np.flatnonzero(valid)))
     a, b, c = (int(x) for x in np.unravel_index(flat, valid.shape))
-    from app.planning.freegait.search import SearchResult
-
     cand = inp.candidates
     fh = np.stack([cand[0, a], cand[1, b], cand[2, c]])
     counts = {n: int(v.sum()) for n, v in conds.items()}
