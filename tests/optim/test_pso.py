@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from app.optim.pso import ParticleSwarm
+from app.optim.pso import PRESETS, ParticleSwarm
 from app.optim.registry import make_optimizer
 
 
@@ -83,3 +83,46 @@ def test_bad_use_is_rejected():
     opt.ask()
     with pytest.raises(ValueError):
         opt.tell(np.zeros(3))
+
+
+def _swarm_on_noise(preset: str, gens: int = 30, dim: int = 126):
+    """A fitness with no structure at all: the swarm's motion is its own dynamics."""
+    lo, hi = np.zeros(dim), np.ones(dim)
+    opt = ParticleSwarm(lo, hi, population=20, seed=5, **PRESETS[preset])
+    rng = np.random.default_rng(9)
+    diag = []
+    for _ in range(gens):
+        opt.ask()
+        opt.tell(rng.random(20))
+        diag.append(opt.diagnostics())
+    return diag
+
+
+def test_paper_coefficients_do_not_converge_constriction_does():
+    # Poli's order-2 condition phi1 + phi2 < 24 (1 - w^2) / (7 - 5 w): 4 > 3.66 for the paper's
+    # w = 0.1, phi = 2, 2 (the spread grows until the walls stop it); 2.99 < 3.95 for constriction
+    assert 4.0 > 24 * (1 - 0.1 ** 2) / (7 - 5 * 0.1)
+    c = PRESETS["constriction"]
+    assert c["phi1"] + c["phi2"] < 24 * (1 - c["w"] ** 2) / (7 - 5 * c["w"])
+    paper, constr = _swarm_on_noise("paper"), _swarm_on_noise("constriction")
+    late_paper = paper[-10:]
+    assert min(d["at_bounds"] for d in late_paper) > 0.08  # pinned to the walls, generation after generation
+    assert min(d["spread"] for d in late_paper) > 0.15  # as spread as a uniform swarm (0.289)
+    assert constr[-1]["spread"] < 0.5 * constr[0]["spread"]
+    assert max(d["at_bounds"] for d in constr[-10:]) < 0.05
+
+
+def test_constriction_preset_solves_the_sphere():
+    opt = ParticleSwarm(-np.ones(6) * 5, np.ones(6) * 5, population=20, seed=1, **PRESETS["constriction"])
+    x, f = _run(opt, sphere, 150)
+    assert f > -1e-6 and np.allclose(x, 0.3, atol=1e-3)
+
+
+def test_vmax_is_a_fraction_of_the_box():
+    with pytest.raises(ValueError):
+        ParticleSwarm(np.zeros(2), np.ones(2), vmax=0.0)
+    opt = ParticleSwarm(np.zeros(3), 10 * np.ones(3), population=6, seed=0, vmax=0.2)
+    x0 = opt.ask()
+    opt.tell(-np.sum(x0 ** 2, axis=1))
+    x1 = opt.ask()
+    assert np.all(np.abs(x1 - x0) <= 2.0 + 1e-12)  # 0.2 of a width of 10
