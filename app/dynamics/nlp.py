@@ -181,14 +181,15 @@ class SRBNLP:
             self.dV[:, ax, s + 2 + ax] += 1.0
         # Objective: sum_i int |dF_i/dt|^2, quadratic in c, in units of W^2.
         H = np.zeros((self.nz, self.nz))
+        Hj = np.zeros((self.nz, self.nz))
         reg = 1e-6 / T**2
         for i in range(4):
             for ax in range(3):
                 c0 = self._cidx(i, ax, 0)
                 sl = slice(c0, c0 + k)
-                H[sl, sl] += self.dPhi[i].T @ (self.wtrap[:, None] * self.dPhi[i])
+                Hj[sl, sl] += self.dPhi[i].T @ (self.wtrap[:, None] * self.dPhi[i])
                 H[sl, sl] += reg * self.Phi[i].T @ (self.wtrap[:, None] * self.Phi[i])
-        self.H = H
+        self.H, self.Hj = H + Hj, Hj
         self.Iinv = 1.0 / np.asarray(prob.inertia, dtype=float)
         self._lin_ineq()
 
@@ -368,7 +369,7 @@ class SRBNLP:
         theta = th0 + np.outer(self.t, w0) + self.Pp @ alpha
         F = np.stack([self.dF[i] @ z for i in range(4)], axis=1)
         Fd = np.stack([self.dFd[i] @ z for i in range(4)], axis=1)
-        jerk = float(self.p.weight**2 * z @ self.H @ z)
+        jerk = float(self.p.weight**2 * z @ self.Hj @ z)
         return NLPSolution(success=success, message=msg, z=z, t=self.t, forces=F, force_rate=Fd, r=r, v=v, a=a,
                            theta=theta, omega=omega, alpha=alpha, jerk=jerk, constraint_violation=viol,
                            iterations=nit, seconds=seconds, warm_start_violation=float("nan"))
