@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import time
 
 from app.settings import Settings
 from app.store import repo
@@ -17,21 +18,37 @@ TASK = "gaitmend.run_job"
 
 @functools.lru_cache(maxsize=8)
 def _celery(settings: Settings):
-    from workers.celery_app import make_celery
+    from workers.celery_app import ensure_broker_folder, make_celery
 
-    return make_celery(settings)
+    ensure_broker_folder(settings)
+    return make_celery(settings, sender=True)
+
+
+# After a failed send, submissions skip the broker for this long (the jobs stay queued and
+# the housekeeper sends them), so an unreachable Redis costs one request one short try,
+# not every request a timeout.
+BROKER_DOWN_S = 5.0
+_down_until: dict[str, float] = {}
 
 
 def send(settings: Settings, job_ids: list[str]) -> list[str]:
     """Send each id; returns those that could not be sent (their dispatch time is cleared)."""
-    app = _celery(settings)
     failed = []
-    for job_id in job_ids:
-        try:
-            app.send_task(TASK, args=[job_id], queue=settings.queue, retry=False)
-        except Exception:
-            log.exception("could not send job %s to the broker", job_id)
-            failed.append(job_id)
+    if time.monotonic() < _down_until.get(settings.broker_url, 0.0):
+        failed = list(job_ids)
+    else:
+        app = _celery(settings)
+        for i, job_id in enumerate(job_ids):
+            try:
+                app.send_task(TASK, args=[job_id], queue=settings.queue, retry=False)
+            except Exception as e:
+                log.warning("could not send job %s to the broker (%s); it stays queued and is sent again later",
+                            job_id, e)
+                _down_until[settings.broker_url] = time.monotonic() + BROKER_DOWN_S
+                failed.extend(job_ids[i:])
+                break
+        else:
+            _down_until.pop(settings.broker_url, None)
     if failed:
         from sqlalchemy import update
 

@@ -26,7 +26,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
-from app.api.auth import Principal, principal
+from app.api.auth import LOCAL_OWNER, Principal, principal
 from app.api.errors import ApiError
 from app.store import repo
 from app.store.db import session_scope
@@ -62,19 +62,32 @@ def _viser_client() -> Path:
 # an Authorization header, so a token holder asks (with the header) for a short-lived link
 # signed for one job and one file; the key lives in this process only.
 
-def _sign(key: bytes, job_id: str, path: str, exp: int) -> str:
-    return hmac.new(key, f"{job_id}\n{path}\n{exp}".encode(), hashlib.sha256).hexdigest()
+# The link names the token it was made for (its row id; 0 without auth), so revoking the
+# token kills its links too; `exp` is bounded before it is read as a number.
+
+def _sign(key: bytes, job_id: str, path: str, exp: int, token_id: int) -> str:
+    return hmac.new(key, f"{job_id}\n{path}\n{exp}\n{token_id}".encode(), hashlib.sha256).hexdigest()
 
 
-def signed_url(key: bytes, job_id: str, path: str, ttl_s: int = LINK_TTL_S) -> tuple[str, int]:
-    exp = int(time.time()) + ttl_s
-    return f"/api/jobs/{job_id}/files/{path}?exp={exp}&sig={_sign(key, job_id, path, exp)}", exp
+def signed_url(key: bytes, job_id: str, path: str, token_id: int | None = None,
+               ttl_s: int = LINK_TTL_S) -> tuple[str, int]:
+    exp, tid = int(time.time()) + ttl_s, token_id or 0
+    return f"/api/jobs/{job_id}/files/{path}?exp={exp}&sig={tid}.{_sign(key, job_id, path, exp, tid)}", exp
 
 
-def _link_ok(key: bytes, job_id: str, path: str, exp: str | None, sig: str | None) -> bool:
-    if not exp or not sig or not (exp.isascii() and exp.isdigit()) or int(exp) < time.time():
-        return False
-    return hmac.compare_digest(_sign(key, job_id, path, int(exp)).encode(), sig.encode())
+def _link_token(key: bytes, job_id: str, path: str, exp: str | None, sig: str | None) -> int | None:
+    """The token id a valid, unexpired link was signed for (0: no token), else None."""
+    if not exp or not sig or not (exp.isascii() and exp.isdigit()) or len(exp) > 12:
+        return None
+    tid, _, mac = sig.partition(".")
+    if not (tid.isascii() and tid.isdigit() and len(tid) <= 12 and len(mac) == 64):
+        return None
+    now = time.time()
+    if not now <= int(exp) <= now + LINK_TTL_S + 60:
+        return None
+    if not hmac.compare_digest(_sign(key, job_id, path, int(exp), int(tid)).encode(), mac.encode()):
+        return None
+    return int(tid)
 
 
 # -- bundle members ----------------------------------------------------------------------------
@@ -210,6 +223,14 @@ def install_dashboard(app: FastAPI) -> None:
         except repo.NotFound as e:
             raise ApiError(404, f"no job {str(e)!r}", field="id") from None
 
+    async def _link_principal(token_id: int | None) -> Principal | None:
+        if token_id is None:
+            return None
+        if token_id == 0:
+            return Principal(LOCAL_OWNER, restricted=False)
+        owner = await db(lambda s: repo.token_owner(s, token_id))
+        return Principal(owner, restricted=True, token_id=token_id) if owner else None  # revoked: dead link
+
     async def bundle_of(job_id: str, who: Principal | None) -> str:
         owner = who.owner_filter if who is not None else None
         job = await db(lambda s: repo.get_job(s, job_id, owner))
@@ -234,7 +255,7 @@ def install_dashboard(app: FastAPI) -> None:
         bundle = await bundle_of(job_id, who)
         if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
             raise ApiError(404, f"the bundle has no file {name!r}", field="path")
-        url, exp = signed_url(link_key, job_id, name)
+        url, exp = signed_url(link_key, job_id, name, who.token_id)
         return {"url": url, "expires_at": exp}
 
     @app.get("/api/jobs/{job_id}/files/{path:path}", tags=["dashboard"],
@@ -244,7 +265,7 @@ def install_dashboard(app: FastAPI) -> None:
         """One member of the result bundle (replay.viser, trajectories/best.csv, plots/...).
         Authorised like the other job routes, or by a link from /file-link."""
         name = _member_name(path)
-        who = None if _link_ok(link_key, job_id, name, exp, sig) else await principal(request)
+        who = await _link_principal(_link_token(link_key, job_id, name, exp, sig)) or await principal(request)
         bundle = await bundle_of(job_id, who)
         if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
             raise ApiError(404, f"the bundle has no file {name!r}", field="path")

@@ -18,28 +18,43 @@ from app.settings import Settings, get_settings
 log = logging.getLogger("gaitmend.worker")
 
 
-def broker_options(settings: Settings) -> tuple[str, dict]:
+def ensure_broker_folder(settings: Settings) -> None:
+    """The embedded broker's folders, made by whoever sends or consumes first (never at
+    import: importing this module must not write into the current folder)."""
+    if settings.embedded_broker:
+        (settings.broker_dir.resolve() / "processed").mkdir(parents=True, exist_ok=True)
+
+
+# A sender (the API, the housekeeper) must not block a request on an unreachable Redis:
+# kombu's default retries a refused connection for ~6 s. It tries once, briefly; the job
+# stays queued without a dispatch time and the housekeeper sends it when Redis is back.
+SENDER_OPTIONS = {"max_retries": 0, "socket_connect_timeout": 1.0, "socket_timeout": 5.0}
+
+
+def broker_options(settings: Settings, sender: bool = False) -> tuple[str, dict]:
     if settings.embedded_broker:
         # Celery's filesystem transport: a folder of message files, no server. A message
         # taken by a worker that is then killed is lost; the reaper re-sends it.
         folder = settings.broker_dir.resolve()
-        (folder / "processed").mkdir(parents=True, exist_ok=True)
         return "filesystem://", {"data_folder_in": str(folder), "data_folder_out": str(folder),
                                  "processed_folder": str(folder / "processed"), "store_processed": False,
                                  # exchange tables; kombu's default is ./control in the cwd
                                  "control_folder": str(folder / "control"),
                                  "polling_interval": settings.poll_interval_s}
-    return settings.broker_url, {"visibility_timeout": settings.visibility_timeout_s,
-                                 "global_keyprefix": settings.redis_key_prefix}
+    options = {"visibility_timeout": settings.visibility_timeout_s, "global_keyprefix": settings.redis_key_prefix}
+    return settings.broker_url, options | (SENDER_OPTIONS if sender else {})
 
 
-def make_celery(settings: Settings | None = None) -> Celery:
+def make_celery(settings: Settings | None = None, sender: bool = False) -> Celery:
+    """`sender`: an app that only sends job ids (fails fast when the broker is down)."""
     settings = settings or get_settings()
-    url, options = broker_options(settings)
+    url, options = broker_options(settings, sender)
     app = Celery("gaitmend", broker=url, include=["workers.tasks"])
     app.conf.update(
         broker_transport_options=options,
-        broker_connection_retry_on_startup=True,
+        # A worker whose broker is unreachable at start stops with the reason (and
+        # `gaitmend worker` checks first); once running, it reconnects as usual.
+        broker_connection_retry_on_startup=False,
         task_default_queue=settings.queue,
         task_acks_late=True,
         task_reject_on_worker_lost=True,
@@ -66,6 +81,11 @@ def _fresh_engine_per_child(**_):
     from app.store.db import forget_engines
 
     forget_engines()
+
+
+@signals.worker_init.connect
+def _broker_folder(**_):
+    ensure_broker_folder(get_settings())
 
 
 @signals.worker_ready.connect

@@ -20,6 +20,7 @@ LOCAL_OWNER = "local"
 class Principal:
     name: str
     restricted: bool  # False: sees every job (no auth, no token)
+    token_id: int | None = None  # the token's row: links signed for it die when it is revoked
 
     @property
     def owner_filter(self) -> str | None:
@@ -55,9 +56,9 @@ async def principal(request: Request) -> Principal:
 
     def lookup():
         with session_scope(url) as s:
-            return repo.resolve_token(s, token.strip())
+            return repo.resolve_token_id(s, token.strip())
 
-    name = await run_in_threadpool(lookup)
-    if name is None:
+    found = await run_in_threadpool(lookup)
+    if found is None:
         raise ApiError(401, "unknown API token", field="Authorization", headers={"WWW-Authenticate": "Bearer"})
-    return Principal(name, restricted=True)
+    return Principal(found[0], restricted=True, token_id=found[1])

@@ -116,11 +116,14 @@ class WorkerOut(BaseModel):
 
 
 class Health(BaseModel):
+    """With auth required, a caller without a valid token gets `status` only: worker
+    hostnames, PIDs and the broker's address are for token holders."""
+
     status: Literal["ok", "degraded"]
-    database: str
-    broker: str
-    broker_url: str
-    workers: list[WorkerOut]
+    database: str | None = None
+    broker: str | None = None
+    broker_url: str | None = None
+    workers: list[WorkerOut] | None = None
 
 
 def spec_union():

@@ -16,6 +16,8 @@ KINDS: dict[str, types.ModuleType] = {"recovery": recovery, "multigait": multiga
 
 
 def get_kind(name: str) -> types.ModuleType:
+    if not isinstance(name, str):  # [] or {} are unhashable: a lookup would raise TypeError
+        raise SpecError([{"field": "kind", "message": f"must be a string; allowed: {sorted(KINDS)}"}])
     try:
         return KINDS[name]
     except KeyError:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import json
+import math
 import os
 import threading
 from collections.abc import Iterator
@@ -42,6 +44,28 @@ class FifoLock:
         return False
 
 
+def finite_json(value) -> str:
+    """JSON for a column: NaN and +-Infinity become null. They are not JSON: SQLite would
+    keep text that no JSON reader accepts and PostgreSQL refuses the row. Specs never hold
+    them (strict models); a metric a kind could not compute is stored as null."""
+    return json.dumps(_finite(value), allow_nan=False)
+
+
+def _finite(v):
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite(x) for x in v]
+    return v
+
+
+def read_json(text: str):
+    """Rows written before finite_json may hold NaN: read them as null, never a 500."""
+    return json.loads(text, parse_constant=lambda _c: None)
+
+
 _lock = threading.Lock()
 _engines: dict[tuple[str, int], tuple[Engine, sessionmaker]] = {}
 # SQLite has one writer at a time. Threads of one process queue on this lock, in order,
@@ -57,7 +81,8 @@ def _sqlite_engine(url: str) -> Engine:
     path = url.removeprefix("sqlite:///")
     if path and path != ":memory:":
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000, "check_same_thread": False})
+    engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000, "check_same_thread": False},
+                           json_serializer=finite_json, json_deserializer=read_json)
 
     @event.listens_for(engine, "connect")
     def _on_connect(dbapi_conn, _rec):
@@ -87,7 +112,8 @@ def get_engine(url: str) -> tuple[Engine, sessionmaker]:
             if url.startswith("sqlite"):
                 engine = _sqlite_engine(url)
             else:
-                engine = create_engine(url, pool_pre_ping=True, pool_size=10, max_overflow=20)
+                engine = create_engine(url, pool_pre_ping=True, pool_size=10, max_overflow=20,
+                                       json_serializer=finite_json, json_deserializer=read_json)
             _engines[key] = (engine, sessionmaker(engine, expire_on_commit=False))
         return _engines[key]
 

@@ -8,9 +8,10 @@ import base64
 import dataclasses
 import datetime as dt
 import hashlib
+import re
 import secrets
 import uuid
-from sqlalchemy import delete, func, select, update
+from sqlalchemy import delete, func, select, text, update
 from sqlalchemy.orm import Session
 
 from app.store.models import FINAL, ApiToken, Job, JobCheckpoint, JobHistory, Worker, utcnow
@@ -21,7 +22,17 @@ class NotFound(LookupError):
 
 
 class Conflict(ValueError):
-    pass
+    """The job's state (or an earlier request) does not allow this; ``field`` is what is at odds."""
+
+    def __init__(self, message: str, field: str = "status"):
+        super().__init__(message)
+        self.field = field
+
+
+class QueueFull(Exception):
+    def __init__(self, queued: int, limit: int):
+        super().__init__(f"{queued} jobs already queued; the limit is {limit}")
+        self.queued, self.limit = queued, limit
 
 
 def new_job_id() -> str:
@@ -40,6 +51,36 @@ def count_queued(s: Session, owner: str, cap: int | None = None) -> int:
     if cap is not None:
         q = q.limit(cap)
     return s.scalar(select(func.count()).select_from(q.subquery()))
+
+
+def lock_owner(s: Session, owner: str) -> None:
+    """Serialise submissions of one owner until this transaction ends, so "count the queued
+    jobs, then insert" and "look up the Idempotency-Key, then insert" hold with any number
+    of API processes. PostgreSQL: a transaction-scoped advisory lock on the owner's name
+    (READ COMMITTED alone lets 50 concurrent requests all see 9 queued jobs). SQLite: the
+    write transaction is BEGIN IMMEDIATE (app.store.db), a database-wide lock already."""
+    if s.get_bind().dialect.name == "postgresql":
+        s.execute(text("SELECT pg_advisory_xact_lock(:ns, hashtext(:owner))"), {"ns": _SUBMIT_LOCK_NS, "owner": owner})
+
+
+_SUBMIT_LOCK_NS = 0x67616974  # "gait": keeps these locks apart from any other advisory lock user
+
+
+def submit_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: dict, evaluations_budget: int,
+               max_attempts: int, max_queued: int, idempotency_key: str | None = None) -> tuple[Job, bool]:
+    """(job, created). The same Idempotency-Key with the same spec gives the first job back;
+    with another spec it is a Conflict. QueueFull when the owner has max_queued jobs queued."""
+    lock_owner(s, owner)
+    if idempotency_key and (job := find_by_idempotency_key(s, owner, idempotency_key)) is not None:
+        if job.spec != spec:
+            raise Conflict("Idempotency-Key was used before with a different spec", field="Idempotency-Key")
+        return job, False
+    if (queued := count_queued(s, owner, cap=max_queued)) >= max_queued:
+        raise QueueFull(queued, max_queued)
+    job = create_job(s, owner=owner, kind=kind, robot=robot, spec=spec, evaluations_budget=evaluations_budget,
+                     max_attempts=max_attempts, idempotency_key=idempotency_key)
+    job.dispatched_at = utcnow()
+    return job, True
 
 
 def create_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: dict, evaluations_budget: int,
@@ -74,14 +115,20 @@ def encode_cursor(seq: int) -> str:
     return base64.urlsafe_b64encode(f"s{seq}".encode()).decode().rstrip("=")
 
 
+# jobs.seq is a 32-bit integer on both backends; a cursor outside it would overflow the
+# database's integer type (OverflowError on SQLite, NumericValueOutOfRange on PostgreSQL).
+MAX_SEQ = 2**31 - 1
+_CURSOR = re.compile(r"s[1-9][0-9]{0,9}")
+
+
 def decode_cursor(cursor: str) -> int:
     try:
         raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)).decode()
-        if not raw.startswith("s"):
-            raise ValueError
-        return int(raw[1:])
     except (ValueError, UnicodeDecodeError):
-        raise ValueError("not a cursor returned by this API") from None
+        raw = ""
+    if not _CURSOR.fullmatch(raw) or int(raw[1:]) > MAX_SEQ:
+        raise ValueError("not a cursor returned by this API (pass next_cursor from the previous page)")
+    return int(raw[1:])
 
 
 def list_jobs(s: Session, *, owner: str | None, status: str | None = None, kind: str | None = None,
@@ -280,7 +327,7 @@ def retry(s: Session, job_id: str, owner: str | None) -> Job:
     """Failed or cancelled jobs run again, resuming from their last checkpoint if any."""
     job = get_job(s, job_id, owner)
     if job.status not in ("failed", "cancelled"):
-        raise Conflict(f"only failed or cancelled jobs can be retried; this one is {job.status}")
+        raise Conflict(f"only failed or cancelled jobs can be retried; this one is {job.status}", field="status")
     job.status = "queued"
     job.attempt = 0
     job.cancel_requested = False
@@ -296,7 +343,7 @@ def retry(s: Session, job_id: str, owner: str | None) -> Job:
 def delete_job(s: Session, job_id: str, owner: str | None) -> Job:
     job = get_job(s, job_id, owner)
     if job.status == "running":
-        raise Conflict("the job is running; cancel it first")
+        raise Conflict("the job is running; cancel it first", field="status")
     s.execute(delete(JobHistory).where(JobHistory.job_seq == job.seq))
     s.execute(delete(JobCheckpoint).where(JobCheckpoint.job_seq == job.seq))
     s.delete(job)
@@ -311,20 +358,31 @@ def hash_token(token: str) -> str:
 
 def create_token(s: Session, name: str) -> str:
     if s.scalar(select(ApiToken).where(ApiToken.name == name)) is not None:
-        raise Conflict(f"a token named {name!r} exists; revoke it first")
+        raise Conflict(f"a token named {name!r} exists; revoke it first", field="name")
     token = "gm_" + secrets.token_urlsafe(32)
     s.add(ApiToken(name=name, token_hash=hash_token(token)))
     return token
 
 
 def resolve_token(s: Session, token: str) -> str | None:
+    found = resolve_token_id(s, token)
+    return found[0] if found else None
+
+
+def resolve_token_id(s: Session, token: str) -> tuple[str, int] | None:
+    """(owner name, token row id) of a live token."""
     row = s.scalar(select(ApiToken).where(ApiToken.token_hash == hash_token(token)))
     if row is None:
         return None
     now = utcnow()
     if row.last_used_at is None or (now - row.last_used_at).total_seconds() > 60:
         row.last_used_at = now  # at most one write a minute per token
-    return row.name
+    return row.name, row.id
+
+
+def token_owner(s: Session, token_id: int) -> str | None:
+    """The owner of a token that still exists (signed links die with their token)."""
+    return s.scalar(select(ApiToken.name).where(ApiToken.id == token_id))
 
 
 def list_tokens(s: Session) -> list[ApiToken]:

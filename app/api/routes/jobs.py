@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import csv
 import io
-import json
 import shutil
 from pathlib import Path
 from typing import Annotated, Literal
@@ -16,6 +15,7 @@ from fastapi.responses import FileResponse, StreamingResponse
 from sqlalchemy.exc import IntegrityError
 
 from app.api.auth import Principal, principal
+from app.api.body import BodyError, parse_json
 from app.api.errors import ApiError
 from app.api.schemas import ErrorOut, JobList, JobOut, Status
 from app.dispatch import send
@@ -29,7 +29,7 @@ from app.store.models import FINAL, utcnow
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
-ERRORS = {r: {"model": ErrorOut} for r in (401, 404, 409, 413, 422, 429)}
+ERRORS = {r: {"model": ErrorOut} for r in (401, 404, 409, 413, 415, 422, 429)}
 
 
 def _settings(request: Request) -> Settings:
@@ -52,7 +52,7 @@ async def _db(request: Request, fn, readonly: bool = False):
     except repo.NotFound as e:
         raise _not_found(str(e)) from None
     except repo.Conflict as e:
-        raise ApiError(409, str(e)) from None
+        raise ApiError(409, str(e), field=e.field) from None
 
 
 async def _read_body(request: Request, limit: int) -> bytes:
@@ -63,6 +63,15 @@ async def _read_body(request: Request, limit: int) -> bytes:
             raise ApiError(413, f"request body larger than {limit} bytes (GAITMEND_MAX_BODY_BYTES)", field="body")
         chunks.append(chunk)
     return b"".join(chunks)
+
+
+def _require_json(request: Request) -> None:
+    """Bodies must say they are JSON (application/json or a +json type): a form post or a
+    text/plain body from a browser or a careless script is refused, not guessed at."""
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if ctype != "application/json" and not (ctype.startswith("application/") and ctype.endswith("+json")):
+        raise ApiError(415, f"Content-Type must be application/json, got {ctype or 'none'!r}",
+                       field="Content-Type")
 
 
 def _budget_error(spec, limit: int) -> ApiError | None:
@@ -83,11 +92,12 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
     checked before anything is written."""
     settings = _settings(request)
+    _require_json(request)
     body = await _read_body(request, settings.max_body_bytes)
     try:
-        data = json.loads(body)
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ApiError(422, f"the body is not JSON: {e}", field="body") from None
+        data = parse_json(body)
+    except BodyError as e:
+        raise ApiError(422, f"the body is not an acceptable JSON document: {e}", errors=e.errors) from None
     try:
         spec = parse_spec(data)
     except SpecError as e:
@@ -96,32 +106,25 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
         raise err
     full = spec.model_dump(mode="json")
 
-    def existing(s):
-        job = repo.find_by_idempotency_key(s, who.name, idempotency_key)
-        if job is not None and job.spec != full:
-            raise repo.Conflict("Idempotency-Key was used before with a different spec")
-        return job
-
-    def create(s):
-        if idempotency_key and (job := existing(s)) is not None:
-            return job, False
-        if repo.count_queued(s, who.name, cap=settings.max_queued_per_owner) >= settings.max_queued_per_owner:
-            raise ApiError(429, f"{settings.max_queued_per_owner} jobs are already queued for {who.name!r} "
-                                f"(GAITMEND_MAX_QUEUED_PER_OWNER); wait or cancel some", field="owner")
-        job = repo.create_job(s, owner=who.name, kind=spec.kind, robot=getattr(spec, "robot", None), spec=full,
-                              evaluations_budget=int(spec.evaluations_budget), max_attempts=settings.max_attempts,
-                              idempotency_key=idempotency_key)
-        job.dispatched_at = utcnow()
-        return job, True
+    def existing():
+        with session_scope(settings.db_url, readonly=True) as s:
+            job = repo.find_by_idempotency_key(s, who.name, idempotency_key)
+        if job.spec != full:
+            raise repo.Conflict("Idempotency-Key was used before with a different spec", field="Idempotency-Key")
+        return job, False
 
     def create_and_send():
         # One trip to the thread pool: commit the row, then send its id.
         try:
             with session_scope(settings.db_url) as s:
-                job, created = create(s)
-        except IntegrityError:  # a concurrent request with the same Idempotency-Key won
-            with session_scope(settings.db_url, readonly=True) as s:
-                return existing(s), False
+                job, created = repo.submit_job(
+                    s, owner=who.name, kind=spec.kind, robot=getattr(spec, "robot", None), spec=full,
+                    evaluations_budget=int(spec.evaluations_budget), max_attempts=settings.max_attempts,
+                    max_queued=settings.max_queued_per_owner, idempotency_key=idempotency_key)
+        except IntegrityError:  # only without the owner lock (never expected): the unique key held
+            if not idempotency_key:
+                raise
+            return existing()
         if created:
             send(settings, [job.id])
         return job, created
@@ -129,7 +132,10 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     try:
         job, created = await run_in_threadpool(create_and_send)
     except repo.Conflict as e:
-        raise ApiError(409, str(e)) from None
+        raise ApiError(409, str(e), field=e.field) from None
+    except repo.QueueFull as e:
+        raise ApiError(429, f"{e.queued} jobs are already queued for {who.name!r}; the limit is {e.limit} "
+                            f"(GAITMEND_MAX_QUEUED_PER_OWNER); wait or cancel some", field="owner") from None
     if not created:
         response.status_code = 200
     response.headers["Location"] = f"/api/jobs/{job.id}"
@@ -142,7 +148,8 @@ async def list_jobs(request: Request, who: Principal = Depends(principal),
                     kind: Annotated[str | None, Query(max_length=32)] = None,
                     robot: Annotated[str | None, Query(max_length=64)] = None,
                     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-                    cursor: Annotated[str | None, Query(max_length=64)] = None):
+                    cursor: Annotated[str | None, Query(pattern=r"^[A-Za-z0-9_-]{1,64}$",
+                                                       description="next_cursor of the previous page")] = None):
     """Jobs, newest first, filtered by status, kind and robot; keyset pagination."""
     before = None
     if cursor:

@@ -6,6 +6,8 @@ from fastapi import APIRouter, Request
 from fastapi.concurrency import run_in_threadpool
 from sqlalchemy import text
 
+from app.api.auth import principal
+from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
 from app.dispatch import broker_ok
 from app.robots.catalog import ROBOTS
@@ -21,10 +23,17 @@ async def robots() -> list[dict]:
     return [r.describe() for r in ROBOTS.values()]
 
 
-@router.get("/health", response_model=Health)
+@router.get("/health", response_model=Health, response_model_exclude_none=True)
 async def health(request: Request):
-    """Database, broker, and the workers seen in the last three housekeeping intervals."""
+    """Database, broker, and the workers seen in the last three housekeeping intervals.
+    When tokens are required, only `status` without a valid one."""
     settings = request.app.state.settings
+    trusted = not request.app.state.auth_required
+    if not trusted and request.headers.get("authorization"):
+        try:
+            trusted = (await principal(request)).restricted
+        except ApiError:
+            trusted = False
 
     def check():
         try:
@@ -38,7 +47,10 @@ async def health(request: Request):
         return db, broker, seen
 
     db, broker, seen = await run_in_threadpool(check)
+    status = "ok" if db == "ok" and broker == "ok" else "degraded"
+    if not trusted:
+        return Health(status=status)
     url = settings.broker_url.split("@")[-1] if "@" in settings.broker_url else settings.broker_url
-    return Health(status="ok" if db == "ok" and broker == "ok" else "degraded", database=db, broker=broker,
+    return Health(status=status, database=db, broker=broker,
                   broker_url=url, workers=[WorkerOut(name=w.name, broker=w.broker, started_at=w.started_at,
                                                      last_seen_at=w.last_seen_at) for w in seen])
