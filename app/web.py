@@ -80,7 +80,7 @@ def _link_token(key: bytes, job_id: str, path: str, exp: str | None, sig: str | 
     if not exp or not sig or not (exp.isascii() and exp.isdigit()) or len(exp) > 12:
         return None
     tid, _, mac = sig.partition(".")
-    if not (tid.isascii() and tid.isdigit() and len(tid) <= 12 and len(mac) == 64):
+    if not (tid.isascii() and tid.isdigit() and len(tid) <= 12 and str(int(tid)) == tid and len(mac) == 64):
         return None
     now = time.time()
     if not now <= int(exp) <= now + LINK_TTL_S + 60:
