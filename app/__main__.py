@@ -1,5 +1,4 @@
-"""`python -m app` runs the gaitmend CLI (the module app.cli must be imported once only,
-so that the service commands registered on it by app.service_cli are there)."""
+"""`python -m app` runs the gaitmend CLI."""
 
 from app.cli import main
 

@@ -94,18 +94,11 @@ def trace_csv(tr: dict[str, np.ndarray]) -> str:
 
 README = """# gaitmend result bundle
 
-Job `{job_id}` ({kind}, robot `{robot}`), made by gaitmend {version}.
+Job `{job_id}` ({kind}: {title}, robot `{robot}`), made by gaitmend {version}.
 
 | file | what it is |
 |---|---|
-| `manifest.json` | bundle schema, job id, the full spec (every default filled in), seed, versions of gaitmend / MuJoCo / NumPy / Python, sha256 of `robot.xml`, wall time, evaluations |
-| `result.json` | the summary: baseline and best metrics (x_f, y_f, final yaw, roll/pitch amplitude, fell) and fitness, best parameters, gait sequence, per-generation history, timing |
-| `history.csv` | per generation: best-so-far, mean and worst F of the population, best of the generation, fallen candidates, evaluations |
-| `trajectories/*.npz` | per-step arrays of the best gait and of the baseline (time, CoM, body pose, Euler angles, qpos, foot positions and contacts) |
-| `trajectories/*.csv` | the same, flat: time, CoM, roll/pitch/yaw, foot contacts |
-| `robot.xml` | the damaged robot exactly as simulated (MJCF) |
-| `plots/` | the job kind's figures (recovery: convergence, body orientation, CoM position, gait diagrams), SVG and PNG |
-{extra_rows}
+{rows}
 ## Reproduce
 
 ```
@@ -121,41 +114,45 @@ deterministic; checked with MuJoCo {mujoco}).
 def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_files: dict[str, bytes] | None = None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    kind = get_kind(spec.kind)
     man = manifest(job_id, spec, result)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        plot_files = get_kind(spec.kind).plots(result, tmp / "plots")
+        plot_files = kind.figures(result, tmp / "plots")
         extra_files = dict(extra_files or {})
         replayable = {k: v for k, v in result.traces.items() if "qpos" in v}
         if replayable and "replay.viser" not in extra_files:
             import mujoco
 
-            from app.replay import record
+            from app.replay import record, replay_tracks
 
+            tracks = replay_tracks(kind, list(replayable))
             model = mujoco.MjModel.from_xml_string(result.model_xml)
-            extra_files["replay.viser"] = record(model, replayable)
-        viewer = f"3D replay: viser {man['versions']['viser']} scene recording (the dashboard plays it; `gaitmend replay`)"
-        extra_rows = "".join(f"| `{n}` | {viewer if n.endswith('.viser') else 'extra file'} |\n" for n in extra_files)
+            extra_files["replay.viser"] = record(model, {t.name: replayable[t.name] for t in tracks}, tracks=tracks)
+        members: dict[str, bytes | str | Path] = {
+            "manifest.json": json.dumps(man, indent=2), "result.json": dumps(result.summary),
+            "history.csv": _csv(result.history), "robot.xml": result.model_xml}
+        for name, tr in result.traces.items():
+            buf = io.BytesIO()
+            np.savez_compressed(buf, **{k: np.asarray(v) for k, v in tr.items()})
+            members[f"trajectories/{name}.npz"] = buf.getvalue()
+            members[f"trajectories/{name}.csv"] = trace_csv(tr)
+        for p in plot_files:
+            members[f"plots/{p.name}"] = p
+        members.update(extra_files)
+        rows = kind.bundle_rows(list(members) + ["README.md"])
+        members["README.md"] = README.format(
+            job_id=job_id, kind=spec.kind, title=kind.title, robot=getattr(spec, "robot", ""), version=__version__,
+            mujoco=man["versions"]["mujoco"], rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))
         fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")
         os.close(fd)
         try:
             with zipfile.ZipFile(tmp_zip, "w", compression=zipfile.ZIP_DEFLATED) as z:
-                z.writestr("manifest.json", json.dumps(man, indent=2))
-                z.writestr("result.json", dumps(result.summary))
-                z.writestr("history.csv", _csv(result.history))
-                z.writestr("robot.xml", result.model_xml)
-                for name, tr in result.traces.items():
-                    buf = io.BytesIO()
-                    np.savez_compressed(buf, **{k: np.asarray(v) for k, v in tr.items()})
-                    z.writestr(f"trajectories/{name}.npz", buf.getvalue())
-                    z.writestr(f"trajectories/{name}.csv", trace_csv(tr))
-                for p in plot_files:
-                    z.write(p, f"plots/{p.name}")
-                for n, data in extra_files.items():
-                    z.writestr(n, data)
-                z.writestr("README.md", README.format(job_id=job_id, kind=spec.kind, robot=getattr(spec, "robot", ""),
-                                                      version=__version__, mujoco=man["versions"]["mujoco"],
-                                                      extra_rows=extra_rows))
+                for n, data in members.items():
+                    if isinstance(data, Path):
+                        z.write(data, n)
+                    else:
+                        z.writestr(n, data)
             os.replace(tmp_zip, path)
         except BaseException:
             Path(tmp_zip).unlink(missing_ok=True)

@@ -18,10 +18,19 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
+from app.colors import rgb
+from app.jobs.base import ReplayTrack
+
 _G = mujoco.mjtGeom
-COLORS = {"best": (230, 120, 30), "baseline": (90, 110, 140), "recovery": (230, 120, 30),
-          "no_recovery": (90, 110, 140)}
-PALETTE = [(230, 120, 30), (90, 110, 140), (60, 150, 90), (170, 80, 160), (200, 170, 40)]
+
+
+def replay_tracks(kind, names: list[str]) -> list[ReplayTrack]:
+    """The traces to replay, in the kind's order, with its labels and colour roles (the
+    colours of app/colors.py, as in the plots); ``kind`` None: every trace as it comes."""
+    if kind is None:
+        return [ReplayTrack(n, n, None, i) for i, n in enumerate(names)]
+    tracks = [t for t in kind.replay_style(list(names)) if t.name in names]
+    return sorted(tracks, key=lambda t: t.order)
 
 
 def _free_port() -> int:
@@ -120,7 +129,7 @@ class _Scene:
     ground, body paths, foot contacts. Sizes scale with the robot (a JetHexa is 0.3 m, a
     heavy-duty hexapod 5 m)."""
 
-    def __init__(self, server, model: mujoco.MjModel, traces, fps: float):
+    def __init__(self, server, model: mujoco.MjModel, traces, fps: float, tracks: list[ReplayTrack] | None = None):
         self.server, self.model = server, model
         scene = server.scene
         scene.set_up_direction("+z")
@@ -136,8 +145,10 @@ class _Scene:
         scene.add_grid("/ground", width=16 * size, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
                        position=(start[0], start[1] + 4 * size, 0.0))
         self.robots = {}
+        style = {t.name: t for t in (tracks or replay_tracks(None, list(traces)))}
         for k, (name, tr) in enumerate(traces.items()):
-            color = COLORS.get(name, PALETTE[k % len(PALETTE)])
+            track = style.get(name, ReplayTrack(name, name, None, k))
+            color = rgb(track.color)
             offset = np.array([-spacing * k, 0.0, 0.0])
             node = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
             frames = add_model(scene, f"/{name}", model, tint=color)
@@ -146,7 +157,7 @@ class _Scene:
             pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
             pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
             scene.add_line_segments(f"/{name}/path", points=pts, colors=color, thickness=0.015 * size)
-            scene.add_label(f"/{name}/label", name, position=tuple(start + np.array([0.0, -size, size])))
+            scene.add_label(f"/{name}/label", track.label, position=tuple(start + np.array([0.0, -size, size])))
             feet = self._feet(tr, idx[name])
             contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
                                              point_size=0.1 * size, point_shape="circle")
@@ -174,7 +185,8 @@ class _Scene:
                 r["contacts"].points = pts if len(pts) else np.full((1, 3), np.nan)
 
 
-def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]], fps: float = 25.0) -> bytes:
+def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]], fps: float = 25.0,
+           tracks: list[ReplayTrack] | None = None) -> bytes:
     """A .viser scene recording of the traces playing in real time."""
     import viser
 
@@ -182,7 +194,7 @@ def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]]
     with contextlib.redirect_stdout(quiet):
         server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
     try:
-        sc = _Scene(server, model, traces, fps)
+        sc = _Scene(server, model, traces, fps, tracks)
         ser = server.get_scene_serializer()
         for i in range(sc.n):
             sc.show(i)
@@ -194,13 +206,13 @@ def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]]
 
 
 def serve_live(model: mujoco.MjModel, traces, host: str = "127.0.0.1", port: int = 8081, fps: float = 25.0,
-               stop: threading.Event | None = None):
+               stop: threading.Event | None = None, tracks: list[ReplayTrack] | None = None):
     """Live viser server: timeline slider, play/pause, speed, recovered/baseline toggle.
     Blocks until ``stop`` is set (or forever)."""
     import viser
 
     server = viser.ViserServer(host=host, port=port, verbose=False)
-    sc = _Scene(server, model, traces, fps)
+    sc = _Scene(server, model, traces, fps, tracks)
     gui = server.gui
     # Integer frames: the client drops the connection on float slider values pushed by
     # the server at replay rate (viser 1.1.1), so time is shown as text beside it.
@@ -208,7 +220,8 @@ def serve_live(model: mujoco.MjModel, traces, host: str = "127.0.0.1", port: int
     clock = gui.add_text("time (s)", initial_value="0.00", disabled=True)
     playing = gui.add_checkbox("play", initial_value=True)
     speed = gui.add_dropdown("speed", options=("0.25x", "0.5x", "1x", "2x", "4x"), initial_value="1x")
-    toggles = {name: gui.add_checkbox(f"show {name}", initial_value=True) for name in sc.robots}
+    labels = {t.name: t.label for t in (tracks or [])}
+    toggles = {name: gui.add_checkbox(f"show {labels.get(name, name)}", initial_value=True) for name in sc.robots}
 
     state = {"i": 0, "pos": 0.0, "own": False}
 

@@ -136,15 +136,14 @@ def checkpoint_saves(settings: Settings, job_id: str) -> int:
 
 def reference_result(spec_dict: dict) -> dict:
     """An uninterrupted run of the same spec, in this process."""
-    from app.cli import LocalContext
-    from app.jobs.base import dumps
+    from app.jobs.base import MemoryContext, dumps
     from app.jobs.registry import get_kind, parse_spec
 
     import tempfile
 
     sp = parse_spec(spec_dict)
     with tempfile.TemporaryDirectory() as tmp:
-        res = get_kind(sp.kind).run(sp, LocalContext(Path(tmp), None))
+        res = get_kind(sp.kind).run(sp, MemoryContext(Path(tmp)))
     return json.loads(dumps(res.summary))
 
 

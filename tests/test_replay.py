@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from app.gaits.sequences import plan_hexapod
-from app.jobs.recovery import nominal_params
+from app.jobs.recovery.run import nominal_params
 from app.replay import _free_port, _Scene, record
 from app.robots.catalog import JETHEXA
 from app.robots.damage import DamageSpec

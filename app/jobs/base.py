@@ -1,14 +1,19 @@
-"""What every job kind shares: spec errors, the run context, the result."""
+"""What every job kind shares, and the kind contract: spec errors, the strict spec base,
+the run context, the result, the presentation records, and ``Kind`` (what the CLI, API,
+worker, bundle, replay, bench and dashboard may ask of a kind). docs/architecture.md
+describes the layers and the contract."""
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, ClassVar, Literal, Protocol, TypedDict
 
 import numpy as np
-from pydantic import ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 
 class SpecError(ValueError):
@@ -78,3 +83,322 @@ def to_jsonable(x: Any) -> Any:
 
 def dumps(x: Any) -> str:
     return json.dumps(to_jsonable(x), sort_keys=False)
+
+
+# -- specs ------------------------------------------------------------------------------------
+
+# Every spec section uses this: unknown fields rejected, no type coercion ("1" is not 1,
+# true is not 1, 1.5 is not an int), finite numbers only.
+STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+
+
+class StrictModel(BaseModel):
+    """A section of a spec (damage, search, sim ...): strict, as the whole spec."""
+
+    model_config = STRICT
+
+
+class SpecBase(StrictModel):
+    """What every kind's ``Spec`` declares besides its own sections.
+
+    - ``kind``: a ``Literal[name]`` field (the discriminator of the API's spec union);
+    - ``robot``: the robot it simulates (one of the kind's ``robots``);
+    - ``seed``: an int field or property: every random draw of the job comes from it;
+    - ``evaluations_budget``: property, the number of evaluations (simulations, or
+      rollouts) the job will run in all phases, as stated in words in ``budget_formula``.
+
+    Specs are parsed from JSON (``parse``): strict pydantic accepts a JSON array for a
+    tuple field in JSON mode only, and CLI, API and bundles all hold JSON.
+    """
+
+    kind: str
+    robot: str
+    budget_formula: ClassVar[str] = ""
+
+    @property
+    @abc.abstractmethod
+    def evaluations_budget(self) -> int:
+        """Evaluations the job will run in all its phases (``budget_formula`` in words)."""
+
+    @classmethod
+    def parse(cls, data: Any):
+        """Validate ``data`` (a dict as decoded from JSON); raises SpecError naming fields."""
+        try:
+            text = json.dumps(data, allow_nan=True)
+        except (TypeError, ValueError) as e:
+            raise SpecError([{"field": "spec", "message": f"not JSON data: {e}"}]) from None
+        try:
+            return cls.model_validate_json(text)
+        except ValidationError as e:
+            raise SpecError.from_validation(e) from None
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kw: Any) -> None:
+        super().__pydantic_init_subclass__(**kw)
+        if "kind" in cls.__dict__.get("__annotations__", {}) and not cls.budget_formula:
+            raise TypeError(f"{cls.__name__}: a spec states its budget_formula in words")
+
+
+# -- presentation records ---------------------------------------------------------------------
+
+class HeadlineRow(TypedDict):
+    """One number a user came for. ``better``: "higher", "lower" or None (no direction);
+    ``target``: the stated target in words or None; ``met``: whether this value meets it
+    (None when there is no target)."""
+
+    label: str
+    value: float | int | str | bool | None
+    unit: str
+    better: Literal["higher", "lower"] | None
+    target: str | None
+    met: bool | None
+
+
+def headline_row(label: str, value: Any, unit: str = "", better: str | None = None, target: str | None = None,
+                 met: bool | None = None) -> HeadlineRow:
+    return HeadlineRow(label=label, value=to_jsonable(value), unit=unit, better=better, target=target,
+                       met=None if met is None else bool(met))
+
+
+class Table(TypedDict):
+    """A table of a result: the CLI prints it, the dashboard shows it. Cells are text or
+    numbers; ``notes`` are lines printed under it."""
+
+    title: str
+    columns: list[str]
+    rows: list[list[Any]]
+    notes: list[str]
+
+
+def table(title: str, columns: list[str], rows: list[list[Any]], notes: list[str] | None = None) -> Table:
+    return Table(title=title, columns=list(columns), rows=[list(r) for r in rows], notes=list(notes or []))
+
+
+@dataclasses.dataclass(frozen=True)
+class ReplayTrack:
+    """How the replay (and the plots) show one trace: its label and its colour role in
+    app/colors.py; ``order``: smaller first (the first is the one the camera frames)."""
+
+    name: str
+    label: str
+    role: str | None
+    order: int = 0
+
+    @property
+    def color(self) -> str:
+        from app.colors import hex_color
+
+        return hex_color(self.role, self.order)
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """A paper reproduction: ``gaitmend reproduce <kind>`` (the first experiment of a kind)
+    or ``gaitmend reproduce <kind>-<name>``. ``Params`` (a pydantic model of scalar fields
+    with defaults and descriptions) become the command's options; ``run(params, log)``
+    returns the markdown it reports (and writes where ``params`` say)."""
+
+    name: str
+    help: str
+    Params: type[BaseModel]
+    run: Callable[[Any, Callable[[str], None]], str]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchEntry:
+    """One figure group of ``gaitmend bench``: ``run(quick, log) -> {name: number | dict}``."""
+
+    name: str
+    help: str
+    run: Callable[[bool, Callable[[str], None]], dict[str, Any]]
+
+
+# -- the kind contract -------------------------------------------------------------------------
+
+COMMON_FILES = {
+    "manifest.json": "bundle schema, job id, the full spec (every default filled in), seed, versions of gaitmend / "
+                     "MuJoCo / NumPy / Python, sha256 of `robot.xml`, wall time, evaluations",
+    "result.json": "the summary the job computed (`gaitmend run --json` prints the same)",
+    "robot.xml": "the robot exactly as simulated (MJCF)",
+    "README.md": "this file",
+    "replay.viser": "3D replay: a viser scene recording (the dashboard plays it; `gaitmend replay`)",
+}
+
+
+class Kind(abc.ABC):
+    """A job kind: one package ``app/jobs/<name>/`` and one registry line.
+
+    Everything outside the package (CLI, API, store, worker, bundle, replay, bench,
+    dashboard) reaches a kind only through these attributes and methods, never by its
+    name. Subclasses set the class attributes and implement ``run``, ``headline``,
+    ``summary_tables`` and ``figures``; the rest have defaults that fit most kinds.
+
+    Counting convention (every population search, see app/jobs/loop.py): generation 0 is
+    the initial population; a search of G generations evaluates P x (G + 1) candidates.
+    """
+
+    name: ClassVar[str]  # the spec's ``kind``
+    title: ClassVar[str]  # a short human title
+    paper: ClassVar[str]  # the citation of the paper it implements
+    Spec: ClassVar[type[SpecBase]]
+    robots: ClassVar[dict[str, str]]  # robot name -> description (for /api/robots)
+    # history.csv: the x column and what every column means (same meaning across optimizers)
+    history_x: ClassVar[str] = "generation"
+    history_columns: ClassVar[dict[str, str]] = {}
+    # trajectories/<name>.npz: what each trace is (bundle README, dashboard)
+    trace_descriptions: ClassVar[dict[str, str]] = {}
+    # plots/<stem>.svg|png: what each figure shows (bundle README, dashboard)
+    figure_descriptions: ClassVar[dict[str, str]] = {}
+
+    # -- the job ------------------------------------------------------------------------
+    @abc.abstractmethod
+    def run(self, spec: Any, ctx: RunContext) -> JobResult:
+        """Run the job: report progress, checkpoint, check cancel between units of work
+        (raise ``Cancelled``); same spec and seed, same numbers, also after a resume."""
+
+    def robot_info(self, robot: str) -> dict[str, Any]:
+        """Details of one of ``robots`` for /api/robots and the form (legs, modules,
+        parameters ...); JSON."""
+        return {}
+
+    def default_spec(self) -> SpecBase:
+        return self.Spec.parse({"kind": self.name})
+
+    def damage_text(self, spec: SpecBase) -> str:
+        """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur'."""
+        return "none"
+
+    # -- presentation -------------------------------------------------------------------
+    @abc.abstractmethod
+    def headline(self, summary: dict) -> list[HeadlineRow]:
+        """The few numbers a user came for, with units, direction and target."""
+
+    @abc.abstractmethod
+    def summary_tables(self, summary: dict) -> list[Table]:
+        """The result as tables (`gaitmend run` prints them; the dashboard shows them)."""
+
+    @abc.abstractmethod
+    def figures(self, result: JobResult, out_dir: Path) -> list[Path]:
+        """Write the kind's plots into ``out_dir``; returns the files written."""
+
+    def progress_text(self, info: dict[str, Any]) -> str:
+        """One line for a progress bar from the ``info`` the kind's run reports."""
+        return "  ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in info.items() if isinstance(v, (int, float, str, bool)))[:80]
+
+    def replay_style(self, trace_names: list[str]) -> list[ReplayTrack]:
+        """The traces the replay shows (those with ``qpos``), in order, with labels and
+        colour roles. Default: every given trace in the given order, palette colours."""
+        return [ReplayTrack(n, n, None, i) for i, n in enumerate(trace_names)]
+
+    def bundle_rows(self, files: list[str]) -> dict[str, str]:
+        """{path: description} for exactly ``files`` (the bundle's members)."""
+        out = {}
+        for f in files:
+            out[f] = self.describe_file(f)
+        return out
+
+    def describe_file(self, path: str) -> str:
+        if path in COMMON_FILES:
+            return COMMON_FILES[path]
+        if path == "history.csv":
+            cols = "; ".join(f"`{k}`: {v}" for k, v in self.history_columns.items())
+            return f"one row per {self.history_x}" + (f": {cols}" if cols else "")
+        p = Path(path)
+        if p.parent.name == "trajectories":
+            what = self.trace_descriptions.get(p.stem, f"the `{p.stem}` trace")
+            fmt = "per-step arrays (NumPy .npz)" if p.suffix == ".npz" else \
+                "the same, flat: one column per 1-D array or component (CSV)"
+            return f"{what}: {fmt}"
+        if p.parent.name == "plots":
+            stem = p.stem
+            what = self.figure_descriptions.get(stem)
+            if what is None:
+                what = next((v for k, v in self.figure_descriptions.items() if k.endswith("*") and stem.startswith(k[:-1])),
+                            f"figure `{stem}`")
+            return f"{what} ({p.suffix[1:].upper()})"
+        return "extra file"
+
+    # -- reproduction, benchmarks, dashboard ----------------------------------------------
+    def experiments(self) -> list[Experiment]:
+        return []
+
+    def bench(self) -> list[BenchEntry]:
+        return []
+
+    def views(self, summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
+        """Plotly figure dicts ({"data": [...], "layout": {...}}) for the dashboard page."""
+        return []
+
+    def form(self) -> list[dict[str, Any]]:
+        """The fields a user sets in the dashboard's form, derived from the Spec's JSON
+        schema: [{"path": "search.population", "type", "default", "minimum", "maximum",
+        "enum", "title", "description"}]; a kind may trim or order it."""
+        return form_fields(self.Spec)
+
+    def __repr__(self) -> str:
+        return f"<kind {self.name}>"
+
+
+def form_fields(spec_cls: type[BaseModel]) -> list[dict[str, Any]]:
+    """Flatten a Spec's JSON schema into leaf fields with their bounds and defaults."""
+    schema = spec_cls.model_json_schema()
+    defs = schema.get("$defs", {})
+    out: list[dict[str, Any]] = []
+
+    def resolve(node: dict) -> dict:
+        while "$ref" in node:
+            node = defs[node["$ref"].split("/")[-1]]
+        return node
+
+    def walk(node: dict, path: str, default: Any) -> None:
+        node = resolve(node)
+        if node.get("type") == "object" and "properties" in node:
+            for key, sub in node["properties"].items():
+                sub_default = default.get(key) if isinstance(default, dict) else None
+                if "default" in sub:
+                    sub_default = sub["default"]
+                walk(sub, f"{path}.{key}" if path else key, sub_default)
+            return
+        options = node.get("anyOf") or node.get("oneOf")
+        field = {"path": path, "title": node.get("title", path.split(".")[-1]),
+                 "description": node.get("description"), "default": default}
+        if options:
+            real = [resolve(o) for o in options if o.get("type") != "null"]
+            field["nullable"] = len(real) < len(options)
+            if len(real) == 1:
+                node = real[0] | {k: v for k, v in node.items() if k not in ("anyOf", "oneOf")}
+            else:
+                field["type"] = "union"
+                field["options"] = real
+                out.append(field)
+                return
+        for key in ("type", "minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum", "const",
+                    "minItems", "maxItems", "items"):
+            if key in node:
+                field[key] = node[key]
+        out.append(field)
+
+    walk(schema, "", None)
+    return out
+
+
+class MemoryContext:
+    """A run context with no outside world: checkpoints kept in memory, no progress shown,
+    never cancelled (experiments, benchmarks, `gaitmend run` wraps it with a progress bar)."""
+
+    def __init__(self, artifact_dir: Path | None = None):
+        self.artifact_dir = Path(artifact_dir) if artifact_dir is not None else Path(".")
+        self._ckpt: dict[str, Any] | None = None
+
+    def progress(self, done: int, total: int, info: dict[str, Any]) -> None:
+        pass
+
+    def save_checkpoint(self, state: dict[str, Any]) -> None:
+        self._ckpt = state
+
+    def load_checkpoint(self) -> dict[str, Any] | None:
+        return self._ckpt
+
+    def is_cancelled(self) -> bool:
+        return False

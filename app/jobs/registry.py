@@ -1,21 +1,39 @@
-"""Job kinds by name. A kind is a module with ``Spec`` (pydantic, ``kind`` literal) and
-``run(spec, ctx) -> JobResult``; it never sees a database session or a Celery object."""
+"""Job kinds by name: one line per kind. A kind is a package ``app/jobs/<name>/`` whose
+``KIND`` obeys the contract in app/jobs/base.py (``Kind``); it never sees a database
+session or a Celery object.
+
+``GAITMEND_EXTRA_KINDS`` (comma-separated ``module:attribute``) registers further kinds
+without editing app/: the contract tests register a small kind defined in tests/ this way,
+and worker subprocesses inherit it through the environment.
+"""
 
 from __future__ import annotations
 
-import types
+import importlib
+import os
 from typing import Any
 
-from pydantic import ValidationError
+from app.jobs.base import Kind, SpecError
+from app.jobs.multigait import KIND as _multigait
+from app.jobs.recovery import KIND as _recovery
+from app.jobs.tipping import KIND as _tipping
 
-from app.jobs import multigait, recovery
-from app.jobs import tipping
-from app.jobs.base import SpecError
-
-KINDS: dict[str, types.ModuleType] = {"recovery": recovery, "multigait": multigait, "tipping": tipping}
+KINDS: dict[str, Kind] = {k.name: k for k in (_recovery, _multigait, _tipping)}
 
 
-def get_kind(name: str) -> types.ModuleType:
+def _load_extra(spec: str) -> None:
+    for item in filter(None, (s.strip() for s in spec.split(","))):
+        module, _, attr = item.partition(":")
+        kind = getattr(importlib.import_module(module), attr or "KIND")
+        if not isinstance(kind, Kind):
+            raise TypeError(f"GAITMEND_EXTRA_KINDS: {item} is not a Kind")
+        KINDS.setdefault(kind.name, kind)
+
+
+_load_extra(os.environ.get("GAITMEND_EXTRA_KINDS", ""))
+
+
+def get_kind(name: str) -> Kind:
     if not isinstance(name, str):  # [] or {} are unhashable: a lookup would raise TypeError
         raise SpecError([{"field": "kind", "message": f"must be a string; allowed: {sorted(KINDS)}"}])
     try:
@@ -30,8 +48,14 @@ def parse_spec(data: Any):
         raise SpecError([{"field": "spec", "message": "a job spec must be a JSON object"}])
     if "kind" not in data:
         raise SpecError([{"field": "kind", "message": f"missing; allowed: {sorted(KINDS)}"}])
-    kind = get_kind(data["kind"])
-    try:
-        return kind.Spec.model_validate(data)
-    except ValidationError as e:
-        raise SpecError.from_validation(e) from None
+    return get_kind(data["kind"]).Spec.parse(data)
+
+
+def robots() -> dict[str, dict[str, Any]]:
+    """Every robot any kind serves: {name: {"description", "kinds": [kind names]}}."""
+    out: dict[str, dict[str, Any]] = {}
+    for kind in KINDS.values():
+        for name, description in kind.robots.items():
+            entry = out.setdefault(name, {"description": description, "kinds": []})
+            entry["kinds"].append(kind.name)
+    return out

@@ -6,7 +6,7 @@ import copy
 import numpy as np
 import pytest
 
-from app.jobs import multigait
+from app.jobs.multigait import KIND as multigait
 from app.jobs.base import Cancelled, SpecError
 from app.jobs.registry import parse_spec
 
@@ -135,7 +135,7 @@ def test_staircase_expansions_are_simulated():
 
 def test_plots(small_run, tmp_path):
     _, res = small_run
-    files = multigait.plots(res, tmp_path)
+    files = multigait.figures(res, tmp_path)
     names = {p.name for p in files}
     for n in ("convergence", "gait_traces", "gait_distance_rotation", "tree_map", "composition_error", "reuse"):
         assert f"{n}.png" in names and f"{n}.svg" in names

@@ -6,7 +6,8 @@ import json
 import pytest
 
 from app.jobs.base import Cancelled, SpecError
-from app.jobs.recovery import RecoverySpec, run, search_bounds
+from app.jobs.recovery.run import run, search_bounds
+from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.registry import parse_spec
 from app.robots.catalog import JETHEXA
 

@@ -8,7 +8,8 @@ import pytest
 
 from app.jobs.base import Cancelled, SpecError
 from app.jobs.registry import KINDS, parse_spec
-from app.jobs.tipping import TippingSpec, run, sweep_table
+from app.jobs.tipping.run import run, sweep_table
+from app.jobs.tipping.spec import TippingSpec
 
 
 class Ctx:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from app.gaits.sequences import nominal_tripod, plan_hexapod
-from app.jobs.recovery import nominal_params
+from app.jobs.recovery.run import nominal_params
 from app.robots.catalog import JETHEXA
 from app.robots.damage import DamageSpec, WeakJoint
 from app.sim.evaluate import GaitEvaluator, SimConfig

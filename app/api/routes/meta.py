@@ -10,7 +10,7 @@ from app.api.auth import principal
 from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
 from app.dispatch import broker_ok
-from app.robots.catalog import ROBOTS
+from app.jobs.registry import KINDS, robots as all_robots
 from app.store import repo
 from app.store.db import session_scope
 
@@ -19,8 +19,15 @@ router = APIRouter(tags=["service"])
 
 @router.get("/robots")
 async def robots() -> list[dict]:
-    """The robot catalog: legs, joints and the parameters of the search."""
-    return [r.describe() for r in ROBOTS.values()]
+    """Every robot a job kind simulates, with the kinds that serve it and each kind's
+    details of it (legs, joints, modules, the parameters of the search)."""
+    out = []
+    for name, entry in all_robots().items():
+        info: dict = {}
+        for k in entry["kinds"]:
+            info |= KINDS[k].robot_info(name)
+        out.append(info | {"name": name, "description": entry["description"], "kinds": entry["kinds"]})
+    return out
 
 
 @router.get("/health", response_model=Health, response_model_exclude_none=True)

@@ -2,7 +2,7 @@
 
 import json
 
-from app import reproduce
+from app.jobs.recovery import experiments as reproduce
 
 
 def test_table2_resumes_and_formats(tmp_path, monkeypatch):

@@ -1,5 +1,4 @@
-"""Service commands of the `gaitmend` CLI: serve, worker, db, token (server side) and
-submit, jobs, fetch, cancel (HTTP client). Registered on app.cli's `cli`."""
+"""Server commands of `gaitmend`: serve (API + embedded worker), worker, db, token."""
 
 from __future__ import annotations
 
@@ -10,29 +9,20 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 from typing import Optional
 
 import typer
 
-from app.cli import cli, err, fail, load_spec
-from app.settings import Settings, SettingsError, load_settings
+from app.cli.common import cli, err, fail, settings_or_exit
+from app.settings import Settings
 
 db_app = typer.Typer(no_args_is_help=True, help="Database schema (Alembic migrations).")
 token_app = typer.Typer(no_args_is_help=True, help="API tokens (stored hashed).")
 cli.add_typer(db_app, name="db")
 cli.add_typer(token_app, name="token")
 
-FINAL = ("succeeded", "failed", "cancelled")
-# `python -m app.cli` would load a second copy of app.cli without these commands.
+# The worker child runs the same CLI (`python -m app.cli` would import the package twice).
 ENTRY = "from app.cli import main; main()"
-
-
-def settings_or_exit() -> Settings:
-    try:
-        return load_settings()
-    except SettingsError as e:
-        fail(f"bad settings: {e}")
 
 
 def _upgrade(settings: Settings) -> None:
@@ -228,148 +218,3 @@ def token_revoke(name: str):
         if not repo.revoke_token(s, name):
             fail(f"no token named {name!r}", code=1)
     print(f"revoked {name}")
-
-
-# -- client side ------------------------------------------------------------------------------
-
-def _client(server: Optional[str], token: Optional[str]):
-    import httpx
-
-    settings = settings_or_exit()
-    base = (server or settings.server).rstrip("/")
-    tok = token or settings.token
-    headers = {"Authorization": f"Bearer {tok}"} if tok else {}
-    return httpx.Client(base_url=base, headers=headers, timeout=30.0)
-
-
-def _call(client, method: str, url: str, **kw):
-    import httpx
-
-    try:
-        r = client.request(method, url, **kw)
-    except httpx.HTTPError as e:
-        fail(f"cannot reach {client.base_url}: {e}", code=1)
-    if r.status_code >= 400:
-        try:
-            body = r.json()
-            msgs = [f"{e['field']}: {e['message']}" for e in body.get("errors", [])] or [body.get("detail", r.text)]
-        except ValueError:
-            msgs = [r.text]
-        for m in msgs:
-            err.print(f"[bold red]error:[/] {m}", highlight=False)
-        raise typer.Exit(2 if r.status_code in (400, 404, 409, 413, 422) else 1)
-    return r
-
-
-ServerOpt = typer.Option(None, "--server", help="API base URL (default GAITMEND_SERVER, http://127.0.0.1:8000)")
-TokenOpt = typer.Option(None, "--token", help="API token (default GAITMEND_TOKEN)")
-JsonOpt = typer.Option(False, "--json", help="print JSON on stdout")
-
-
-def _wait(client, job_id: str, quiet: bool) -> dict:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    progress = None if quiet else Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                           TextColumn("{task.fields[state]}"), TimeElapsedColumn(), console=err)
-    task = progress.add_task(job_id[:8], total=None, state="queued") if progress else None
-    if progress:
-        progress.start()
-    try:
-        while True:
-            job = _call(client, "GET", f"/api/jobs/{job_id}").json()
-            if progress:
-                p = job["progress"]
-                info = p.get("info") or {}
-                state = job["status"] + (f"  best F {info['best']:.4f}" if "best" in info else "")
-                progress.update(task, completed=p["done"], total=p["total"] or None, state=state)
-            if job["status"] in FINAL:
-                return job
-            time.sleep(0.5)
-    finally:
-        if progress:
-            progress.stop()
-
-
-@cli.command()
-def submit(spec_path: Path = typer.Argument(..., metavar="SPEC", help="spec JSON, a bundle's manifest.json or a bundle zip"),
-           server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt,
-           wait: bool = typer.Option(False, "--wait", help="wait for the job to finish, with a progress bar"),
-           idempotency_key: Optional[str] = typer.Option(None, "--idempotency-key",
-                                                         help="resubmitting with the same key returns the same job"),
-           as_json: bool = JsonOpt):
-    """Submit a job to a server. The spec is checked here first (exit 2 if it is bad)."""
-    spec = load_spec(spec_path)
-    headers = {"Idempotency-Key": idempotency_key} if idempotency_key else {}
-    with _client(server, token) as c:
-        job = _call(c, "POST", "/api/jobs", content=spec.model_dump_json(), headers=headers
-                    | {"Content-Type": "application/json"}).json()
-        if not as_json:
-            err.print(f"job {job['id']} {job['status']}")
-        if wait:
-            job = _wait(c, job["id"], quiet=as_json)
-    if as_json:
-        print(json.dumps(job))
-    else:
-        print(job["id"])
-        if job["status"] in ("failed", "cancelled"):
-            err.print(f"{job['status']}: {job.get('error') or ''}")
-    if wait and job["status"] != "succeeded":
-        raise typer.Exit(1)
-
-
-@cli.command()
-def jobs(job_id: Optional[str] = typer.Argument(None, help="show one job"),
-         status: Optional[str] = typer.Option(None, help="queued, running, succeeded, failed or cancelled"),
-         kind: Optional[str] = typer.Option(None), robot: Optional[str] = typer.Option(None),
-         limit: int = typer.Option(20, min=1, max=500),
-         server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
-    """List jobs (newest first), or show one."""
-    if status is not None and status not in ("queued", "running", "succeeded", "failed", "cancelled"):
-        fail(f"--status: one of queued, running, succeeded, failed, cancelled; got {status!r}")
-    with _client(server, token) as c:
-        if job_id:
-            job = _call(c, "GET", f"/api/jobs/{job_id}").json()
-            print(json.dumps(job, indent=None if as_json else 2))
-            return
-        params = {k: v for k, v in {"status": status, "kind": kind, "robot": robot, "limit": limit}.items() if v}
-        page = _call(c, "GET", "/api/jobs", params=params).json()
-    if as_json:
-        print(json.dumps(page))
-        return
-    from rich.console import Console
-    from rich.table import Table
-
-    t = Table()
-    for col in ("id", "kind", "robot", "status", "progress", "attempt", "created"):
-        t.add_column(col)
-    for j in page["items"]:
-        p = j["progress"]
-        t.add_row(j["id"], j["kind"], j["robot"] or "", j["status"], f"{p['done']}/{p['total']}", str(j["attempt"]),
-                  j["created_at"][:19])
-    Console().print(t)
-
-
-@cli.command()
-def fetch(job_id: str = typer.Argument(...), out: Path = typer.Option(Path("."), "--out", help="folder for the zip"),
-          server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
-    """Download a finished job's result bundle (zip)."""
-    with _client(server, token) as c:
-        r = _call(c, "GET", f"/api/jobs/{job_id}/bundle")
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"gaitmend-{job_id}.zip"
-    tmp = path.with_suffix(".zip.part")
-    tmp.write_bytes(r.content)
-    tmp.replace(path)
-    if as_json:
-        print(json.dumps({"id": job_id, "bundle": str(path), "bytes": len(r.content)}))
-    else:
-        print(path)
-
-
-@cli.command()
-def cancel(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
-    """Cancel a job: a queued one never starts, a running one stops within a generation."""
-    with _client(server, token) as c:
-        job = _call(c, "POST", f"/api/jobs/{job_id}/cancel").json()
-    print(json.dumps(job) if as_json else f"{job['id']} {job['status']}"
-          + (" (cancel requested)" if job["status"] == "running" else ""))

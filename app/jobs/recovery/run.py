@@ -1,156 +1,20 @@
-"""Job kind ``recovery``: gait-sequence planning + DE over leg-tip trajectories (paper 000)."""
+"""The ``recovery`` job: gait-sequence planning + DE over leg-tip trajectories (paper 000)."""
 
 from __future__ import annotations
 
 import time
-from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from app.gaits.sequences import InfeasibleMorphology, check_feasible, hexapod_neighbours, nominal_tripod, plan_hexapod
+from app.gaits.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.gaits.trajectory import param_names
 from app.jobs.base import Cancelled, JobResult, RunContext
+from app.jobs.recovery.spec import RecoverySpec
 from app.optim.registry import make_optimizer
-from app.robots.catalog import ROBOTS, RobotEntry, get_robot
+from app.robots.catalog import RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
 from app.sim.evaluate import GaitEvaluator, SimConfig
 from app.sim.metrics import fitness, objective_terms
-
-Strict = ConfigDict(extra="forbid")
-Leg = Annotated[int, Field(ge=1, le=6)]
-JointName = Literal["coxa", "femur", "tibia"]
-Range = tuple[float, float]
-
-
-class LockedJointIn(BaseModel):
-    model_config = Strict
-    leg: Leg
-    joint: JointName
-    angle_deg: float = Field(0.0, ge=-180.0, le=180.0)
-
-
-class WeakJointIn(BaseModel):
-    model_config = Strict
-    leg: Leg
-    joint: JointName
-    torque_scale: float = Field(0.5, gt=0.0, le=1.0)
-
-
-class Damage(BaseModel):
-    model_config = Strict
-    lost_legs: list[Leg] = Field(default_factory=list)
-    locked_joints: list[LockedJointIn] = Field(default_factory=list)
-    weak_joints: list[WeakJointIn] = Field(default_factory=list)
-
-    @field_validator("lost_legs")
-    @classmethod
-    def _unique(cls, v: list[int]) -> list[int]:
-        if len(set(v)) != len(v):
-            raise ValueError("each leg may be listed once")
-        try:
-            check_feasible([l for l in range(1, 7) if l not in v])
-        except InfeasibleMorphology as e:
-            raise ValueError(str(e)) from None
-        return sorted(v)
-
-    @model_validator(mode="after")
-    def _joints_on_present_legs(self):
-        seen = set()
-        for name, items in (("locked_joints", self.locked_joints), ("weak_joints", self.weak_joints)):
-            for j in items:
-                if j.leg in self.lost_legs:
-                    raise ValueError(f"{name}: leg {j.leg} is listed as lost")
-                if (j.leg, j.joint) in seen:
-                    raise ValueError(f"{name}: joint {j.joint} of leg {j.leg} is damaged twice")
-                seen.add((j.leg, j.joint))
-        return self
-
-
-class Search(BaseModel):
-    model_config = Strict
-    optimizer: Literal["de", "cmaes"] = "de"
-    population: int = Field(30, ge=4, le=1000)
-    generations: int = Field(60, ge=1, le=10000)
-    cr: float = Field(0.6, ge=0.0, le=1.0)
-    f: float = Field(0.5, ge=0.0, le=1.0)
-    seed: int = Field(0, ge=0, le=2**32 - 1)
-
-
-class Objective(BaseModel):
-    model_config = Strict
-    weights: list[Annotated[float, Field(ge=0.0)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
-                                                           min_length=5, max_length=5)
-    # Eq. 5 gives no units; Table II reports cm and degrees, and in those units the
-    # weights do what the paper says they are for (see README, "Choices").
-    units: Literal["m_rad", "cm_deg"] = "cm_deg"
-
-
-class Sim(BaseModel):
-    model_config = Strict
-    duration_s: float = Field(10.0, gt=0.0, le=120.0)
-    settle_s: float = Field(0.5, ge=0.0, le=5.0)
-
-
-class Gait(BaseModel):
-    model_config = Strict
-    period_s: float = Field(0.6, ge=0.2, le=5.0)
-    stance_height_m: float = Field(0.10, ge=0.05, le=0.16)
-    step_depth_m: float = Field(0.0, ge=0.0, le=0.02)
-
-
-class Bounds(BaseModel):
-    """Overrides of the paper's X_min / X_max (Sec. IV-B); omitted entries keep the paper's."""
-
-    model_config = Strict
-    x0_m: Range | None = None
-    step_length_m: Range | None = None
-    step_height_m: Range | None = None
-    y0_m: dict[Literal["1", "2", "3", "4", "5", "6"], Range] = Field(default_factory=dict)
-    neighbour_relaxation: float = Field(0.2, ge=0.0, le=1.0)
-
-    @model_validator(mode="after")
-    def _ordered(self):
-        pairs = [("x0_m", self.x0_m), ("step_length_m", self.step_length_m), ("step_height_m", self.step_height_m)]
-        pairs += [(f"y0_m.{k}", v) for k, v in self.y0_m.items()]
-        for name, rng in pairs:
-            if rng is not None and rng[0] > rng[1]:
-                raise ValueError(f"{name}: lower bound {rng[0]} exceeds upper bound {rng[1]} (inverted bounds)")
-        for name, rng in pairs[:3]:
-            if rng is not None and rng[0] < 0:
-                raise ValueError(f"{name}: bounds must be >= 0, got {list(rng)}")
-        return self
-
-
-class RecoverySpec(BaseModel):
-    model_config = Strict
-    kind: Literal["recovery"] = "recovery"
-    robot: str = "jethexa"
-    damage: Damage = Field(default_factory=Damage)
-    search: Search = Field(default_factory=Search)
-    objective: Objective = Field(default_factory=Objective)
-    sim: Sim = Field(default_factory=Sim)
-    gait: Gait = Field(default_factory=Gait)
-    bounds: Bounds = Field(default_factory=Bounds)
-
-    @field_validator("robot")
-    @classmethod
-    def _known_robot(cls, v: str) -> str:
-        if v not in ROBOTS:
-            raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)}")
-        return v
-
-    @property
-    def seed(self) -> int:
-        return self.search.seed
-
-    @property
-    def evaluations_budget(self) -> int:
-        return self.search.population * (self.search.generations + 1)
-
-
-Spec = RecoverySpec
-
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -205,18 +69,6 @@ def _scored(ev: GaitEvaluator, x: np.ndarray, weights, units: str) -> dict:
     m = {k: (bool(v[0]) if k == "fell" else float(v[0])) for k, v in r.metrics.items()}
     terms = {k: float(v[0]) for k, v in objective_terms(r.metrics, weights, units).items()}
     return {"metrics": m, "fitness": float(fitness(r.metrics, weights, units)[0]), "terms": terms}
-
-
-def plots(result: JobResult, out):
-    """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
-    from app import plots as P
-
-    files = P.convergence(result.history, out)
-    files += P.orientation(result.traces, out)
-    files += P.com_position(result.traces, out)
-    for name, tr in result.traces.items():
-        files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}")
-    return files
 
 
 # -- the job ---------------------------------------------------------------------------------

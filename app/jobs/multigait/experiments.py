@@ -1,7 +1,7 @@
 """Paper 001's Table I-IV experiments at a chosen budget, written as markdown.
 
-    python -m app.planning.table --particles 12 --generations 20 --distance --seed 0 --json s0.json
-    python -m app.planning.table --from-json s0.json s1.json --particles 12 --generations 20 --out t.md
+    gaitmend reproduce multigait --particles 12 --generations 20 --distance --seed 0 --json s0.json
+    gaitmend reproduce multigait --from-json s0.json,s1.json --particles 12 --generations 20 --out t.md
 
 Table I: coverage-based gaits on Empty for each robot healthy and with its 1 and 2 stuck
 modules (final best and first-generation best / mean). Table II: distance-based gaits.
@@ -12,33 +12,18 @@ paper's parameters except the PSO budget given here.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from pydantic import BaseModel, Field
 
-from app.jobs.multigait import MultigaitSpec, run
+from app.jobs.base import BenchEntry, Experiment, MemoryContext
+from app.jobs.multigait.run import run
+from app.jobs.multigait.spec import MultigaitSpec
 from app.robots.modular import SHAPES
-
-
-class _Ctx:
-    def __init__(self, out: Path):
-        self.artifact_dir = out
-        self._ckpt = None
-
-    def progress(self, done, total, info):
-        pass
-
-    def save_checkpoint(self, state):
-        self._ckpt = state
-
-    def load_checkpoint(self):
-        return self._ckpt
-
-    def is_cancelled(self):
-        return False
 
 
 def one(robot: str, stuck: list[int], cost: str, particles: int, generations: int, seed: int, plans: int) -> dict:
@@ -47,7 +32,7 @@ def one(robot: str, stuck: list[int], cost: str, particles: int, generations: in
         "search": {"particles": particles, "generations": generations, "seed": seed},
         "reuse": {"plans": plans}})
     t = time.perf_counter()
-    res = run(spec, _Ctx(Path(".")))
+    res = run(spec, MemoryContext())
     s = res.summary
     return {"robot": robot, "stuck": stuck, "cost": cost, "seed": seed, "result": s["result"], "reuse": s["reuse"],
             "composition": s["composition"], "per_gait": s["per_gait"], "timing": s["timing"],
@@ -108,45 +93,54 @@ def markdown(rows: list[dict], particles: int, generations: int) -> str:
     return "\n".join(out) + "\n"
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--robots", default="lizard,quadropod")
-    ap.add_argument("--particles", type=int, default=20)
-    ap.add_argument("--generations", type=int, default=150)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--plans", type=int, default=20)
-    ap.add_argument("--distance", action="store_true", help="also distance-based runs of the healthy robots")
-    ap.add_argument("--out", type=Path, default=Path("docs/multigait_tables.md"))
-    ap.add_argument("--json", type=Path, default=None)
-    ap.add_argument("--from-json", type=Path, nargs="*", default=None,
-                    help="only write the markdown from the rows of earlier runs' --json files")
-    a = ap.parse_args()
-    if a.from_json:
-        rows = [r for f in a.from_json for r in json.loads(f.read_text())]
-        a.json = None
-        _write(a, rows)
-        return
-    rows = []
-    for robot in a.robots.split(","):
+class TablesParams(BaseModel):
+    robots: str = Field("lizard,quadropod", description="comma-separated modular robots")
+    particles: int = Field(20, ge=2, le=1000, description="PSO particles (paper: 20)")
+    generations: int = Field(150, ge=1, le=10000, description="PSO generations (paper: 150)")
+    seed: int = Field(0, ge=0, le=2**32 - 1, description="search seed")
+    plans: int = Field(20, ge=1, le=500, description="reuse plans per scenario (paper: 20)")
+    distance: bool = Field(False, description="also distance-based runs of the healthy robots")
+    out: Path = Field(Path("docs/multigait_tables.md"), description="markdown to write")
+    json_out: Path | None = Field(None, description="also write the rows as JSON here")
+    from_json: str | None = Field(None, description="comma-separated JSON files of earlier runs: only write the "
+                                                    "markdown from their rows")
+
+
+def tables(p: TablesParams, log: Callable[[str], None]) -> str:
+    if p.from_json:
+        rows = [r for f in p.from_json.split(",") for r in json.loads(Path(f).read_text())]
+        return _write(p, rows, write_json=False)
+    rows: list[dict] = []
+    md = ""
+    for robot in p.robots.split(","):
         f1, f2 = SHAPES[robot].failures
-        for stuck in ([], [f1], [f1, f2]):
-            rows.append(one(robot, stuck, "coverage", a.particles, a.generations, a.seed, a.plans))
-            print(json.dumps({k: rows[-1][k] for k in ("robot", "stuck", "cost", "result", "wall_s")}), flush=True)
-            _write(a, rows)
-        if a.distance:
-            rows.append(one(robot, [], "distance", a.particles, a.generations, a.seed, a.plans))
-            print(json.dumps({k: rows[-1][k] for k in ("robot", "stuck", "cost", "result", "wall_s")}), flush=True)
-            _write(a, rows)
+        runs = [(stuck, "coverage") for stuck in ([], [f1], [f1, f2])] + ([([], "distance")] if p.distance else [])
+        for stuck, cost in runs:
+            rows.append(one(robot, stuck, cost, p.particles, p.generations, p.seed, p.plans))
+            log(json.dumps({k: rows[-1][k] for k in ("robot", "stuck", "cost", "result", "wall_s")}))
+            md = _write(p, rows)
+    return md
 
 
-def _write(a, rows):
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(markdown(rows, a.particles, a.generations))
-    if a.json:
+def _write(p: TablesParams, rows: list[dict], write_json: bool = True) -> str:
+    md = markdown(rows, p.particles, p.generations)
+    p.out.parent.mkdir(parents=True, exist_ok=True)
+    p.out.write_text(md)
+    if p.json_out and write_json:
         from app.jobs.base import dumps
 
-        a.json.write_text(dumps(rows))
+        p.json_out.write_text(dumps(rows))
+    return md
 
 
-if __name__ == "__main__":
-    main()
+EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and distance gaits, stuck modules, reuse) "
+                                    "at a chosen PSO budget", TablesParams, tables)]
+
+
+def _bench(quick: bool, log: Callable[[str], None]) -> dict:
+    from app.planning.bench import bench_multigait
+
+    return bench_multigait(quick=quick)
+
+
+BENCH = [BenchEntry("multigait", "one paper-size generation and one RRT-MP cost evaluation", _bench)]

@@ -1,10 +1,17 @@
 """The paper's six tilting-platform cases (Sec. 5.2, Fig. 6): climbing (y ccw), descending
 (y cw) and the steep lateral slope, with legs 1-3-5 and with legs 2-4-6 in stance, each run
-without and with recovery. ``python -m app.stability.cases`` prints the table in
+without and with recovery. ``gaitmend reproduce tipping`` prints the table in
 docs/tipping.md."""
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from pydantic import BaseModel, Field
+
+from app.jobs.base import BenchEntry, Experiment
 from app.stability.scenario import ControllerConfig, TiltScenario, paper_direction, run_summary, run_tilt
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
@@ -16,7 +23,7 @@ PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
 def paper_cases(duration_s: float = 25.0) -> list[dict]:
     rows = []
     for axis, direction, stance, paper_leg in PAPER_CASES:
-        # The job's defaults (app/jobs/tipping.py): friction 1.5, threshold 20 deg, ...
+        # The job's defaults (app/jobs/tipping/spec.py): friction 1.5, threshold 20 deg, ...
         sc = TiltScenario(downhill_deg=paper_direction(axis, direction), stance=stance)
         base, rec = (run_summary(run_tilt(sc, ControllerConfig(recovery=r), duration_s, friction=1.5, record_qpos=False),
                                  ControllerConfig().threshold_deg) for r in (False, True))
@@ -37,19 +44,47 @@ def paper_cases(duration_s: float = 25.0) -> list[dict]:
 def markdown(rows: list[dict]) -> str:
     head = ("| case | detected (s) | edge | leg (paper) | foothold body (m) | t_s Eq.15 (s) | swing (s) "
             "| margin at detection / before landing / after (deg) | no recovery | recovery |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    def n(v, fmt):  # a run too short to detect anything leaves these empty
+        return "-" if v is None else fmt.format(v)
+
     out = []
     for r in rows:
         fh = "(" + ", ".join(f"{v:.2f}" for v in r["foothold_body_m"]) + ")" if r["foothold_body_m"] else "-"
-        out.append(f"| {r['case']} | {r['detection_time_s']:.2f} | {r['edge']} | {r['leg']} ({r['paper_leg']}) | {fh} "
-                   f"| {r['time_to_tip_s']:.2f} | {r['adjustment_time_s']:.2f} | {r['margin_at_detection_deg']:.1f} / "
-                   f"{r['margin_before_deg']:.1f} / {r['margin_after_deg']:.1f} "
-                   f"| tips at {r['tipped_without_at_s']:.1f} s | {'tips' if r['tipped_with'] else 'stays up'} |")
+        without = f"tips at {r['tipped_without_at_s']:.1f} s" if r["tipped_without"] else "stays up"
+        out.append(f"| {r['case']} | {n(r['detection_time_s'], '{:.2f}')} | {r['edge'] or '-'} | "
+                   f"{r['leg'] or '-'} ({r['paper_leg']}) | {fh} "
+                   f"| {n(r['time_to_tip_s'], '{:.2f}')} | {n(r['adjustment_time_s'], '{:.2f}')} | "
+                   f"{n(r['margin_at_detection_deg'], '{:.1f}')} / "
+                   f"{n(r['margin_before_deg'], '{:.1f}')} / {n(r['margin_after_deg'], '{:.1f}')} "
+                   f"| {without} | {'tips' if r['tipped_with'] else 'stays up'} |")
     return head + "\n".join(out)
 
 
-if __name__ == "__main__":
-    import json
+class CasesParams(BaseModel):
+    duration_s: float = Field(25.0, gt=1.0, le=120.0, description="simulated seconds per run")
+    out: Path | None = Field(None, description="also write the markdown table here")
+    json_out: Path | None = Field(None, description="also write the rows as JSON here")
 
-    rows = paper_cases()
-    print(markdown(rows))
-    print(json.dumps(rows, indent=1))
+
+def cases(p: CasesParams, log: Callable[[str], None]) -> str:
+    rows = paper_cases(p.duration_s)
+    md = markdown(rows)
+    if p.out:
+        p.out.parent.mkdir(parents=True, exist_ok=True)
+        p.out.write_text(md + "\n")
+    if p.json_out:
+        p.json_out.write_text(json.dumps(rows, indent=1))
+    return md
+
+
+EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec. 5.2, Fig. 6), each without and "
+                                   "with recovery", CasesParams, cases)]
+
+
+def _bench(quick: bool, log: Callable[[str], None]) -> dict:
+    from app.stability.bench import bench_tipping
+
+    return bench_tipping(steps=100 if quick else 500)
+
+
+BENCH = [BenchEntry("tipping", "FASM + judgment + QP per control step", _bench)]

@@ -1,0 +1,77 @@
+"""What every `gaitmend` command shares: the Typer app, error output, spec loading."""
+
+from __future__ import annotations
+
+import json
+import sys
+import zipfile
+from importlib import resources
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+
+from app.jobs.base import SpecError
+from app.jobs.registry import parse_spec
+
+cli = typer.Typer(add_completion=False, no_args_is_help=True, help="Gait recovery for damaged legged robots.")
+err = Console(stderr=True)
+
+
+def fail(msg: str, code: int = 2) -> None:
+    err.print(f"[bold red]error:[/] {msg}", highlight=False)
+    raise typer.Exit(code)
+
+
+def load_spec(path: Optional[Path]):
+    """Parse a spec file (spec JSON, bundle manifest or bundle zip); exit 2 if it is bad."""
+    from app.bundle import read_spec_file
+
+    try:
+        if path is None:
+            data = json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
+        else:
+            data = read_spec_file(path)
+    except FileNotFoundError:
+        fail(f"spec file not found: {path}")
+    except (json.JSONDecodeError, zipfile.BadZipFile, KeyError, UnicodeDecodeError) as e:
+        fail(f"cannot read spec {path}: {e}")
+    try:
+        return parse_spec(data)
+    except SpecError as e:
+        for item in e.errors:
+            err.print(f"[bold red]error:[/] {item['field']}: {item['message']}", highlight=False)
+        raise typer.Exit(2) from None
+
+
+def settings_or_exit():
+    from app.settings import SettingsError, load_settings
+
+    try:
+        return load_settings()
+    except SettingsError as e:
+        fail(f"bad settings: {e}")
+
+
+def print_tables(tables, console: Console | None = None) -> None:
+    """A kind's summary tables (app/jobs/base.py ``Table``), as rich tables and notes."""
+    from rich.table import Table
+
+    con = console or Console()
+    for t in tables:
+        rt = Table(title=t["title"])
+        for c in t["columns"]:
+            rt.add_column(str(c))
+        for row in t["rows"]:
+            rt.add_row(*("-" if v is None else str(v) for v in row))
+        con.print(rt)
+        for note in t.get("notes", []):
+            con.print(note, highlight=False)
+
+
+def main() -> None:
+    try:
+        cli()
+    except KeyboardInterrupt:
+        sys.exit(130)

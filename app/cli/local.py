@@ -1,0 +1,145 @@
+"""Local commands of `gaitmend`: run a job here (no server), benchmark, reproduce a paper."""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import inspect
+import json
+import time
+import zipfile
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from app.cli.common import cli, err, load_spec, print_tables
+from app.jobs.base import MemoryContext, dumps
+from app.jobs.registry import KINDS, get_kind
+
+
+class LocalContext(MemoryContext):
+    """Run context for `gaitmend run`: a progress bar (the kind words its line),
+    checkpoints kept in memory."""
+
+    def __init__(self, artifact_dir: Path, progress: Progress | None, task=None, kind=None):
+        super().__init__(artifact_dir)
+        self._progress, self._task, self._kind = progress, task, kind
+
+    def progress(self, done: int, total: int, info: dict[str, Any]) -> None:
+        if self._progress is not None:
+            text = self._kind.progress_text(info) if self._kind is not None else ""
+            self._progress.update(self._task, completed=done, total=total, info=text)
+
+
+def local_job_id(spec) -> str:
+    h = hashlib.sha256(spec.model_dump_json().encode()).hexdigest()[:8]
+    return f"local-{time.strftime('%Y%m%d-%H%M%S')}-{h}"
+
+
+@cli.command()
+def run(
+    spec_path: Optional[Path] = typer.Argument(None, metavar="[SPEC]",
+                                               help="spec JSON, a bundle's manifest.json or bundle zip; default: the embedded paper scenario (legs 1 and 6 lost)"),
+    out: Path = typer.Option(Path("results"), "--out", help="folder for the result bundle"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as one JSON object on the last stdout line"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Run one job locally, with no server, and write its result bundle."""
+    from app.bundle import write_bundle
+
+    spec = load_spec(spec_path)
+    kind = get_kind(spec.kind)
+    job_id = local_job_id(spec)
+    progress = None if quiet else Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=err, transient=False)
+    with (progress or contextlib.nullcontext()):
+        task = progress.add_task(spec.kind, total=None, info="") if progress else None
+        result = kind.run(spec, LocalContext(out, progress, task, kind))
+    bundle = write_bundle(out / f"{job_id}.zip", job_id, spec, result)
+    with zipfile.ZipFile(bundle) as z:
+        z.extractall(out)
+    s = result.summary
+    if as_json:
+        print(dumps(s | {"job_id": job_id, "bundle": str(bundle)}))
+        return
+    con = Console()
+    print_tables(kind.summary_tables(s), con)
+    tm = s["timing"]
+    parts = [f"{tm['wall_s']:.1f} s"]
+    if "evaluations" in tm:
+        parts.insert(0, f"{tm['evaluations']} evaluations in")
+    if tm.get("sim_steps_per_s"):
+        parts.append(f"({tm['sim_steps_per_s'] / 1e3:.1f}k sim steps/s)")
+    con.print(" ".join(parts) + f"; bundle: {bundle}")
+
+
+@cli.command()
+def bench(
+    as_json: bool = typer.Option(False, "--json", help="print the figures as one JSON object on the last stdout line"),
+    quick: bool = typer.Option(False, "--quick", help="small budget (CI smoke); figures are not the targets'"),
+    kind: Optional[list[str]] = typer.Option(None, "--kind", help="only these kinds (repeat); default all"),
+):
+    """Measure every kind's hot paths (rollout and evaluator throughput, paper-size runs, peers)."""
+    from app.bench import run_bench
+
+    for k in kind or []:
+        get_kind_or_exit(k)
+    figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
+    if as_json:
+        print(json.dumps(figures))
+    else:
+        for k, v in figures.items():
+            Console().print(f"{k:28s} {v}")
+
+
+def get_kind_or_exit(name: str):
+    from app.cli.common import fail
+    from app.jobs.base import SpecError
+
+    try:
+        return get_kind(name)
+    except SpecError as e:
+        fail(str(e))
+
+
+# -- gaitmend reproduce <kind> ----------------------------------------------------------------
+
+reproduce_app = typer.Typer(no_args_is_help=True, help="Reproduce a paper's experiments: one command per kind.")
+cli.add_typer(reproduce_app, name="reproduce")
+
+
+def _experiment_command(experiment):
+    """A Typer command whose options are the experiment's ``Params`` fields."""
+    fields = experiment.Params.model_fields
+    params, annotations = [], {}
+    for name, f in fields.items():
+        ann = f.annotation
+        flag = "--" + name.replace("_", "-")
+        opt = typer.Option(f.default, flag, help=f.description or "")
+        params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=opt, annotation=ann))
+        annotations[name] = ann
+
+    def command(**kw):
+        from pydantic import ValidationError
+
+        from app.cli.common import fail
+
+        try:
+            p = experiment.Params(**kw)
+        except ValidationError as e:
+            fail("; ".join(f"--{'.'.join(map(str, x['loc'])).replace('_', '-')}: {x['msg']}" for x in e.errors()))
+        print(experiment.run(p, err.print))
+
+    command.__signature__ = inspect.Signature(params)
+    command.__annotations__ = annotations
+    command.__doc__ = experiment.help
+    return command
+
+
+for _kind in KINDS.values():
+    for _i, _exp in enumerate(_kind.experiments()):
+        reproduce_app.command(_kind.name if _i == 0 else f"{_kind.name}-{_exp.name}")(_experiment_command(_exp))

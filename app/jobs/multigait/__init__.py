@@ -1,0 +1,59 @@
+"""Job kind ``multigait``: k gaits of a modular robot evolved together (paper 001, Alg. 2),
+each gait set scored by what RRT-MP plans with it (coverage of the map or distance to a goal)."""
+
+from __future__ import annotations
+
+from app.jobs.base import Kind
+from app.jobs.multigait import present
+from app.jobs.multigait.spec import MultigaitSpec
+from app.robots.modular import SHAPES
+
+
+class MultigaitKind(Kind):
+    name = "multigait"
+    title = "Multiple gaits of a modular robot, evolved together for motion planning"
+    paper = "Evolving multiple gaits of modular robots for RRT-MP motion planning, with stuck modules (paper 001)"
+    Spec = MultigaitSpec
+    robots = {name: shape.description for name, shape in SHAPES.items()}
+    history_columns = present.HISTORY_COLUMNS
+    trace_descriptions = present.TRACES
+    figure_descriptions = present.FIGURES
+
+    def run(self, spec, ctx):
+        from app.jobs.multigait.run import run
+
+        return run(spec, ctx)
+
+    def robot_info(self, robot):
+        return SHAPES[robot].describe()
+
+    def damage_text(self, spec):
+        return present.damage_text(spec.damage.model_dump())
+
+    def headline(self, summary):
+        return present.headline(summary)
+
+    def summary_tables(self, summary):
+        return present.summary_tables(summary)
+
+    def figures(self, result, out_dir):
+        return present.figures(result, out_dir)
+
+    def replay_style(self, trace_names):
+        return present.replay_style(trace_names)
+
+    def progress_text(self, info):
+        return present.progress_text(info)
+
+    def experiments(self):
+        from app.jobs.multigait.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.multigait.experiments import BENCH
+
+        return BENCH
+
+
+KIND = MultigaitKind()

@@ -1,0 +1,96 @@
+"""How a ``multigait`` result is shown: the cost with its units and direction, the CLI
+table, bundle figures and file descriptions, replay styling, progress line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+
+HISTORY_COLUMNS = {
+    "generation": "1 = the initial swarm",
+    "best": "best cost so far (coverage %: higher is better; distance mu: lower is better)",
+    "mean": "mean cost of the gait sets evaluated in this generation",
+    "generation_best": "best cost among the gait sets evaluated in this generation",
+    "worst": "worst cost among the gait sets evaluated in this generation",
+    "nodes_mean": "mean RRT-MP tree size of this generation",
+    "evaluations": "gait sets evaluated so far",
+}
+TRACES = {
+    "plan": "the plan from the root of the best tree, executed in full simulation gait after gait",
+    "tree": "the best RRT-MP tree: node positions, parents, gaits and swept paths (not a time series)",
+    "composition": "composed vs. fully simulated positions of replayed tree nodes (indexed by node, not time)",
+}
+FIGURES = {
+    "convergence": "best-so-far, generation best and generation mean cost per generation (Tables I-II)",
+    "gait_traces": "the path of each evolved gait from the same start (Figs. 4, 5, 8)",
+    "gait_distance_rotation": "distance and rotation per gait (Fig. 7)",
+    "tree_map": "the best tree over the map, coloured by gait, with start, goal and plan (Figs. 6, 10)",
+    "composition_error": "composed vs. simulated node positions of the best tree",
+    "reuse": "the reuse experiment: distance and coverage per scenario (Tables III-IV)",
+}
+
+
+def damage_text(damage: dict) -> str:
+    stuck = damage.get("stuck_modules") or []
+    return ("stuck modules " + ",".join(str(m) for m in stuck)) if stuck else "none"
+
+
+def _unit(s: dict) -> tuple[str, str]:
+    return ("%", "higher") if s["cost"] == "coverage" else ("mu", "lower")
+
+
+def headline(s: dict) -> list[HeadlineRow]:
+    r = s["result"]
+    unit, better = _unit(s)
+    label = "coverage of the map" if s["cost"] == "coverage" else "distance to the goal"
+    rows = [headline_row(label, r["final_best"], unit, better),
+            headline_row(f"first generation best {s['cost']}", r["initial_best"], unit, better),
+            headline_row("tree nodes", r["tree_nodes"], "", None),
+            headline_row("tree to goal", r["goal_distance_mu"], "mu", "lower"),
+            headline_row("re-planned cost matches the search", r["reproduced"], "", None)]
+    return rows
+
+
+def summary_tables(s: dict) -> list[Table]:
+    r = s["result"]
+    stuck = s["damage"].get("stuck_modules") or "none"
+
+    def g(v):
+        return "-" if v is None else f"{v:.2f}"
+
+    notes = [f"best tree: {r['tree_nodes']} nodes, {r['goal_distance_mu']:.2f} mu from the goal; "
+             f"re-planned cost matches the search: {r['reproduced']}"]
+    for name, sc in (s.get("reuse") or {}).items():
+        notes.append(f"reuse {name}: distance {sc['distance_mu']['mean']:.2f} ({sc['distance_mu']['std']:.2f}) mu, "
+                     f"coverage {sc['coverage_pct']['mean']:.1f} ({sc['coverage_pct']['std']:.1f}) %")
+    title = f"{s['robot']}: {s['gaits']} gaits, cost {s['cost']} ({s['cost_units']}), stuck modules {stuck}"
+    out = [table(title, ["", "first generation best", "first generation mean", "final best", "final mean"],
+                 [[s["cost"], g(r["initial_best"]), g(r["initial_mean"]), g(r["final_best"]), g(r["final_mean"])]],
+                 notes)]
+    if s.get("per_gait"):
+        out.append(table("per gait", ["gait", "distance (mu)", "rotation (deg)"],
+                         [[p["gait"], f"{p['distance_mu']:.2f}", f"{p['rotation_deg']:.1f}"] for p in s["per_gait"]]))
+    return out
+
+
+def figures(result: JobResult, out: Path) -> list[Path]:
+    from app.planning import plots as P
+
+    return P.all_plots(result, out)
+
+
+def replay_style(names: list[str]) -> list[ReplayTrack]:
+    tracks = [ReplayTrack("plan", "the plan", "method", 0)] if "plan" in names else []
+    gaits = sorted((n for n in names if n.startswith("gait")), key=lambda n: int(n[4:]) if n[4:].isdigit() else 99)
+    tracks += [ReplayTrack(n, f"gait {n[4:]}", None, i + 1) for i, n in enumerate(gaits)]
+    return tracks
+
+
+def progress_text(info: dict) -> str:
+    parts = [f"best {info['best']:.3g}"] if "best" in info else []
+    if "sim_steps_per_s" in info:
+        parts.append(f"{info['sim_steps_per_s'] / 1e3:.0f}k steps/s")
+    if "evaluations" in info:
+        parts.append(f"{info['evaluations']} evals")
+    return "  ".join(parts)

@@ -1,0 +1,60 @@
+"""Job kind ``recovery``: a damaged hexapod walks again (paper 000): a gait sequence
+planned for the remaining legs, then DE over the leg-tip trajectories in MuJoCo."""
+
+from __future__ import annotations
+
+from app.jobs.base import Kind
+from app.jobs.recovery import present
+from app.jobs.recovery.spec import RecoverySpec
+from app.robots.catalog import ROBOTS
+
+
+class RecoveryKind(Kind):
+    name = "recovery"
+    title = "Gait recovery after leg loss"
+    paper = ("Chen et al., gait recovery of a hexapod robot after leg loss: gait-sequence planning and "
+             "differential evolution of leg-tip trajectories (paper 000)")
+    Spec = RecoverySpec
+    robots = {name: r.description for name, r in ROBOTS.items()}
+    history_columns = present.HISTORY_COLUMNS
+    trace_descriptions = present.TRACES
+    figure_descriptions = present.FIGURES
+
+    def run(self, spec, ctx):
+        from app.jobs.recovery.run import run
+
+        return run(spec, ctx)
+
+    def robot_info(self, robot):
+        return ROBOTS[robot].describe()
+
+    def damage_text(self, spec):
+        return present.damage_text(spec.damage.model_dump())
+
+    def headline(self, summary):
+        return present.headline(summary)
+
+    def summary_tables(self, summary):
+        return present.summary_tables(summary)
+
+    def figures(self, result, out_dir):
+        return present.figures(result, out_dir)
+
+    def replay_style(self, trace_names):
+        return present.replay_style(trace_names)
+
+    def progress_text(self, info):
+        return present.progress_text(info)
+
+    def experiments(self):
+        from app.jobs.recovery.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.recovery.bench import BENCH
+
+        return BENCH
+
+
+KIND = RecoveryKind()

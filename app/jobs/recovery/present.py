@@ -1,0 +1,99 @@
+"""How a ``recovery`` result is shown: headline with the issue's target, CLI table,
+bundle figures and file descriptions, replay styling, progress line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+
+# The issue's target for a recovered gait (forward is +y on the JetHexa model).
+TARGET = {"y_min_m": 0.5, "x_abs_max_m": 0.05, "yaw_abs_max_deg": 10.0}
+
+HISTORY_COLUMNS = {
+    "generation": "0 = the initial population",
+    "best": "best F so far (Eq. 5, higher is better)",
+    "mean": "mean F of the population after selection",
+    "worst": "worst F of the population after selection",
+    "generation_best": "best F among the candidates evaluated in this generation",
+    "fell": "candidates of this generation that fell",
+    "evaluations": "candidates evaluated so far",
+}
+TRACES = {"best": "the recovered gait (best found)", "baseline": "the nominal tripod on the damaged robot"}
+FIGURES = {
+    "convergence": "best, mean and worst F per generation (paper Fig. 3)",
+    "orientation": "body roll, pitch and yaw against time, recovered and baseline (Fig. 4)",
+    "com": "centre of mass against time, recovered and baseline (Fig. 5)",
+    "gait_diagram_*": "gait diagram: when each foot is on the ground",
+}
+
+
+def damage_text(damage: dict) -> str:
+    parts = []
+    if damage.get("lost_legs"):
+        parts.append("lost " + ",".join(str(x) for x in damage["lost_legs"]))
+    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak")):
+        for j in damage.get(key) or []:
+            parts.append(f"{word} {j['leg']}.{j['joint']}")
+    return "; ".join(parts) or "none"
+
+
+def target_checks(m: dict) -> dict[str, bool]:
+    return {"forward": m["y_f_m"] >= TARGET["y_min_m"], "lateral": abs(m["x_f_m"]) <= TARGET["x_abs_max_m"],
+            "yaw": abs(m["yaw_f_deg"]) <= TARGET["yaw_abs_max_deg"]}
+
+
+def headline(s: dict) -> list[HeadlineRow]:
+    m, b = s["best"]["metrics"], s["baseline"]["metrics"]
+    ok = target_checks(m)
+    return [
+        headline_row("forward distance", 100 * m["y_f_m"], "cm", "higher", f">= {100 * TARGET['y_min_m']:.0f} cm",
+                     ok["forward"]),
+        headline_row("lateral drift", 100 * m["x_f_m"], "cm", "lower", f"|x| <= {100 * TARGET['x_abs_max_m']:.0f} cm",
+                     ok["lateral"]),
+        headline_row("final yaw", m["yaw_f_deg"], "deg", "lower", f"|yaw| <= {TARGET['yaw_abs_max_deg']:.0f} deg",
+                     ok["yaw"]),
+        headline_row("fitness F (Eq. 5)", s["best"]["fitness"], "", "higher"),
+        headline_row("nominal tripod F", s["baseline"]["fitness"], "", "higher"),
+        headline_row("nominal tripod forward", 100 * b["y_f_m"], "cm", "higher"),
+        headline_row("fell", m["fell"], "", None),
+    ]
+
+
+def summary_tables(s: dict) -> list[Table]:
+    rows = []
+    for name in ("baseline", "best"):
+        m = s[name]["metrics"]
+        rows.append(["before (nominal tripod)" if name == "baseline" else "after recovery",
+                     f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}",
+                     f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}"])
+    title = (f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} "
+             f"(sigma={s['gait']['sigma']})")
+    return [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F"], rows)]
+
+
+def figures(result: JobResult, out: Path) -> list[Path]:
+    """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
+    from app import plots as P
+
+    files = P.convergence(result.history, out)
+    files += P.orientation(result.traces, out)
+    files += P.com_position(result.traces, out)
+    for name, tr in result.traces.items():
+        files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}")
+    return files
+
+
+def replay_style(names: list[str]) -> list[ReplayTrack]:
+    known = {"best": ReplayTrack("best", "recovered gait", "method", 0),
+             "baseline": ReplayTrack("baseline", "nominal tripod", "baseline", 1)}
+    return [known.get(n, ReplayTrack(n, n, None, 2 + i)) for i, n in enumerate(names)]
+
+
+def progress_text(info: dict) -> str:
+    parts = [f"best F {info['best']:.4f}"] if "best" in info else []
+    if "sim_steps_per_s" in info:
+        parts.append(f"{info['sim_steps_per_s'] / 1e3:.0f}k steps/s")
+    if "evaluations" in info:
+        parts.append(f"{info['evaluations']} evals")
+    return "  ".join(parts)

@@ -1,0 +1,60 @@
+"""Job kind ``tipping``: sideline tipping judgment and recovery of a heavy-duty hexapod
+(paper 002): FASM every control step, judgment at a threshold with a time-to-tip estimate,
+one swing leg caught onto the optimal foothold, QP foot forces; each scenario is run with
+and without recovery, optionally swept over tilt directions x both tripods."""
+
+from __future__ import annotations
+
+from app.jobs.base import Kind
+from app.jobs.tipping import present
+from app.jobs.tipping.spec import TippingSpec
+
+
+class TippingKind(Kind):
+    name = "tipping"
+    title = "Tipping judgment and recovery of a heavy-duty hexapod"
+    paper = "Zhang et al. 2024, sideline tipping judgment and recovery of a heavy-duty hexapod (paper 002)"
+    Spec = TippingSpec
+    robots = {"heavy_hexapod": "heavy-duty hexapod (paper 002): ~5 m, 3-DoF legs, tripod stance"}
+    history_x = "run"
+    history_columns = present.HISTORY_COLUMNS
+    trace_descriptions = present.TRACES
+    figure_descriptions = present.FIGURES
+
+    def run(self, spec, ctx):
+        from app.jobs.tipping.run import run
+
+        return run(spec, ctx)
+
+    def damage_text(self, spec):
+        sc = spec.scenario
+        return present.damage_text(sc.model_dump() | ({"downhill_deg": sc.resolved_downhill()}
+                                                      if sc.type == "tilt" else {}))
+
+    def headline(self, summary):
+        return present.headline(summary)
+
+    def summary_tables(self, summary):
+        return present.summary_tables(summary)
+
+    def figures(self, result, out_dir):
+        return present.figures(result, out_dir)
+
+    def replay_style(self, trace_names):
+        return present.replay_style(trace_names)
+
+    def progress_text(self, info):
+        return present.progress_text(info)
+
+    def experiments(self):
+        from app.jobs.tipping.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.tipping.experiments import BENCH
+
+        return BENCH
+
+
+KIND = TippingKind()

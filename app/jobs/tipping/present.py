@@ -1,0 +1,107 @@
+"""How a ``tipping`` result is shown: the chosen leg, foothold, time to tip and margins as
+the headline, the per-run CLI table, bundle figures and file descriptions, replay styling."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+
+HISTORY_COLUMNS = {
+    "run": "simulation index (0 = without recovery, 1 = with recovery; sweep runs follow)",
+    "name": "which run",
+    "tipped": "1 if the robot tipped over",
+    "min_margin_deg": "smallest FASM margin after the first second (deg)",
+    "downhill_deg": "sweep: downhill direction of the platform (0 = robot front down, 90 = left side)",
+    "stance": "sweep: the tripod in stance",
+    "recovery": "sweep: 1 if the recovery controller was on",
+}
+TRACES = {"recovery": "the run with tipping recovery on",
+          "no_recovery": "the same scenario with recovery off (the control)"}
+FIGURES = {
+    "margin_timeline": "FASM stability margin against time with the threshold, detection and landing marked (Fig. 6)",
+    "foot_forces": "foot normal forces per leg against time",
+    "tilt": "platform and body tilt against time",
+    "sweep_success": "recovery success rate per downhill direction (polar)",
+}
+
+
+def damage_text(scenario: dict) -> str:
+    if scenario.get("type") == "tilt":
+        d = scenario.get("downhill_deg")
+        where = f"{scenario['axis']} {scenario['direction']}" if scenario.get("axis") else f"downhill {d:g} deg"
+        return f"tilt {where}, stance {''.join(map(str, scenario.get('stance', [])))}"
+    return f"cliff on the {scenario.get('side', '?')}"
+
+
+def headline(s: dict) -> list[HeadlineRow]:
+    runs = s.get("runs", {})
+    base = runs.get("no_recovery", {})
+    rows = [headline_row("tips without recovery", bool(base.get("tipped")), "", None)]
+    if "recovery" in runs:
+        rec = runs["recovery"]
+        rows += [headline_row("stays upright with recovery", not rec["tipped"], "", "higher", "stays upright",
+                              not rec["tipped"]),
+                 headline_row("adjustment leg", s.get("adjustment_leg"), "", None),
+                 headline_row("foothold (body frame)", s.get("foothold_body_m"), "m", None),
+                 headline_row("detected at", s.get("detection_time_s"), "s", None),
+                 headline_row("time to tip (Eq. 15)", s.get("time_to_tip_s"), "s", None),
+                 headline_row("margin before landing", s.get("margin_before_landing_deg"), "deg", "higher"),
+                 headline_row("margin after landing", s.get("margin_after_landing_deg"), "deg", "higher",
+                              f">= {s['threshold_deg']:g} deg (threshold)",
+                              None if s.get("margin_after_landing_deg") is None
+                              else s["margin_after_landing_deg"] >= s["threshold_deg"])]
+    if s.get("sweep"):
+        rows.append(headline_row("sweep success rate", s["sweep"].get("overall_success_rate"), "", "higher"))
+    return rows
+
+
+def summary_tables(s: dict) -> list[Table]:
+    rows = []
+    for name, r in s.get("runs", {}).items():
+        def f(k, fmt="{:.2f}"):
+            v = r.get(k)
+            return "-" if v is None else fmt.format(v) if isinstance(v, float) else str(v)
+        margins = "-" if r.get("margin_before_landing_deg") is None else \
+            f"{r['margin_before_landing_deg']:.1f} / {r['margin_after_landing_deg']:.1f}"
+        rows.append([name, f("tipped_at_s") if r.get("tipped") else "no", f("first_below_threshold_s"),
+                     f("detection_time_s"), f("tipping_edge"), f("adjustment_leg"), f("adjustment_time_s"),
+                     margins, f("final_body_tilt_deg", "{:.1f}")])
+    out = [table(f"{s['robot']}: {s['scenario']['type']} scenario, threshold {s['threshold_deg']} deg",
+                 ["run", "tipped (s)", "below threshold (s)", "detected (s)", "edge", "leg", "adjust (s)",
+                  "margin before/after (deg)", "final tilt (deg)"], rows)]
+    sw = s.get("sweep")
+    if sw:
+        out.append(table("sweep: per downhill direction", ["downhill (deg)", "success rate", "tips without recovery",
+                                                           "recovered by the controller"],
+                         [[f"{d:g}", _rate(a), _rate(b), _rate(c)] for d, a, b, c in
+                          zip(sw["directions_deg"], sw["success_rate"], sw["tip_rate_without_recovery"],
+                              sw["recovered_rate"])],
+                         [f"overall success rate: {_rate(sw.get('overall_success_rate'))}"]))
+    return out
+
+
+def _rate(v) -> str:
+    return "-" if v is None else f"{100 * v:.0f}%"
+
+
+def figures(result: JobResult, out: Path) -> list[Path]:
+    from app.stability import plots as P
+
+    files = P.margin_timeline(result.traces, result.summary, out)
+    files += P.foot_forces(result.traces, out)
+    files += P.tilt(result.traces, out)
+    if "sweep" in result.summary:
+        files += P.sweep(result.summary["sweep"], out)
+    return files
+
+
+def replay_style(names: list[str]) -> list[ReplayTrack]:
+    known = {"recovery": ReplayTrack("recovery", "with recovery", "method", 0),
+             "no_recovery": ReplayTrack("no_recovery", "without recovery", "baseline", 1)}
+    return [known.get(n, ReplayTrack(n, n, None, 2 + i)) for i, n in enumerate(names)]
+
+
+def progress_text(info: dict) -> str:
+    return "  ".join(f"{k} {json.dumps(v) if not isinstance(v, float) else f'{v:.3g}'}" for k, v in info.items())[:80]
