@@ -73,8 +73,10 @@ def integrate(wb: WholeBody, gait: Gait, task: Task, t_knots: np.ndarray, r0, qu
             d.qacc[wb.vadr] = lqdd[step]
             mujoco.mj_inverse(m, d)
             mujoco.mj_fullM(m, d, full)
-            arms = feet_steps[step] - qpos[:3]
-            torque_w = np.cross(arms, forces[step]).sum(0)
+            a = feet_steps[step] - qpos[:3]
+            f = forces[step]
+            torque_w = np.array([(a[:, 1] * f[:, 2] - a[:, 2] * f[:, 1]).sum(), (a[:, 2] * f[:, 0] - a[:, 0] * f[:, 2]).sum(),
+                                 (a[:, 0] * f[:, 1] - a[:, 1] * f[:, 0]).sum()])
             jtf = np.concatenate([fsum[step], torque_w @ d.xmat[trunk].reshape(3, 3)])
             acc = np.linalg.solve(full[trunk_rows, trunk_rows], jtf - d.qfrc_inverse[trunk_rows])
             if step % substeps == 0:

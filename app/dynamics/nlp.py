@@ -289,9 +289,15 @@ class SRBNLP:
         K, T, s = self.K, self.T, self.nc
         tau0 = self.p.m_legs.copy()
         dtau = np.zeros((K + 1, 3, self.nz))
+        k3 = 3 * self.p.k
         for i in range(4):
             arm = self.p.feet[:, i] - r_ref
-            dtau += np.cross(arm[:, :, None], self.dF[i], axisa=1, axisb=1, axisc=1)
+            cols = slice(i * k3, (i + 1) * k3)  # leg i's forces depend on its own coefficients only
+            F = self.dF[i][:, :, cols]
+            ax, ay, az = (arm[:, j, None] for j in range(3))
+            dtau[:, 0, cols] += ay * F[:, 2] - az * F[:, 1]
+            dtau[:, 1, cols] += az * F[:, 0] - ax * F[:, 2]
+            dtau[:, 2, cols] += ax * F[:, 1] - ay * F[:, 0]
         a0, dal = tau0 * self.Iinv, dtau * self.Iinv[None, :, None]
         mPp = self.wmean @ self.Pp
         E = np.concatenate([np.einsum("k,kxz->xz", L, dal) for L in (self.Qv[K], self.Pp[K], mPp)])

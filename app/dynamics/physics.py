@@ -149,7 +149,7 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
         if fell_at is None and (z < 0.5 * ref.r[:, 2].mean() or np.abs(rp).max() > 0.5 or not np.isfinite(z)):
             fell_at = t
             break
-    duration = frames_t[-1] if fell_at is None else fell_at
+    duration = step * cfg.timestep if fell_at is None else fell_at
     x_end = d.qpos[0]
     distance = float(x_end - ref.r[0, 0])
     boundary = np.asarray(boundary)
@@ -163,7 +163,7 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
     return {
         "stays_up": fell_at is None,
         "fell_at_s": fell_at,
-        "periods_completed": int(duration // ref.period + 1e-9),
+        "periods_completed": int(duration / ref.period + 1e-6),
         "speed_m_s": distance / duration if duration > 0 else 0.0,
         "mean_height_m": float(frames[:, 2].mean()),
         "cot": work / mgd,

@@ -1,0 +1,1 @@
+"""Job kind ``energy``: energy-optimal quadruped gaits with heavy legs (paper 003)."""

@@ -1,0 +1,225 @@
+"""The ``energy`` job's spec: every default from paper 003's Table 1, every number bounded."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+Strict = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+TABLE1_LINKS = (0.06, 0.33, 0.33)
+TABLE1_TOUCHDOWN = (0.0, 0.23, 0.23, 0.0)  # FR, HR, FL, HL (s)
+LINK_NAMES = ("hip", "thigh", "calf")
+Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+
+
+class Task(BaseModel):
+    model_config = Strict
+    speed_m_s: float = Field(1.0, gt=0.0, le=3.0)  # V
+    height_m: float = Field(0.5, ge=0.2, le=0.8)  # h, mean trunk CoM height above the foot tips
+    swing_height_m: float = Field(0.25, ge=0.02, le=0.4)  # z_sp, the obstacle clearance
+    friction: float = Field(0.6, ge=0.2, le=1.5)  # mu_s
+
+
+class GaitIn(BaseModel):
+    """``trot``: the paper's constraint (beta = 0.5; FR with HL, HR with FL; the pairs half a
+    period apart, no overlap): the GA searches the period. ``free``: the GA also searches the
+    touchdown times (as fractions of T, FR's fixed at 0) and the four duty factors. The
+    fixed ``period_s`` / ``touchdown_s`` / ``duty`` are Table 1's gait: the baseline control
+    and the answer when ``search.optimizer`` is ``none``."""
+
+    model_config = Strict
+    family: Literal["trot", "free"] = "trot"
+    period_s: float = Field(0.46, ge=0.2, le=1.5)
+    touchdown_s: list[float] = Field(default_factory=lambda: list(TABLE1_TOUCHDOWN), min_length=4, max_length=4)
+    duty: list[float] = Field(default_factory=lambda: [0.5] * 4, min_length=4, max_length=4)
+    period_bounds_s: Pair = Field(default_factory=lambda: [0.3, 0.8])
+    duty_bounds: Pair = Field(default_factory=lambda: [0.35, 0.85])
+
+    @field_validator("duty")
+    @classmethod
+    def _duty(cls, v):
+        for i, b in enumerate(v):
+            if not 0.0 < b < 1.0:
+                raise ValueError(f"duty[{i}] = {b} must lie strictly between 0 and 1")
+        return v
+
+    @field_validator("period_bounds_s")
+    @classmethod
+    def _period_bounds(cls, v):
+        lo, hi = v
+        if not (0.2 <= lo < hi <= 1.5):
+            raise ValueError(f"must be [low, high] with 0.2 <= low < high <= 1.5 s; got {list(v)}")
+        return v
+
+    @field_validator("duty_bounds")
+    @classmethod
+    def _duty_bounds(cls, v):
+        lo, hi = v
+        if not (0.0 < lo < hi < 1.0):
+            raise ValueError(f"must be [low, high] with 0 < low < high < 1; got {list(v)}")
+        return v
+
+    @model_validator(mode="after")
+    def _timing(self):
+        for i, t in enumerate(self.touchdown_s):
+            if not 0.0 <= t < self.period_s:
+                raise ValueError(f"touchdown_s[{i}] = {t} must lie in [0, period_s = {self.period_s})")
+        if self.family == "trot":
+            T, td = self.period_s, self.touchdown_s
+            pairs_ok = abs(td[0] - td[3]) < 1e-9 and abs(td[1] - td[2]) < 1e-9
+            half = abs(((td[1] - td[0]) % T) - T / 2) < 1e-3 * T
+            if not (pairs_ok and half and all(abs(b - 0.5) < 1e-12 for b in self.duty)):
+                raise ValueError("a trot has duty 0.5 on every leg, FR with HL and HR with FL, "
+                                 "the pairs half a period apart (Table 1: [0, T/2, T/2, 0])")
+        return self
+
+
+class Design(BaseModel):
+    model_config = Strict
+    optimise_links: bool = True
+    links_m: list[float] = Field(default_factory=lambda: list(TABLE1_LINKS), min_length=3, max_length=3)
+    link_bounds_m: list[Pair] = Field(
+        default_factory=lambda: [[0.04, 0.10], [0.25, 0.45], [0.25, 0.45]], min_length=3, max_length=3)
+    inertia: Literal["table1", "rod"] = "table1"
+
+    @field_validator("links_m")
+    @classmethod
+    def _links(cls, v):
+        for name, l in zip(LINK_NAMES, v):
+            if not 0.02 <= l <= 0.8:
+                raise ValueError(f"{name} length {l} m outside [0.02, 0.8] m")
+        return v
+
+    @field_validator("link_bounds_m")
+    @classmethod
+    def _bounds(cls, v):
+        for name, (lo, hi) in zip(LINK_NAMES, v):
+            if not 0.02 <= lo < hi <= 0.8:
+                raise ValueError(f"{name}: bounds must be [low, high] with 0.02 <= low < high <= 0.8 m; got {[lo, hi]}")
+        return v
+
+
+class Model(BaseModel):
+    model_config = Strict
+    leg_dynamics: bool = True  # False: SRB with massless legs, the paper's reference [10]
+    knots: int = Field(192, ge=48, le=768)
+    spline_coefficients: int = Field(4, ge=2, le=8)  # k per contact phase and axis
+    residual_iterations: int = Field(2, ge=0, le=5)
+    jerk_weight: float = Field(1e-4, ge=0.0, le=10.0)  # s; Eq. 11 as printed: 1
+
+    @field_validator("knots")
+    @classmethod
+    def _even(cls, v):
+        if v % 2:
+            raise ValueError(f"must be even (the QP samples are the odd knots); got {v}")
+        return v
+
+
+class Search(BaseModel):
+    model_config = Strict
+    optimizer: Literal["ga", "none"] = "ga"
+    population: int = Field(40, ge=4, le=200)
+    generations: int = Field(40, ge=1, le=500)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+    workers: int = Field(0, ge=0, le=32)  # processes for a population; 0 = every core
+
+    @field_validator("population")
+    @classmethod
+    def _even(cls, v):
+        if v % 2:
+            raise ValueError(f"must be even (crossover makes pairs); got {v}")
+        return v
+
+
+class Physics(BaseModel):
+    model_config = Strict
+    periods: int = Field(10, ge=1, le=100)
+    timestep_s: float = Field(0.001, ge=0.0001, le=0.004)
+    balance: bool = False  # trunk PD wrench spread over the stance feet (see app/dynamics/physics.py)
+
+
+class Evidence(BaseModel):
+    model_config = Strict
+    controls: bool = True
+    random_search: bool = True  # the GA's equal-budget control (doubles the search cost)
+    robustness: bool = True
+    high_step_swing_height_m: float = Field(0.35, ge=0.02, le=0.45)
+
+
+def reach_needed(task: Task, period: float, duty: float) -> float:
+    """Hip-to-foot distance in the leg plane at the stance's ends (m): the thigh and calf
+    together must exceed it."""
+    half_stride = task.speed_m_s * duty * period / 2
+    return math.hypot(task.height_m, half_stride)
+
+
+class EnergySpec(BaseModel):
+    """Budget (evaluations, each one fitness evaluation or one physics run): GA population x
+    generations; the same again for the random-search control when ``evidence.random_search``;
+    1 for the answer in detail; 5 analysis evaluations (Table 1 baseline, SRB-only, massless
+    legs, high step on the best and on Table 1's design) plus 2 ablations (rod inertias, no
+    residual iteration) when ``evidence.controls``; physics runs: 2 (as specified, and with
+    the balance feedback switched the other way) plus 6 robustness cases when
+    ``evidence.robustness``."""
+
+    model_config = Strict
+    kind: Literal["energy"] = "energy"
+    robot: Literal["quadruped25"] = "quadruped25"
+    task: Task = Field(default_factory=Task)
+    gait: GaitIn = Field(default_factory=GaitIn)
+    design: Design = Field(default_factory=Design)
+    model: Model = Field(default_factory=Model)
+    search: Search = Field(default_factory=Search)
+    physics: Physics = Field(default_factory=Physics)
+    evidence: Evidence = Field(default_factory=Evidence)
+
+    @model_validator(mode="after")
+    def _reach(self):
+        g, d = self.gait, self.design
+        need = reach_needed(self.task, g.period_s, max(g.duty))
+        if d.links_m[1] + d.links_m[2] <= need * 1.02:
+            raise ValueError(f"design.links_m: thigh + calf = {d.links_m[1] + d.links_m[2]:.3f} m cannot reach the "
+                             f"stance height {self.task.height_m} m over the stride (needs > {need * 1.02:.3f} m)")
+        if d.optimise_links:
+            lo_need = reach_needed(self.task, g.period_bounds_s[0], g.duty_bounds[0] if g.family == "free" else 0.5)
+            top = d.link_bounds_m[1][1] + d.link_bounds_m[2][1]
+            if top <= lo_need * 1.02:
+                raise ValueError(f"design.link_bounds_m: the longest thigh + calf ({top:.3f} m) cannot reach the "
+                                 f"stance height {self.task.height_m} m")
+        if self.evidence.high_step_swing_height_m >= self.task.height_m:
+            raise ValueError("evidence.high_step_swing_height_m must be below task.height_m")
+        if self.task.swing_height_m >= self.task.height_m:
+            raise ValueError("task.swing_height_m must be below task.height_m (the foot rises under the hip)")
+        return self
+
+    @property
+    def seed(self) -> int:
+        return self.search.seed
+
+    @property
+    def search_evaluations(self) -> int:
+        return self.search.population * self.search.generations if self.search.optimizer == "ga" else 0
+
+    @property
+    def evaluations_budget(self) -> int:
+        n = self.search_evaluations
+        if self.evidence.random_search and self.search.optimizer == "ga":
+            n += self.search_evaluations
+        if self.evidence.controls:
+            n += 7
+        n += 1 + 2
+        if self.evidence.robustness:
+            n += len(ROBUSTNESS_CASES)
+        return n
+
+
+ROBUSTNESS_CASES = (
+    ("dt_half", "timestep halved", {"timestep_scale": 0.5}),
+    ("dt_quarter", "timestep quartered", {"timestep_scale": 0.25}),
+    ("friction_0.7", "friction x 0.7", {"friction_scale": 0.7}),
+    ("friction_1.3", "friction x 1.3", {"friction_scale": 1.3}),
+    ("mass_+10pct", "every body 10 % heavier", {"mass_scale": 1.1}),
+    ("mass_-10pct", "every body 10 % lighter", {"mass_scale": 0.9}),
+)

@@ -1,0 +1,107 @@
+"""The ``energy`` kind: strict specs with physical bounds, determinism and a bit-identical
+resume, the result's evidence sections."""
+
+import json
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from app.jobs.base import Cancelled, dumps
+from app.jobs.energy.run import run
+from app.jobs.energy.spec import EnergySpec
+
+CHEAP = {"search": {"population": 4, "generations": 3, "workers": 1}, "model": {"knots": 48},
+         "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
+
+
+class Ctx:
+    """The run context a worker hands a kind, with an in-memory checkpoint store."""
+
+    def __init__(self, tmp: Path, checkpoint=None, cancel_after_saves=None):
+        self.artifact_dir = tmp
+        self.ckpt = checkpoint
+        self.cancel_after = cancel_after_saves
+        self.saves = 0
+        self.progress_log = []
+
+    def progress(self, done, total, info):
+        self.progress_log.append((done, total))
+
+    def save_checkpoint(self, state):
+        self.ckpt = json.loads(json.dumps(state))  # what a store round trip keeps
+        self.saves += 1
+
+    def load_checkpoint(self):
+        return self.ckpt
+
+    def is_cancelled(self):
+        return self.cancel_after is not None and self.saves >= self.cancel_after
+
+
+def _field_errors(data):
+    with pytest.raises(ValidationError) as e:
+        EnergySpec.model_validate(data)
+    return [(".".join(str(p) for p in err["loc"]), err["msg"]) for err in e.value.errors()]
+
+
+@pytest.mark.parametrize("data, field", [
+    ({"gait": {"duty": [0.5, 0.5, 1.0, 0.5]}}, "gait.duty"),
+    ({"gait": {"duty": [0.0, 0.5, 0.5, 0.5], "family": "free"}}, "gait.duty"),
+    ({"task": {"speed_m_s": -1.0}}, "task.speed_m_s"),
+    ({"task": {"speed_m_s": "1.0"}}, "task.speed_m_s"),  # no coercion
+    ({"task": {"friction": float("nan")}}, "task.friction"),
+    ({"design": {"links_m": [0.06, 0.2, 0.2]}}, "design.links_m"),
+    ({"search": {"population": 41}}, "search.population"),
+    ({"search": {"populaton": 40}}, "search.populaton"),
+    ({"model": {"knots": 97}}, "model.knots"),
+    ({"gait": {"touchdown_s": [0, 0.1, 0.23, 0]}}, "gait"),
+])
+def test_bad_specs_name_their_field(data, field):
+    errors = _field_errors(data)
+    assert any(f == field or m.startswith(field) or field in m for f, m in errors), errors
+
+
+def test_defaults_are_table1():
+    s = EnergySpec()
+    assert (s.task.speed_m_s, s.task.height_m, s.task.swing_height_m) == (1.0, 0.5, 0.25)
+    assert s.gait.period_s == 0.46 and s.gait.touchdown_s == [0.0, 0.23, 0.23, 0.0]
+    assert s.design.links_m == [0.06, 0.33, 0.33]
+    assert s.evaluations_budget == 2 * 40 * 40 + 1 + 7 + 2 + 6
+
+
+def test_run_is_deterministic_and_resumes_bit_identically(tmp_path):
+    spec = EnergySpec.model_validate(CHEAP)
+    a = run(spec, Ctx(tmp_path))
+    with pytest.raises(Cancelled):
+        run(spec, Ctx(tmp_path, cancel_after_saves=2))  # GA generation 2 of 3
+    interrupted = Ctx(tmp_path, cancel_after_saves=2)
+    with pytest.raises(Cancelled):
+        run(spec, interrupted)
+    resumed = Ctx(tmp_path, checkpoint=interrupted.ckpt)
+    b = run(spec, resumed)
+    strip = lambda s: {k: v for k, v in json.loads(dumps(s)).items() if k not in ("timing", "fitness_eval_s", "nlp")}
+    assert strip(a.summary) == strip(b.summary)
+    assert a.history == b.history
+    assert a.evaluations == b.evaluations == spec.evaluations_budget
+    assert resumed.progress_log[-1][0] == spec.evaluations_budget
+
+
+def test_result_carries_the_stages_and_the_physics_check(tmp_path):
+    spec = EnergySpec.model_validate(CHEAP | {"search": {"optimizer": "none", "workers": 1},
+                                              "evidence": {"controls": True, "robustness": True,
+                                                           "random_search": False}})
+    r = run(spec, Ctx(tmp_path))
+    s = json.loads(dumps(r.summary))
+    assert s["gait"]["period_s"] == 0.46 and s["links_m"] == [0.06, 0.33, 0.33]
+    assert set(s["cot"]) == {"nlp", "qp", "final", "physics"}
+    assert s["eps"]["qp"]["norm"] < s["eps"]["nlp"]["norm"]
+    assert s["physics"]["periods_completed"] == 1
+    names = {c["name"] for c in s["controls"]}
+    assert {"paper_table1", "srb_only", "high_step", "rod_inertia", "no_residual_iteration"} <= names
+    for c in s["controls"]:
+        assert set(c) == {"name", "label", "evaluations", "metrics", "target_met", "note"}
+    rob = s["robustness"]
+    assert rob["total"] == len(rob["cases"]) == 6 and 0 <= rob["met"] <= 6
+    assert r.evaluations == spec.evaluations_budget
+    assert "qpos" in r.traces["physics"] and "f_qp" in r.traces["forces"]
