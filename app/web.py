@@ -28,6 +28,7 @@ from fastapi.staticfiles import StaticFiles
 
 from app.api.auth import LOCAL_OWNER, Principal, principal
 from app.api.errors import ApiError
+from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
 from app.store import repo
 from app.store.db import session_scope
 
@@ -240,14 +241,14 @@ def install_dashboard(app: FastAPI) -> None:
             raise ApiError(410, f"the bundle file is gone from the data folder: {Path(job.bundle_path).name}")
         return job.bundle_path
 
-    @app.get("/api/jobs/{job_id}/files", tags=["dashboard"])
+    @app.get("/api/jobs/{job_id}/files", tags=["dashboard"], responses=ERROR_RESPONSES)
     async def list_files(job_id: JobId, who: Principal = Depends(principal)) -> dict[str, int]:
         """Members of the job's result bundle with their sizes in bytes."""
         bundle = await bundle_of(job_id, who)
         return _members(bundle, os.stat(bundle).st_mtime_ns)
 
-    @app.get("/api/jobs/{job_id}/file-link", tags=["dashboard"])
-    async def file_link(job_id: JobId, path: Annotated[str, Query(max_length=200)],
+    @app.get("/api/jobs/{job_id}/file-link", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def file_link(job_id: JobId, path: Annotated[str, Query(max_length=200, pattern=MEMBER_PATTERN)],
                         who: Principal = Depends(principal)):
         """A link to one bundle member that works without the Authorization header for an
         hour (for viser's ?playbackPath= and browser downloads)."""
@@ -259,8 +260,9 @@ def install_dashboard(app: FastAPI) -> None:
         return {"url": url, "expires_at": exp}
 
     @app.get("/api/jobs/{job_id}/files/{path:path}", tags=["dashboard"],
-             responses={200: {"content": {"application/octet-stream": {}}}})
-    async def read_file(request: Request, job_id: JobId, path: str, exp: str | None = None,
+             responses=ERROR_RESPONSES | {200: {"content": {"application/octet-stream": {}}}})
+    async def read_file(request: Request, job_id: JobId,
+                        path: Annotated[str, PathParam(max_length=200, pattern=MEMBER_PATTERN)], exp: str | None = None,
                         sig: str | None = None):
         """One member of the result bundle (replay.viser, trajectories/best.csv, plots/...).
         Authorised like the other job routes, or by a link from /file-link."""
@@ -275,7 +277,7 @@ def install_dashboard(app: FastAPI) -> None:
                                                                           "application/octet-stream")
         return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
 
-    @app.get("/api/jobs/{job_id}/traces", tags=["dashboard"])
+    @app.get("/api/jobs/{job_id}/traces", tags=["dashboard"], responses=ERROR_RESPONSES)
     async def traces(job_id: JobId, who: Principal = Depends(principal)):
         """The bundle's trajectories for plotting: time, body angles, CoM and the other
         per-step scalars at most 800 points each, and per-leg swing phases at full rate."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
@@ -35,6 +36,25 @@ class BodyLimit:
         await self.app(scope, receive, send)
 
 
+def install_docs(app: FastAPI) -> None:
+    """/docs (Swagger UI) from assets an installed package ships (fastapi-offline), not from a
+    CDN: the API docs work on a machine without internet. (No /redoc: its page fetches a
+    logo from a CDN.)"""
+    import fastapi_offline
+    from fastapi.openapi.docs import get_swagger_ui_html
+    from fastapi.staticfiles import StaticFiles
+
+    assets = Path(fastapi_offline.__file__).parent / "static"
+    app.mount("/docs-assets", StaticFiles(directory=assets), name="docs-assets")
+
+    @app.get("/docs", include_in_schema=False)
+    async def swagger_ui():
+        return get_swagger_ui_html(openapi_url="/openapi.json", title="gaitmend API",
+                                   swagger_js_url="/docs-assets/swagger-ui-bundle.js",
+                                   swagger_css_url="/docs-assets/swagger-ui.css",
+                                   swagger_favicon_url="/docs-assets/favicon.png")
+
+
 def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housekeeping: bool = False) -> FastAPI:
     """`host` is the address the server binds: auth is required unless it is loopback
     (GAITMEND_AUTH=on|off overrides). `housekeeping` runs the lease reaper in this process."""
@@ -52,7 +72,7 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
         if keeper:
             keeper.stop()
 
-    app = FastAPI(title="gaitmend", version=__version__, lifespan=lifespan,
+    app = FastAPI(title="gaitmend", version=__version__, lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="Submit damage scenarios; workers search for gaits that walk again.")
     app.state.settings = settings
     app.state.auth_required = auth_required(settings.auth, host)
@@ -61,6 +81,7 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     app.include_router(meta.router, prefix="/api")
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
+    install_docs(app)
     from app.web import install_dashboard
 
     install_dashboard(app)  # the browser dashboard at / (app/web.py)

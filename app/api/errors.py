@@ -39,6 +39,23 @@ def install(app: FastAPI) -> None:
                             status_code=422)
 
     @app.exception_handler(StarletteHTTPException)
-    async def _http(_req: Request, exc: StarletteHTTPException):
-        return JSONResponse(error_body(str(exc.detail), []), status_code=exc.status_code,
-                            headers=getattr(exc, "headers", None))
+    async def _http(req: Request, exc: StarletteHTTPException):
+        headers = getattr(exc, "headers", None)
+        errors = []
+        if exc.status_code == 405:
+            # Starlette's Allow names the methods of the first route that matched the path
+            # only; GET and POST /api/jobs are two routes. Name every method of the path.
+            allowed = _methods_for(req)
+            headers = (headers or {}) | {"Allow": ", ".join(allowed)}
+            errors = [{"field": "method", "message": f"{req.method} is not allowed here; allowed: {', '.join(allowed)}"}]
+        return JSONResponse(error_body(str(exc.detail), errors), status_code=exc.status_code, headers=headers)
+
+
+def _methods_for(req: Request) -> list[str]:
+    from starlette.routing import Match
+
+    methods: set[str] = set()
+    for route in req.app.router.routes:
+        if getattr(route, "methods", None) and route.matches({**req.scope, "method": "GET"})[0] != Match.NONE:
+            methods |= set(route.methods)
+    return sorted(methods)

@@ -54,6 +54,12 @@ class ErrorOut(BaseModel):
     errors: list[FieldError] = []
 
 
+# The error statuses a job route can answer, each with the ErrorOut body (OpenAPI).
+ERROR_RESPONSES: dict[int | str, dict] = {r: {"model": ErrorOut} for r in (401, 404, 409, 410, 413, 415, 422, 429)}
+# A bundle member's name: segments of letters, digits, "_", "-" and ".", none starting with a dot.
+MEMBER_PATTERN = r"^[A-Za-z0-9_-][A-Za-z0-9_.-]*(/[A-Za-z0-9_-][A-Za-z0-9_.-]*)*$"
+
+
 class Progress(BaseModel):
     done: int
     total: int

@@ -111,24 +111,23 @@ def get_job(s: Session, job_id: str, owner: str | None = None) -> Job:
     return job
 
 
-def encode_cursor(seq: int) -> str:
-    return base64.urlsafe_b64encode(f"s{seq}".encode()).decode().rstrip("=")
-
-
-# jobs.seq is a 32-bit integer on both backends; a cursor outside it would overflow the
-# database's integer type (OverflowError on SQLite, NumericValueOutOfRange on PostgreSQL).
+# A cursor is the seq of the last job shown, as decimal digits: every string the OpenAPI
+# pattern allows is a cursor (pages before it), so the document does not promise more than
+# the route keeps. jobs.seq is a 32-bit integer on both backends: a larger cursor is
+# clamped, never passed on (OverflowError on SQLite, NumericValueOutOfRange on PostgreSQL).
 MAX_SEQ = 2**31 - 1
-_CURSOR = re.compile(r"s[1-9][0-9]{0,9}")
+CURSOR_PATTERN = r"^[0-9]{1,19}$"
 
 
-def decode_cursor(cursor: str) -> int:
-    try:
-        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)).decode()
-    except (ValueError, UnicodeDecodeError):
-        raw = ""
-    if not _CURSOR.fullmatch(raw) or int(raw[1:]) > MAX_SEQ:
+def encode_cursor(seq: int) -> str:
+    return str(seq)
+
+
+def decode_cursor(cursor: str) -> int | None:
+    """The seq to page before; None when the cursor lies beyond every seq (no bound)."""
+    if not re.fullmatch(CURSOR_PATTERN, cursor):
         raise ValueError("not a cursor returned by this API (pass next_cursor from the previous page)")
-    return int(raw[1:])
+    return int(cursor) if int(cursor) <= MAX_SEQ else None
 
 
 def list_jobs(s: Session, *, owner: str | None, status: str | None = None, kind: str | None = None,

@@ -17,7 +17,7 @@ from sqlalchemy.exc import IntegrityError
 from app.api.auth import Principal, principal
 from app.api.body import BodyError, parse_json
 from app.api.errors import ApiError
-from app.api.schemas import ErrorOut, JobList, JobOut, Status
+from app.api.schemas import ERROR_RESPONSES, JobList, JobOut, Status
 from app.dispatch import send
 from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
@@ -29,7 +29,7 @@ from app.store.models import FINAL, utcnow
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
-ERRORS = {r: {"model": ErrorOut} for r in (401, 404, 409, 413, 415, 422, 429)}
+ERRORS = ERROR_RESPONSES
 
 
 def _settings(request: Request) -> Settings:
@@ -148,7 +148,7 @@ async def list_jobs(request: Request, who: Principal = Depends(principal),
                     kind: Annotated[str | None, Query(max_length=32)] = None,
                     robot: Annotated[str | None, Query(max_length=64)] = None,
                     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-                    cursor: Annotated[str | None, Query(pattern=r"^[A-Za-z0-9_-]{1,64}$",
+                    cursor: Annotated[str | None, Query(pattern=repo.CURSOR_PATTERN,
                                                        description="next_cursor of the previous page")] = None):
     """Jobs, newest first, filtered by status, kind and robot; keyset pagination."""
     before = None
