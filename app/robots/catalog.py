@@ -67,7 +67,7 @@ class RobotEntry:
         return float(data.subtree_com[torso, 0]), float(data.subtree_com[torso, 1])
 
     def model(self, damage: DamageSpec = DamageSpec()) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-        spec = apply_damage(self.build(), damage)
+        spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage))
         return spec, spec.compile()
 
     def describe(self) -> dict:

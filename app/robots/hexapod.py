@@ -32,6 +32,10 @@ import mujoco
 import numpy as np
 
 LEG_IDS = (1, 2, 3, 4, 5, 6)
+# The recovery job's default step, chosen by the convergence rule (README, "Timestep"):
+# recovered gaits, not only the nominal tripod, move less than the stated tolerance when
+# it is halved (tests/jobs/test_recovery.py checks it on a set of answers).
+DEFAULT_TIMESTEP = 0.002
 JOINT_NAMES = ("coxa", "femur", "tibia")
 
 
@@ -60,7 +64,7 @@ class HexapodGeometry:
     kd: float = 1.0
     ki: float = 10.0
     friction: float = 1.0
-    timestep: float = 0.004  # 4 ms: the nominal gait walks within 1 % of the 2 ms result, at half the cost
+    timestep: float = DEFAULT_TIMESTEP  # the recovery job sets its own too (spec sim.timestep_s)
 
     def legs(self) -> list[LegGeometry]:
         fx, fy = self.hip_front
@@ -104,8 +108,9 @@ def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
     spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
     spec.compiler.degree = False
 
-    # Only feet and the chassis touch the floor: contype/conaffinity pairs so that no
-    # link-link or link-floor pair is ever tested (the collision phase stays tiny).
+    # Only the floor has contype 1; feet, chassis, coxae and femurs have conaffinity 1, so
+    # every robot-floor pair is tested and no link-link pair ever is (the collision phase
+    # stays tiny). Chassis, coxa and femur contacts are what the fall test looks for.
     floor = spec.worldbody.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
         contype=1, conaffinity=0, friction=[geom.friction, 0.005, 1e-4],
@@ -134,13 +139,13 @@ def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
         coxa = torso.add_body(name=f"leg{n}_coxa", pos=list(lg.hip), quat=list(leg_frame_quat(lg.side)))
         coxa.add_joint(name=joint_name(n, "coxa"), axis=[0, 0, 1], range=[q1lo, q1hi],
                        limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
-        coxa.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L1, 0, 0], size=[r, 0, 0],
-                      mass=m1, contype=0, conaffinity=0, rgba=[0.3, 0.3, 0.3, 1])
+        coxa.add_geom(name=f"leg{n}_coxa", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L1, 0, 0],
+                      size=[r, 0, 0], mass=m1, contype=0, conaffinity=1, rgba=[0.3, 0.3, 0.3, 1])
         femur = coxa.add_body(name=f"leg{n}_femur", pos=[L1, 0, 0])
         femur.add_joint(name=joint_name(n, "femur"), axis=[0, -1, 0], range=[q2lo, q2hi],
                         limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
-        femur.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L2, 0, 0], size=[r, 0, 0],
-                       mass=m2, contype=0, conaffinity=0, rgba=[0.25, 0.25, 0.25, 1])
+        femur.add_geom(name=f"leg{n}_femur", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L2, 0, 0],
+                       size=[r, 0, 0], mass=m2, contype=0, conaffinity=1, rgba=[0.25, 0.25, 0.25, 1])
         tibia = femur.add_body(name=f"leg{n}_tibia", pos=[L2, 0, 0])
         tibia.add_joint(name=joint_name(n, "tibia"), axis=[0, -1, 0], range=[q3lo, q3hi],
                         limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=geom.armature)
@@ -165,4 +170,26 @@ def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
                     objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
     spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM,
                     objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    return spec
+
+
+FALL_BODIES = ("torso",) + tuple(f"leg{n}_{j}" for n in LEG_IDS for j in ("coxa", "femur"))
+
+
+def add_fall_sensors(spec: mujoco.MjSpec) -> mujoco.MjSpec:
+    """One contact sensor per body that must never touch the ground while walking: the
+    chassis and every remaining coxa and femur (``<body>_ground``, 1 while the body
+    touches anything, only the floor can be touched). Added after damage, so lost legs
+    carry none. The fall test reads them from the rollout's sensordata."""
+    for name in FALL_BODIES:
+        if spec.body(name) is None:
+            continue
+        spec.add_sensor(name=f"{name}_ground", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                        objtype=mujoco.mjtObj.mjOBJ_BODY, objname=name, intprm=[1, 1, 1])
+    # Feet too, not for the fall test but to report how long the robot stands on fewer than
+    # three feet (a statically unstable walk that rocks on two feet has not fallen).
+    for n in LEG_IDS:
+        if spec.geom(f"leg{n}_foot") is not None:
+            spec.add_sensor(name=f"leg{n}_foot_touch", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"leg{n}_foot", intprm=[1, 1, 1])
     return spec

@@ -5,6 +5,14 @@ A whole population is one ``mujoco.rollout`` call per chunk, a thread per core. 
 targets (Eq. 3) and their IK, tiled over the run. The run is cut into chunks; after each
 chunk the candidates that fell are dropped, so a fallen candidate stops costing
 simulation time, and the survivors continue from their exact state.
+
+With ``variants`` (models of the same size signature and timestep, e.g. perturbed
+friction or masses), every candidate runs on each of them in the same rollout call, one
+model per batch element: ``evaluate_all`` returns metrics of shape (P, K).
+
+Fall test: the robot has fallen when its chassis, a coxa or a femur touches the ground
+(MuJoCo contact sensors ``*_ground``, see ``app.robots.hexapod.add_fall_sensors``), or
+when the body tilts past ``max_tilt_deg`` or sags below half its standing height.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ from app.gaits.trajectory import tip_positions
 from app.robots.catalog import RobotEntry
 from app.robots.hexapod import JOINT_NAMES
 from app.sim.metrics import body_metrics, fallen
+from app.sim.perturb import same_signature
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -48,8 +57,13 @@ class EvalResult:
 class GaitEvaluator:
     """Evaluates tip-trajectory parameter vectors for one (damaged) robot and sequence."""
 
-    def __init__(self, robot: RobotEntry, model: mujoco.MjModel, seq: GaitSequence, cfg: SimConfig):
+    def __init__(self, robot: RobotEntry, model: mujoco.MjModel, seq: GaitSequence, cfg: SimConfig,
+                 variants: list[mujoco.MjModel] | None = None):
         self.robot, self.model, self.seq, self.cfg = robot, model, seq, cfg
+        self.variants = list(variants) if variants else [model]
+        for v in self.variants:
+            if not same_signature(v, model):
+                raise ValueError("variants must share the model's sizes and timestep (one rollout call)")
         self.legs = seq.legs
         self.dt = model.opt.timestep
         self.n_settle = int(round(cfg.settle_s / self.dt))
@@ -83,6 +97,13 @@ class GaitEvaluator:
         self._sens = {n: (model.sensor_adr[i], model.sensor_dim[i])
                       for i in range(model.nsensor)
                       for n in [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)]}
+        self._ground = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                                 if model.sensor_type[i] == mujoco.mjtSensor.mjSENS_CONTACT
+                                 and mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_ground")],
+                                dtype=int)
+        self._feet = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                               if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_foot_touch")],
+                              dtype=int)
 
     # -- controls ---------------------------------------------------------------------
     def joint_targets(self, params: np.ndarray) -> np.ndarray:
@@ -113,15 +134,22 @@ class GaitEvaluator:
         return ctrl, state
 
     # -- simulation ---------------------------------------------------------------------
-    def _rollout(self, state: np.ndarray, ctrl: np.ndarray):
+    def _rollout(self, models, state: np.ndarray, ctrl: np.ndarray):
+        m = models[0] if len(self.variants) == 1 else models
         if self._runner is not None:
-            return self._runner.rollout(self.model, self._datas, state, ctrl)
-        return rollout.rollout(self.model, self._datas[0], state, ctrl)
+            return self._runner.rollout(m, self._datas, state, ctrl)
+        return rollout.rollout(m, self._datas[0], state, ctrl)
 
     def simulate(self, params: np.ndarray, record: bool = False):
-        """Runs the candidates; returns (sensordata (P, T, ns), alive-until step (P,),
-        states (P, T, nstate) if record else None, steps simulated)."""
+        """Runs every candidate on every variant (batch element b = candidate b // K on
+        variant b % K); returns (sensordata (B, T, ns), alive-until step (B,), states
+        (B, T, nstate) if record else None, steps simulated)."""
         ctrl, state = self.controls(params)
+        K = len(self.variants)
+        if K > 1:
+            ctrl, state = np.repeat(ctrl, K, axis=0), np.repeat(state, K, axis=0)
+        models = np.empty(ctrl.shape[0], dtype=object)
+        models[:] = self.variants * (ctrl.shape[0] // K)
         P = ctrl.shape[0]
         sens = np.zeros((P, self.nstep, self.model.nsensordata))
         states = np.zeros((P, self.nstep, self._nstate)) if record else None
@@ -133,7 +161,7 @@ class GaitEvaluator:
             if alive.size == 0:
                 break
             stop = min(start + chunk, self.nstep)
-            st, sd = self._rollout(state[alive], ctrl[alive, start:stop])
+            st, sd = self._rollout(list(models[alive]), state[alive], ctrl[alive, start:stop])
             sens[alive, start:stop] = sd
             if record:
                 states[alive, start:stop] = st
@@ -150,19 +178,32 @@ class GaitEvaluator:
 
     def _fell(self, sens: np.ndarray) -> np.ndarray:
         pos = self._sensor(sens, "torso_pos")
+        ground = sens[..., self._ground] if self._ground.size else None
         return fallen(pos[..., 2], self._sensor(sens, "torso_quat"), self.min_height,
-                      math.radians(self.cfg.max_tilt_deg))
+                      math.radians(self.cfg.max_tilt_deg), ground)
 
-    def evaluate(self, params: np.ndarray) -> EvalResult:
+    def evaluate_all(self, params: np.ndarray) -> EvalResult:
+        """Metrics of shape (P, K): every candidate on every variant."""
         params = np.atleast_2d(params)
         sens, end, _, steps = self.simulate(params)
         fell = end < self.nstep
         walk = sens[:, self.n_settle - 1 :]
-        m = body_metrics(self._sensor(walk, "com_pos"), self._sensor(walk, "torso_quat"), fell)
-        return EvalResult(metrics=m, sim_steps=steps)
+        feet = walk[..., self._feet] if self._feet.size else None
+        m = body_metrics(self._sensor(walk, "com_pos"), self._sensor(walk, "torso_quat"), fell, feet)
+        K = len(self.variants)
+        return EvalResult(metrics={k: v.reshape(-1, K) for k, v in m.items()}, sim_steps=steps)
+
+    def evaluate(self, params: np.ndarray) -> EvalResult:
+        """Metrics of shape (P,) on the single model."""
+        if len(self.variants) != 1:
+            raise ValueError("this evaluator has several variants: use evaluate_all")
+        r = self.evaluate_all(params)
+        return EvalResult(metrics={k: v[:, 0] for k, v in r.metrics.items()}, sim_steps=r.sim_steps)
 
     def trace(self, params: np.ndarray) -> dict[str, np.ndarray]:
-        """Per-step record of one candidate for plots, bundles and replay."""
+        """Per-step record of one candidate (on the first variant) for plots, bundles and replay."""
+        if len(self.variants) != 1:
+            raise ValueError("trace runs on a single model")
         params = np.atleast_2d(params)[:1]
         sens, end, states, _ = self.simulate(params, record=True)
         m = self.model

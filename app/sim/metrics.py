@@ -11,7 +11,8 @@ import numpy as np
 
 FALL_FITNESS = -1.0
 UNITS = ("m_rad", "cm_deg")
-METRIC_KEYS = ("x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg", "fell")
+METRIC_KEYS = ("x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg", "tilt_max_deg", "under_3_feet_frac",
+               "fell")
 
 
 def euler_zyx(quat: np.ndarray) -> np.ndarray:
@@ -23,32 +24,46 @@ def euler_zyx(quat: np.ndarray) -> np.ndarray:
     return np.stack([yaw, rot_y, rot_x], axis=-1)
 
 
-def fallen(torso_z: np.ndarray, quat: np.ndarray, min_height: float, max_tilt_rad: float) -> np.ndarray:
-    """(P, T) -> (P,) True if at any step the body sagged below min_height or tilted past
-    max_tilt (angle between body z and world z)."""
+def fallen(torso_z: np.ndarray, quat: np.ndarray, min_height: float, max_tilt_rad: float,
+           ground_contacts: np.ndarray | None = None) -> np.ndarray:
+    """(P, T) -> (P,) True if at any step a body that must not touch the ground did
+    (``ground_contacts`` (P, T, n): contact-sensor counts of the chassis and upper legs),
+    the body sagged below min_height or tilted past max_tilt (body z vs world z)."""
     w, x, y, _ = np.moveaxis(quat, -1, 0)
     up_z = 1 - 2 * (x * x + y * y)
-    return np.any((torso_z < min_height) | (up_z < np.cos(max_tilt_rad)), axis=1)
+    bad = (torso_z < min_height) | (up_z < np.cos(max_tilt_rad))
+    if ground_contacts is not None:
+        bad |= np.any(ground_contacts > 0, axis=-1)
+    return np.any(bad, axis=1)
 
 
-def body_metrics(com: np.ndarray, quat: np.ndarray, fell: np.ndarray) -> dict[str, np.ndarray]:
+def body_metrics(com: np.ndarray, quat: np.ndarray, fell: np.ndarray,
+                 feet: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Metrics of Eq. 5 from the walking window: com (P, T, 3), quat (P, T, 4).
 
     x_f, y_f: displacement of the centre of mass from the window's start; yaw_f: change of
-    (unwrapped) yaw; amplitudes: half the peak-to-peak excursion over the window.
+    (unwrapped) yaw; amplitudes: half the peak-to-peak excursion over the window; tilt_max:
+    the largest angle between body z and world z; with ``feet`` (contact counts (P, T, n)),
+    the share of the window spent on fewer than three feet.
     """
     ang = euler_zyx(quat)
     yaw = np.unwrap(ang[..., 0], axis=1)
     d = com[:, -1, :2] - com[:, 0, :2]
     half_ptp = 0.5 * (ang.max(axis=1) - ang.min(axis=1))
-    return {
+    w, qx, qy, _ = np.moveaxis(quat, -1, 0)
+    up_z = np.clip(1 - 2 * (qx * qx + qy * qy), -1.0, 1.0)
+    out = {
         "x_f_m": d[:, 0],
         "y_f_m": d[:, 1],
         "yaw_f_deg": np.degrees(yaw[:, -1] - yaw[:, 0]),
         "roll_amp_deg": np.degrees(half_ptp[:, 1]),
         "pitch_amp_deg": np.degrees(half_ptp[:, 2]),
-        "fell": np.asarray(fell, dtype=bool),
+        "tilt_max_deg": np.degrees(np.arccos(up_z.min(axis=1))),
     }
+    if feet is not None:  # (P, T, nfeet) contact counts: share of the walk on fewer than three feet
+        out["under_3_feet_frac"] = np.mean(np.sum(feet > 0, axis=-1) < 3, axis=1)
+    out["fell"] = np.asarray(fell, dtype=bool)
+    return out
 
 
 def objective_terms(metrics: dict[str, np.ndarray], weights, units: str = "m_rad") -> dict[str, np.ndarray]:
@@ -81,3 +96,15 @@ def fitness(metrics: dict[str, np.ndarray], weights, units: str = "m_rad") -> np
     f = t["forward"] / (1.0 + t["drift"] + t["yaw"] + t["roll"] + t["pitch"])
     # Walkers are clipped just above the fall value so that a fall always ranks last.
     return np.where(metrics["fell"], FALL_FITNESS, np.maximum(f, FALL_FITNESS + 1e-3))
+
+
+# The recovery target (issue 12): what "walks straight again" means over a 10 s walk.
+TARGET = {"y_min_m": 0.5, "x_abs_max_m": 0.05, "yaw_abs_max_deg": 10.0}
+TARGET_TEXT = "forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg at the end of the walk, and no fall"
+
+
+def meets_target(metrics: dict) -> bool:
+    """One candidate's metrics (scalars) against TARGET."""
+    return (not bool(metrics["fell"]) and float(metrics["y_f_m"]) >= TARGET["y_min_m"]
+            and abs(float(metrics["x_f_m"])) <= TARGET["x_abs_max_m"]
+            and abs(float(metrics["yaw_f_deg"])) <= TARGET["yaw_abs_max_deg"])

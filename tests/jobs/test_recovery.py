@@ -3,6 +3,7 @@
 import copy
 import json
 
+import numpy as np
 import pytest
 
 from app.jobs.base import Cancelled, SpecError
@@ -38,6 +39,10 @@ class Ctx:
         return self.cancel_after is not None and len(self.checkpoints) >= self.cancel_after
 
 
+def spec_evaluations(d):
+    return parse_spec(d).evaluations_budget
+
+
 def numbers(summary):
     s = copy.deepcopy(summary)
     s.pop("timing")
@@ -62,8 +67,9 @@ def test_small_run_beats_the_baseline(small_run):
     bests = [h["best"] for h in s["history"]]
     assert bests == sorted(bests)  # DE's best never regresses
     assert all(h["worst"] <= h["mean"] <= h["best"] for h in s["history"])
-    assert s["timing"]["evaluations"] == 8 * 5 + 2
-    assert set(s["best"]["metrics"]) == {"x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg", "fell"}
+    assert s["timing"]["evaluations"] == spec_evaluations(SMALL) == 8 * 5 * 2 + 7 + 3
+    assert set(s["best"]["metrics"]) == {"x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg",
+                                         "tilt_max_deg", "under_3_feet_frac", "fell"}
     assert res.model_xml.startswith("<mujoco") and "leg1_coxa" not in res.model_xml
 
 
@@ -119,6 +125,89 @@ def test_neighbours_of_lost_legs_get_relaxed_y0_bounds():
     ({"kind": "dance"}, "kind"),
 ])
 def test_bad_specs_name_the_field(patch, field):
+    with pytest.raises(SpecError) as e:
+        parse_spec(SMALL | patch)
+    assert [x["field"] for x in e.value.errors][0] == field
+
+
+# -- evidence: controls, robustness, robust search, convergence ------------------------------
+
+def test_controls_sit_beside_the_result_at_the_same_budget(small_run):
+    _, res = small_run
+    s = res.summary
+    names = [c["name"] for c in s["controls"]]
+    assert names == ["baseline", "random_search"]
+    base, rnd = s["controls"]
+    assert base["metrics"] == s["baseline"]["metrics"] and base["target_met"] is False
+    assert rnd["evaluations"] == 8 * 5  # the search's own budget
+    assert len(s["random_search_history"]) == 5
+    assert set(rnd["params"]) == set(s["best"]["params"]) and rnd["params"] != s["best"]["params"]
+    assert isinstance(rnd["target_met"], bool) and "same budget" in rnd["note"]
+    assert s["target"]["best_met"] is s["best"]["target_met"]
+
+
+def test_robustness_block_is_a_real_re_simulation_of_the_answer(small_run):
+    from app.gaits.sequences import plan_hexapod
+    from app.jobs.recovery.run import sim_config, sim_model
+    from app.sim.evaluate import GaitEvaluator
+    from app.sim.perturb import case_by_name, perturbed_model, walking_cases
+
+    spec, res = small_run
+    rob = res.summary["robustness"]
+    names = [c["name"] for c in rob["cases"]]
+    assert names == ["dt_half", "dt_quarter", "friction_0.7", "friction_1.3", "mass_+10pct", "payload", "rough_terrain"]
+    assert rob["total"] == 7 and rob["met"] == sum(c["target_met"] for c in rob["cases"])
+    nominal_y = res.summary["best"]["metrics"]["y_f_m"]
+    assert rob["spread"]["y_f_m"]["nominal"] == nominal_y
+    assert all(c["metrics"]["y_f_m"] != nominal_y for c in rob["cases"])
+    # re-simulate one case by hand: the block holds exactly that simulation's numbers
+    mspec, model = sim_model(spec, JETHEXA)
+    case = case_by_name(walking_cases(JETHEXA.geometry.total_mass), "friction_0.7")
+    seq = plan_hexapod([1, 6], JETHEXA.nominal_feet_xy(), JETHEXA.stance_com_xy(model, 0.10))
+    ev = GaitEvaluator(JETHEXA, perturbed_model(mspec, case, model), seq, sim_config(spec))
+    x = np.array(list(res.summary["best"]["params"].values()))
+    m = ev.evaluate(x).metrics
+    got = next(c for c in rob["cases"] if c["name"] == "friction_0.7")["metrics"]
+    assert got["x_f_m"] == float(m["x_f_m"][0]) and got["yaw_f_deg"] == float(m["yaw_f_deg"][0])
+
+
+def test_robust_search_scores_every_candidate_on_every_model(tmp_path):
+    d = SMALL | {"search": {"population": 6, "generations": 2, "seed": 1},
+                 "robust": {"models": ["friction_0.7", "payload"], "aggregate": "worst"},
+                 "controls": {"random_search": False}, "robustness": {"cases": ["friction_1.3"]}}
+    spec = parse_spec(d)
+    assert spec.evaluations_budget == 6 * 3 * 3 + 1 + 3
+    s = run(spec, Ctx(tmp_path)).summary
+    per = s["robust"]["best_per_model"]
+    assert [p["name"] for p in per] == ["nominal", "friction_0.7", "payload"]
+    # the search's best F is the worst of the three models' F for that gait
+    assert s["history"][-1]["best"] == pytest.approx(min(p["fitness"] for p in per))
+    assert per[0]["fitness"] == pytest.approx(s["best"]["fitness"])
+    assert s["timing"]["evaluations"] == spec.evaluations_budget - 1  # no random-search best to re-score
+    assert [c["name"] for c in s["controls"]] == ["baseline"]
+
+
+def test_a_baseline_that_already_meets_the_target_is_marked(tmp_path):
+    """Leg 1 lost: the nominal tripod already walks about a metre straight."""
+    spec = parse_spec({"kind": "recovery", "damage": {"lost_legs": [1]}, "search": {"population": 4, "generations": 1},
+                       "controls": {"random_search": False}, "robustness": {"cases": []}})
+    s = run(spec, Ctx(tmp_path)).summary
+    assert s["baseline"]["target_met"] is True and s["target"]["baseline_met"] is True
+    assert "no recovery" in s["target"]["note"]
+    assert s["controls"][0]["note"].startswith("already meets the target")
+    assert s["robustness"] is None
+
+
+@pytest.mark.parametrize("patch,field", [
+    ({"robust": {"models": ["friction_0.5"]}}, "robust.models.0"),
+    ({"robust": {"models": []}}, "robust.models"),
+    ({"robust": {"models": ["payload", "payload"]}}, "robust.models"),
+    ({"robust": {"models": ["payload"], "aggregate": "best"}}, "robust.aggregate"),
+    ({"robustness": {"cases": ["dt_eighth"]}}, "robustness.cases.0"),
+    ({"controls": {"random_search": "yes"}}, "controls.random_search"),
+    ({"sim": {"timestep_s": 0.02}}, "sim.timestep_s"),
+])
+def test_bad_evidence_specs_name_the_field(patch, field):
     with pytest.raises(SpecError) as e:
         parse_spec(SMALL | patch)
     assert [x["field"] for x in e.value.errors][0] == field

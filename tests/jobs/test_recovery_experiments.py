@@ -14,6 +14,22 @@ def test_table2_resumes_and_formats(tmp_path, monkeypatch):
     assert len(rows) == 1 and rows[0]["lost_legs"] == [3, 4] and len(calls) == 1
     assert "| Legs 3 & 4 lost | modified_pentagonal | 1 |" in md
     assert "10.1 / 52.7 / 5.8" in md  # the paper's row beside ours
+    row = rows[0]
+    assert "from_log" not in row and row["version"] == reproduce.ROW_VERSION
+    assert set(row["best_params"]) and row["random_search"]["metrics"] and row["robustness"]["total"] == 7
+    assert "none transcribed" in md and "dt_half" in md  # the perturbation table
     # A second call finds the run on disk and does not simulate again.
     md2 = reproduce.run_table2(seeds=1, generations=1, population=4, raw_path=raw, log=calls.append)
     assert md2 == md and len(calls) == 1
+
+
+def test_old_format_rows_are_dropped_not_tabled(tmp_path, monkeypatch):
+    monkeypatch.setattr(reproduce, "SCENARIOS", [(3, 4)])
+    raw = tmp_path / "t2.json"
+    raw.write_text(json.dumps([{"lost_legs": [3, 4], "seed": 0, "generations": 1, "population": 4,
+                                "best": {"x_f_m": 0.0, "y_f_m": 9.9, "yaw_f_deg": 0.0, "fell": False},
+                                "from_log": True}]))
+    calls = []
+    reproduce.run_table2(seeds=1, generations=1, population=4, raw_path=raw, log=calls.append)
+    rows = json.loads(raw.read_text())
+    assert len(calls) == 1 and len(rows) == 1 and "from_log" not in rows[0]

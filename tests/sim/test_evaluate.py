@@ -1,5 +1,6 @@
 """The batched evaluator on the real model: walking, falling, determinism."""
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -26,7 +27,7 @@ def test_healthy_robot_walks_straight_forward_with_the_nominal_tripod():
     # Tripod: each group pushes the body L_sl per half period -> 2 * 0.04 / 0.6 = 0.133 m/s.
     assert 0.3 < m["y_f_m"][0] < 0.42
     assert abs(m["x_f_m"][0]) < 0.02 and abs(m["yaw_f_deg"][0]) < 3
-    assert not m["fell"][0]
+    assert not m["fell"][0] and m["under_3_feet_frac"][0] < 0.05  # a tripod: three feet down
 
 
 def test_weak_femurs_collapse_and_count_as_a_fall():
@@ -81,3 +82,47 @@ def test_euler_zyx_of_known_rotations():
     np.testing.assert_allclose(euler_zyx(np.array([c, 0, 0, s])), [0.3, 0, 0], atol=1e-12)
     np.testing.assert_allclose(euler_zyx(np.array([c, 0, s, 0])), [0, 0.3, 0], atol=1e-12)
     np.testing.assert_allclose(euler_zyx(np.array([c, s, 0, 0])), [0, 0, 0.3], atol=1e-12)
+
+
+def test_fall_sensors_watch_the_chassis_and_every_remaining_upper_leg():
+    _, m = JETHEXA.model(DamageSpec(lost_legs=(2, 5)))
+    names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SENSOR, i) for i in range(m.nsensor)}
+    ground = {n for n in names if n.endswith("_ground")}
+    assert ground == {"torso_ground"} | {f"leg{l}_{j}_ground" for l in (1, 3, 4, 6) for j in ("coxa", "femur")}
+    assert {n for n in names if n.endswith("_foot_touch")} == {f"leg{l}_foot_touch" for l in (1, 3, 4, 6)}
+    d = mujoco.MjData(m)
+    d.qpos[:3] = (0, 0, 0.3)
+    d.qpos[3] = 1
+    mujoco.mj_forward(m, d)
+    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "torso_ground")]
+    assert d.sensordata[adr] == 0  # in the air
+    d.qpos[2] = 0.02  # chassis (half height 2.5 cm) pressed into the floor
+    mujoco.mj_forward(m, d)
+    assert d.sensordata[adr] > 0
+
+
+def test_front_legs_lost_under_the_nominal_tripod_falls_onto_the_chassis():
+    """The constructed fall: without legs 1 and 2 the tripod leaves the front unsupported."""
+    ev, legs = evaluator(lost=(1, 2), seq=nominal_tripod([3, 4, 5, 6]))
+    sens, end, _, _ = ev.simulate(nominal_params(JETHEXA, legs)[None])
+    assert end[0] < ev.nstep
+    adr = ev._sens["torso_ground"][0]
+    assert sens[0, : end[0], adr].max() > 0  # it is the chassis contact that ended the walk
+    m = ev.evaluate(nominal_params(JETHEXA, legs)).metrics
+    assert m["fell"][0] and m["tilt_max_deg"][0] < 60  # the old tilt test would not have caught it
+
+
+def test_rocking_on_two_alternating_feet_is_not_a_fall():
+    """Legs 2 and 5 lost under the nominal tripod: each half period only two feet
+    support and the body pitches far (the baseline a reviewer flagged: +-31 deg at the old
+    4 ms step), but neither the chassis nor an upper leg ever touches the ground, so it
+    has not fallen; it is reported as time on fewer than three feet instead."""
+    _, model = JETHEXA.model(DamageSpec(lost_legs=(2, 5)))
+    model.opt.timestep = 0.004
+    ev = GaitEvaluator(JETHEXA, model, nominal_tripod([1, 3, 4, 6]), SimConfig(duration_s=10.0))
+    legs = [1, 3, 4, 6]
+    sens, end, _, _ = ev.simulate(nominal_params(JETHEXA, legs)[None])
+    m = ev.evaluate(nominal_params(JETHEXA, legs)).metrics
+    assert m["tilt_max_deg"][0] > 30 and m["pitch_amp_deg"][0] > 20 and m["under_3_feet_frac"][0] > 0.2
+    assert not m["fell"][0] and end[0] == ev.nstep
+    assert sens[0][:, ev._ground].max() == 0

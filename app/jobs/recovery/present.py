@@ -6,9 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
-
-# The target for a recovered gait (forward is +y on the JetHexa model).
-TARGET = {"y_min_m": 0.5, "x_abs_max_m": 0.05, "yaw_abs_max_deg": 10.0}
+from app.sim.metrics import TARGET  # the target for a recovered gait (forward is +y)
 
 HISTORY_COLUMNS = {
     "generation": "0 = the initial population",
@@ -57,7 +55,22 @@ def headline(s: dict) -> list[HeadlineRow]:
         headline_row("nominal tripod F", s["baseline"]["fitness"], "", "higher"),
         headline_row("nominal tripod forward", 100 * b["y_f_m"], "cm", "higher"),
         headline_row("fell", m["fell"], "", None),
-    ]
+    ] + _evidence_rows(s)
+
+
+def _evidence_rows(s: dict) -> list[HeadlineRow]:
+    rows = []
+    tgt = s.get("target") or {}
+    if "baseline_met" in tgt:
+        rows.append(headline_row("nominal tripod already meets the target", tgt["baseline_met"], "", None))
+    rnd = next((c for c in s.get("controls") or [] if c["name"] == "random_search"), None)
+    if rnd is not None:
+        rows.append(headline_row("random search (same budget) forward", 100 * rnd["metrics"]["y_f_m"], "cm", "higher",
+                                 None, rnd["target_met"]))
+    rob = s.get("robustness")
+    if rob:
+        rows.append(headline_row("perturbed re-runs meeting the target", f"{rob['met']}/{rob['total']}", "", "higher"))
+    return rows
 
 
 def summary_tables(s: dict) -> list[Table]:
@@ -69,7 +82,22 @@ def summary_tables(s: dict) -> list[Table]:
                      f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}"])
     title = (f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} "
              f"(sigma={s['gait']['sigma']})")
-    return [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F"], rows)]
+    out = [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F"], rows)]
+    if s.get("controls"):
+        out.append(table("controls (same budget)", ["control", "evaluations", "x (cm)", "y (cm)", "yaw (deg)", "fell",
+                                                     "target met", "note"],
+                         [[c["label"], c["evaluations"], f"{100 * c['metrics']['x_f_m']:.1f}",
+                           f"{100 * c['metrics']['y_f_m']:.1f}", f"{c['metrics']['yaw_f_deg']:.1f}",
+                           str(c["metrics"]["fell"]), str(c["target_met"]), c["note"]] for c in s["controls"]]))
+    rob = s.get("robustness")
+    if rob:
+        out.append(table("robustness: the recovered gait re-simulated", ["case", "x (cm)", "y (cm)", "yaw (deg)", "fell",
+                                                                        "target met"],
+                         [[c["label"], f"{100 * c['metrics']['x_f_m']:.1f}", f"{100 * c['metrics']['y_f_m']:.1f}",
+                           f"{c['metrics']['yaw_f_deg']:.1f}", str(c["metrics"]["fell"]), str(c["target_met"])]
+                          for c in rob["cases"]],
+                         [f"target: {rob['target']}; met in {rob['met']} of {rob['total']} cases"]))
+    return out
 
 
 def figures(result: JobResult, out: Path) -> list[Path]:

@@ -14,7 +14,9 @@ from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
 from app.sim.evaluate import GaitEvaluator, SimConfig
-from app.sim.metrics import fitness, objective_terms
+from app.sim.metrics import TARGET_TEXT, fitness, meets_target, objective_terms
+from app.sim.perturb import case_by_name, robustness_block, walking_cases
+from app.sim.robust import MultiModelEvaluator, case_models, robust_fitness
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -59,6 +61,14 @@ def nominal_params(robot: RobotEntry, legs: list[int]) -> np.ndarray:
                     + [robot.nominal_step_length, robot.nominal_step_height])
 
 
+def sim_model(spec: RecoverySpec, robot: RobotEntry):
+    """The damaged robot's spec and model at the spec's timestep (the bundle's robot.xml
+    is the spec, so the timestep is set there, not only in the compiled model)."""
+    mspec, _ = robot.model(damage_spec(spec))
+    mspec.option.timestep = spec.sim.timestep_s
+    return mspec, mspec.compile()
+
+
 def sim_config(spec: RecoverySpec) -> SimConfig:
     return SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
                      stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m)
@@ -73,10 +83,70 @@ def _scored(ev: GaitEvaluator, x: np.ndarray, weights, units: str) -> dict:
 
 # -- the job ---------------------------------------------------------------------------------
 
+class _Scorer:
+    """Fitness of a population on the nominal model, or on several models (robust search).
+    Returns (fitness (P,), nominal-model metrics (P,), simulated steps)."""
+
+    def __init__(self, spec: RecoverySpec, robot, mspec, model, seq, cfg):
+        self.weights, self.units = spec.objective.weights, spec.objective.units
+        self.robust = spec.robust
+        self.cases = [case_by_name(walking_cases(robot.geometry.total_mass), n) for n in spec.robust.models] \
+            if spec.robust else []
+        models = [model] + case_models(mspec, model, self.cases)
+        self.ev = MultiModelEvaluator(robot, models, seq, cfg)
+
+    def __call__(self, x: np.ndarray):
+        r = self.ev.evaluate_all(x)
+        if self.robust is None:
+            m = {k: v[:, 0] for k, v in r.metrics.items()}
+            return fitness(m, self.weights, self.units), m, r.sim_steps
+        f, _ = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
+        return f, {k: v[:, 0] for k, v in r.metrics.items()}, r.sim_steps
+
+    def per_model(self, x: np.ndarray) -> list[dict]:
+        r = self.ev.evaluate_all(x)
+        _, f = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
+        names = ["nominal"] + [c.name for c in self.cases]
+        return [{"name": n, "fitness": float(f[0, k]),
+                 "metrics": {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}}
+                for k, n in enumerate(names)]
+
+    def close(self):
+        self.ev.close()
+
+
+def _phase(name: str, opt, score, total: int, ctx: RunContext, state: dict, done_before: int, grand_total: int,
+           save) -> None:
+    """Runs ``opt`` to ``total`` generations, appending to state[name + "_history"];
+    checkpoints after each generation (``save``) and checks the cancel flag before each."""
+    hist = state.setdefault(f"{name}_history", [])
+    seg = time.perf_counter()
+    wall0 = state["wall_s"]
+    while opt.generation < total:
+        if ctx.is_cancelled():
+            raise Cancelled()
+        x = opt.ask()
+        f, m, steps = score(x)
+        opt.tell(f)
+        state["evaluations"] += len(f) * score.ev_models
+        state["sim_steps"] += steps
+        pop_fit = opt.population_fitness
+        row = {"generation": opt.generation - 1, "best": opt.best[1], "mean": float(np.mean(pop_fit)),
+               "worst": float(np.min(pop_fit)), "generation_best": float(np.max(f)),
+               "fell": int(np.sum(m["fell"])), "evaluations": state["evaluations"]}
+        hist.append(row)
+        state["wall_s"] = wall0 + time.perf_counter() - seg
+        save(name, opt)
+        wall = max(state["wall_s"], 1e-9)
+        info = {"best": row["best"], "mean": row["mean"], "worst": row["worst"], "evaluations": state["evaluations"],
+                "sim_steps_per_s": state["sim_steps"] / wall, "phase": name}
+        ctx.progress(done_before + opt.generation, grand_total, info)
+
+
 def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     t0 = time.perf_counter()
     robot = get_robot(spec.robot)
-    mspec, model = robot.model(damage_spec(spec))
+    mspec, model = sim_model(spec, robot)
     legs = functional_legs(spec)
     com_xy = robot.stance_com_xy(model, spec.gait.stance_height_m)
     seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(), com_xy)
@@ -84,56 +154,97 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     weights, units = spec.objective.weights, spec.objective.units
     lower, upper = search_bounds(spec, robot)
     names = param_names(legs)
+    s = spec.search
+    total = s.generations + 1  # generation 0 is the initial population
+    phases = ["search"] + (["random_search"] if spec.controls.random_search else [])
+    grand_total = total * len(phases)
 
+    score = _Scorer(spec, robot, mspec, model, seq, cfg)
+    score.ev_models = spec.models_per_candidate
     ev = GaitEvaluator(robot, model, seq, cfg)
     base_ev = GaitEvaluator(robot, model, nominal_tripod(legs), cfg)
+    all_cases = walking_cases(robot.geometry.total_mass)
+    cases = [case_by_name(all_cases, n) for n in spec.robustness.cases]
+    rob_ev = MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None
     try:
-        s = spec.search
-        opt = make_optimizer(s.optimizer, lower, upper, s.population, s.seed, cr=s.cr, f=s.f)
-        history: list[dict] = []
-        evaluations = sim_steps = 0
-        wall_before = 0.0
+        opts = {"search": make_optimizer(s.optimizer, lower, upper, s.population, s.seed, cr=s.cr, f=s.f)}
+        if spec.controls.random_search:
+            # its own stream of the job's seed, so adding the control leaves the search's draws alone
+            opts["random_search"] = make_optimizer("random", lower, upper, s.population, [s.seed, 1])
+        state = {"evaluations": 0, "sim_steps": 0, "wall_s": 0.0}
         ckpt = ctx.load_checkpoint()
         if ckpt is not None:
-            opt.restore(ckpt["optimizer"])
-            history, evaluations, sim_steps = ckpt["history"], ckpt["evaluations"], ckpt["sim_steps"]
-            wall_before = ckpt["wall_s"]
-        total = s.generations + 1  # generation 0 is the initial population
-        seg_start = time.perf_counter()
-        while opt.generation < total:
-            if ctx.is_cancelled():
-                raise Cancelled()
-            x = opt.ask()
-            r = ev.evaluate(x)
-            f = fitness(r.metrics, weights, units)
-            opt.tell(f)
-            evaluations += len(f)
-            sim_steps += r.sim_steps
-            pop_fit = opt.population_fitness
-            row = {"generation": opt.generation - 1, "best": opt.best[1], "mean": float(np.mean(pop_fit)),
-                   "worst": float(np.min(pop_fit)), "generation_best": float(np.max(f)),
-                   "fell": int(np.sum(r.metrics["fell"])), "evaluations": evaluations}
-            history.append(row)
-            wall = wall_before + time.perf_counter() - seg_start
-            ctx.save_checkpoint({"optimizer": opt.state(), "history": history, "evaluations": evaluations,
-                                 "sim_steps": sim_steps, "wall_s": wall})
-            ctx.progress(opt.generation, total, {"best": row["best"], "mean": row["mean"], "worst": row["worst"],
-                                                 "evaluations": evaluations,
-                                                 "sim_steps_per_s": sim_steps / max(wall, 1e-9)})
+            state = {k: v for k, v in ckpt.items() if k != "optimizers"}
+            if "history" in ckpt:  # a checkpoint written before the random-search control existed
+                state["search_history"] = state.pop("history")
+                ckpt = ckpt | {"optimizers": {"search": ckpt["optimizer"]}}
+                state.pop("optimizer", None)
+            for name, st in ckpt["optimizers"].items():
+                opts[name].restore(st)
 
-        best_x, best_f = opt.best
+        def save(name, opt):
+            ctx.save_checkpoint(state | {"optimizers": {n: o.state() for n, o in opts.items()
+                                                        if o.generation > 0}})
+
+        seg_start = time.perf_counter()
+        for k, name in enumerate(phases):
+            _phase(name, opts[name], score, total, ctx, state, k * total, grand_total, save)
+        post_start = time.perf_counter()
+
+        best_x, _ = opts["search"].best
         nominal = nominal_params(robot, legs)
         best = _scored(ev, best_x, weights, units)
         baseline = _scored(base_ev, nominal, weights, units)
+        state["evaluations"] += 2
+        controls = [{
+            "name": "baseline", "label": "nominal tripod with nominal parameters (no recovery)", "evaluations": 1,
+            "metrics": baseline["metrics"], "fitness": baseline["fitness"],
+            "target_met": meets_target(baseline["metrics"]),
+            "note": ("already meets the target without recovery" if meets_target(baseline["metrics"])
+                     else "does not meet the target") + ("; falls (chassis or upper leg on the ground)"
+                                                        if baseline["metrics"]["fell"] else ""),
+        }]
+        if "random_search" in opts:
+            rx, _ = opts["random_search"].best
+            rs = _scored(ev, rx, weights, units)
+            state["evaluations"] += 1
+            controls.append({
+                "name": "random_search", "label": "uniform random search over the same bounds",
+                "evaluations": total * s.population * spec.models_per_candidate,
+                "metrics": rs["metrics"], "fitness": rs["fitness"], "target_met": meets_target(rs["metrics"]),
+                "params": {n: float(v) for n, v in zip(names, rx)},
+                "note": "same budget, same scoring" + (" (robust)" if spec.robust else "")
+                        + f"; {'beats' if rs['fitness'] > best['fitness'] else 'does not beat'} the search's best F",
+            })
+        robustness = None
+        if rob_ev is not None:
+            r = rob_ev.evaluate_all(best_x)
+            state["evaluations"] += len(cases)
+            state["sim_steps"] += r.sim_steps
+            rows = []
+            for k, c in enumerate(cases):
+                m = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}
+                rows.append({"name": c.name, "label": c.label, "metrics": m, "target_met": meets_target(m),
+                             "fitness": float(fitness({key: v[:, k] for key, v in r.metrics.items()}, weights, units)[0])})
+            robustness = robustness_block(TARGET_TEXT, best["metrics"], rows)
+        robust = None
+        if spec.robust is not None:
+            robust = spec.robust.model_dump() | {"best_per_model": score.per_model(best_x[None])}
         traces = {"best": ev.trace(best_x), "baseline": base_ev.trace(nominal)}
-        evaluations += 2
     finally:
+        score.close()
         ev.close()
         base_ev.close()
-    wall = wall_before + time.perf_counter() - seg_start
+        if rob_ev is not None:
+            rob_ev.close()
+    wall = state["wall_s"] + time.perf_counter() - post_start  # searches (across resumes) + final scoring
+    history = state["search_history"]
     best["params"] = {n: float(v) for n, v in zip(names, best_x)}
+    best["target_met"] = meets_target(best["metrics"])
     baseline["params"] = {n: float(v) for n, v in zip(names, nominal)}
     baseline["gait"] = nominal_tripod(legs).as_dict()
+    baseline["target_met"] = controls[0]["target_met"]
+    evaluations, sim_steps = state["evaluations"], state["sim_steps"]
     summary = {
         "kind": "recovery",
         "robot": spec.robot,
@@ -141,9 +252,17 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         "seed": spec.seed,
         "baseline": baseline,
         "best": best,
+        "target": {"text": TARGET_TEXT, "best_met": best["target_met"], "baseline_met": baseline["target_met"],
+                   "note": ("the baseline already meets the target: this damage needs no recovery"
+                            if baseline["target_met"] else "")},
+        "controls": controls,
+        "robustness": robustness,
+        "robust": robust,
         "gait": seq.as_dict() | {"period_s": ev.n_period * ev.dt},
+        "timestep_s": float(model.opt.timestep),
         "bounds": {"names": names, "lower": lower.tolist(), "upper": upper.tolist()},
         "history": history,
+        "random_search_history": state.get("random_search_history", []),
         "timing": {"wall_s": wall, "evaluations": evaluations,
                    "sim_steps_per_s": sim_steps / max(wall, 1e-9), "sim_steps": sim_steps,
                    "setup_s": seg_start - t0},

@@ -10,6 +10,9 @@ from pydantic import Field, field_validator, model_validator
 from app.gaits.sequences import InfeasibleMorphology, check_feasible
 from app.jobs.base import SpecBase, StrictModel
 from app.robots.catalog import ROBOTS
+from app.robots.hexapod import DEFAULT_TIMESTEP
+from app.sim.perturb import walking_cases
+from app.sim.robust import AGGREGATES
 
 Leg = Annotated[int, Field(ge=1, le=6)]
 JointName = Literal["coxa", "femur", "tibia"]
@@ -77,6 +80,46 @@ class Objective(StrictModel):
 class Sim(StrictModel):
     duration_s: float = Field(10.0, gt=0.0, le=120.0)
     settle_s: float = Field(0.5, ge=0.0, le=5.0)
+    # The default passes the convergence rule (README, "Timestep"); coarser steps are allowed
+    # for quick looks, and the robustness block shows what they cost.
+    timestep_s: float = Field(DEFAULT_TIMESTEP, ge=0.0005, le=0.008)
+
+
+CASE_NAMES = tuple(c.name for c in walking_cases(1.0))
+CaseName = Literal[CASE_NAMES]  # type: ignore[valid-type]
+
+
+def _unique_cases(v: list[str]) -> list[str]:
+    if len(set(v)) != len(v):
+        raise ValueError("each perturbation may be listed once")
+    return v
+
+
+class Robust(StrictModel):
+    """Robust search: every candidate is scored on the nominal model and on each of
+    ``models`` (standard perturbations by name) in the same batched rollout, and its
+    fitness is the mean or the worst of the Eq. 5 fitness over them."""
+
+    models: list[CaseName] = Field(min_length=1, max_length=len(CASE_NAMES))
+    aggregate: Literal[AGGREGATES] = "mean"  # type: ignore[valid-type]
+
+    @field_validator("models")
+    @classmethod
+    def _unique(cls, v: list[str]) -> list[str]:
+        return _unique_cases(v)
+
+
+class Controls(StrictModel):
+    random_search: bool = True  # uniform sampling of the same bounds at the search's budget
+
+
+class Robustness(StrictModel):
+    cases: list[CaseName] = Field(default_factory=lambda: list(CASE_NAMES), max_length=len(CASE_NAMES))
+
+    @field_validator("cases")
+    @classmethod
+    def _unique(cls, v: list[str]) -> list[str]:
+        return _unique_cases(v)
 
 
 class Gait(StrictModel):
@@ -116,6 +159,9 @@ class RecoverySpec(SpecBase):
     sim: Sim = Field(default_factory=Sim)
     gait: Gait = Field(default_factory=Gait)
     bounds: Bounds = Field(default_factory=Bounds)
+    robust: Robust | None = None
+    controls: Controls = Field(default_factory=Controls)
+    robustness: Robustness = Field(default_factory=Robustness)
 
     @field_validator("robot")
     @classmethod
@@ -124,16 +170,23 @@ class RecoverySpec(SpecBase):
             raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)}")
         return v
 
-    budget_formula: ClassVar[str] = ("population x (generations + 1) candidate gaits (generation 0 is the "
-                                     "initial population)")
+    budget_formula: ClassVar[str] = (
+        "population x (generations + 1) candidate gaits (generation 0 is the initial population), each simulated "
+        "on 1 + len(robust.models) models; the same again for the random-search control when it is on; plus one "
+        "simulation per robustness case and three re-scorings (best, baseline, random-search best)")
 
     @property
     def seed(self) -> int:
         return self.search.seed
 
     @property
+    def models_per_candidate(self) -> int:
+        return 1 + (len(self.robust.models) if self.robust else 0)
+
+    @property
     def evaluations_budget(self) -> int:
-        return self.search.population * (self.search.generations + 1)
+        search = self.search.population * (self.search.generations + 1) * self.models_per_candidate
+        return search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3
 
 
 Spec = RecoverySpec
