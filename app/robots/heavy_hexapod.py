@@ -53,6 +53,9 @@ class HeavyHexapodGeometry:
     front_bay_mass: float = 400.0
     front_bay_x: float = 1.2
     leg_masses: tuple[float, float, float] = (40.0, 30.0, 30.0)  # coxa+swing drive, horizontal carriage, shank
+    # A load strapped on top of the body (robustness checks: it raises the CoG); 0 = none.
+    payload_kg: float = 0.0
+    payload_pos: tuple[float, float, float] = (0.0, 0.0, 0.55)
     hip_x: float = 1.7
     hip_y: float = 0.75
     hip_z: float = -0.2
@@ -68,13 +71,13 @@ class HeavyHexapodGeometry:
     kv: tuple[float, float, float] = (8e5, 2e5, 3e5)
     force_limit: tuple[float, float, float] = (4e5, 2e5, 2e5)
     armature: tuple[float, float, float] = (200.0, 20.0, 20.0)
-    timestep: float = 0.002
+    timestep: float = 0.001  # halving it moves the recovered answers < 0.3 deg, < 0.02 s; 2 ms did not (docs/tipping.md)
     impratio: float = 10.0
-    noslip_iterations: int = 0
+    noslip_iterations: int = 3  # without it soft contacts creep ~8 mm/s down a 40 deg slope at mu 1.5
 
     @property
     def total_mass(self) -> float:
-        return self.body_mass + 6 * sum(self.leg_masses)
+        return self.body_mass + self.payload_kg + 6 * sum(self.leg_masses)
 
     def side(self, leg: int) -> int:
         return 1 if leg <= 3 else -1
@@ -114,6 +117,9 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
     torso.add_geom(name="front_bay", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.4, 0.6, 0.3],
                    pos=[geom.front_bay_x, 0, 0.05], mass=geom.front_bay_mass, contype=0, conaffinity=0,
                    group=ROBOT_GROUP, rgba=[0.7, 0.45, 0.1, 1])
+    if geom.payload_kg > 0:
+        torso.add_geom(name="payload", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5, 0.5, 0.2], pos=list(geom.payload_pos),
+                       mass=geom.payload_kg, contype=0, conaffinity=0, group=ROBOT_GROUP, rgba=[0.3, 0.5, 0.8, 1])
     torso.add_site(name="imu", pos=[0, 0, 0])
     m_coxa, m_carriage, m_shank = geom.leg_masses
     (tlo, thi) = (math.radians(a) for a in geom.theta_range_deg)
@@ -213,6 +219,12 @@ def build_cliff_spec(geom: HeavyHexapodGeometry = HEAVY, cliff_x: float = 4.0, s
                             friction=fr, rgba=[0.6, 0.65, 0.7, 1])
     add_robot(spec, geom, pos=(0.0, 0.0, -geom.nominal_foot_yz[1] + geom.foot_radius + 0.005))
     return spec
+
+
+def scaled_masses(geom: HeavyHexapodGeometry, factor: float) -> HeavyHexapodGeometry:
+    """Every link mass times ``factor`` (same shapes, same CoG): a robustness perturbation."""
+    return dataclasses.replace(geom, body_mass=geom.body_mass * factor, front_bay_mass=geom.front_bay_mass * factor,
+                               leg_masses=tuple(m * factor for m in geom.leg_masses))
 
 
 def joint_targets(geom: HeavyHexapodGeometry, feet_body: dict[int, np.ndarray]) -> dict[int, np.ndarray]:

@@ -26,22 +26,28 @@ class ControllerConfig:
     kappa: float = 0.8  # Eq. 15
     rho: float = 0.9  # safety margin of the reachable space (Eq. 11-13)
     lam: float = 0.9  # radius factor of the stability cone's base (Eq. 21)
-    mu: float = 1.2  # friction the QP assumes: below the simulated 1.5; its inscribed pyramid holds 40 deg slopes
+    mu: float = 1.2  # friction the QP assumes; the QP's pyramid is inscribed in it
     parallel_deg: float = 15.0  # boundary-vs-axis angle under which L or R is taken (Sec. 4.2)
+    # Swing time: "eq15" = the Eq. 15 time-to-tip, clipped to what the leg can do
+    # [swing_min_s, swing_max_s]; "fixed" = always fixed_swing_s (the control that shows
+    # whether the timing matters).
+    swing_timing: str = "eq15"
     swing_min_s: float = 0.4
-    swing_max_s: float = 1.5  # the paper's adjustments took 0.74-2.31 s
+    swing_max_s: float = 4.0
+    fixed_swing_s: float = 1.5
     clearance_m: float = 0.25
     press_m: float = 0.06  # target this far into the fitted ground so the foot surely lands
     min_lever_m: float = 0.05  # a swing leg that cannot reach this far outside the axis cannot help
     qp: bool = True
     control_dt: float = 0.02
     max_adjustments: int = 2
-    # Admittance of the stance feet toward the QP's internal forces (m/s per N). Off by
-    # default: it makes the feet share load as the QP says (within ~15 %) in the fore/aft
-    # catches, but on the 51 deg lateral slope, 2 deg from the four-leg tip angle, the
-    # redistribution rolls the robot over. The QP then acts through the feed-forward only.
-    force_gain: float = 0.0
-    press_limit_m: float = 0.15
+    # Stance control once the QP runs: "force" = the stance legs become compliant (servo
+    # gains times ``compliance``, damping times its square root) about where they stand and
+    # push the QP's forces through tau = -J^T f, so the feet carry the QP's distribution;
+    # "position" = stiff servos with the QP only as feed-forward (the load then follows the
+    # servos' stiffness, not the QP).
+    stance_control: str = "force"
+    compliance: float = 0.03
 
 
 @dataclasses.dataclass
@@ -116,6 +122,8 @@ class HexapodSim:
         self.jlo = {leg: m.jnt_range[[m.joint(joint_name(leg, j)).id for j in JOINT_NAMES], 0] for leg in LEG_IDS}
         self.jhi = {leg: m.jnt_range[[m.joint(joint_name(leg, j)).id for j in JOINT_NAMES], 1] for leg in LEG_IDS}
         self._cf = np.zeros(6)
+        self._kp0 = m.actuator_biasprm[:, 1].copy()  # pid actuators: bias = -kp (q - ctrl) - kv qdot
+        self._kv0 = m.actuator_biasprm[:, 2].copy()
         self._jac = np.zeros((3, m.nv))
 
     # -- sensing ---------------------------------------------------------------------------
@@ -160,6 +168,13 @@ class HexapodSim:
             self.set_foot_target(leg, p)
             self.data.qpos[self.qadr[leg]] = self.data.ctrl[self.pid[leg]]
         mujoco.mj_forward(self.model, self.data)
+
+    def set_compliance(self, leg: int, factor: float) -> None:
+        """Scale this leg's servo stiffness by ``factor`` (damping by its square root, which
+        keeps the damping ratio); 1 restores the stiff servo."""
+        ids = self.pid[leg]
+        self.model.actuator_biasprm[ids, 1] = self._kp0[ids] * factor
+        self.model.actuator_biasprm[ids, 2] = self._kv0[ids] * math.sqrt(factor)
 
     def apply_foot_forces(self, forces: dict[int, np.ndarray]) -> None:
         """Feed-forward joint efforts so the stance legs push the QP's forces: tau = -J^T f."""
@@ -213,7 +228,6 @@ class TippingController:
         self.qp_stability = False
         self.pending_after: list[tuple[float, Adjustment]] = []
         self.hold_targets: dict[int, np.ndarray] = {}  # stance feet (body frame) when the QP took over
-        self.press: dict[int, float] = {}  # force-tracking offsets along the ground normal (m)
 
     def support(self, forces_w: np.ndarray) -> list[int]:
         """The support polygon's legs: those commanded to stance plus any foot carrying load
@@ -266,7 +280,10 @@ class TippingController:
                 break
             candidates[leg] = None  # its best foothold is over a void: the next leg
         adj.leg, adj.lever_arm_m, adj.foothold_label, adj.foothold_body_m = leg, lever, label, target.tolist()
-        T = float(np.clip(adj.time_to_tip_s, cfg.swing_min_s, cfg.swing_max_s))
+        if cfg.swing_timing == "fixed":
+            T = float(cfg.fixed_swing_s)
+        else:
+            T = float(np.clip(adj.time_to_tip_s, cfg.swing_min_s, cfg.swing_max_s))
         adj.swing_s, adj.lands_before_tip = T, T <= adj.time_to_tip_s
         p0 = feet_b[leg - 1]
         v0 = np.zeros(3) if self.prev_feet_body is None else (p0 - self.prev_feet_body[leg - 1]) / cfg.control_dt
@@ -289,12 +306,10 @@ class TippingController:
             self.detector.margins.clear()
 
     def _distribute(self, feet_w: np.ndarray, forces_w: np.ndarray, com: np.ndarray) -> None:
-        """QP forces (Eq. 16-24) applied to the stance legs: as joint feed-forward
-        (tau = -J^T f) and, because position-servoed legs on four or more feet share the
-        load by their stiffness, not by the feed-forward, with an admittance on each stance
-        foot: it presses along the ground normal until its measured normal force matches
-        the QP's internal-force redistribution (``force_gain`` m/s per N, offsets within
-        +-``press_limit_m``)."""
+        """QP forces (Eq. 16-24) on the stance legs. With ``stance_control == "force"`` each
+        stance leg is made compliant about the foot position it had when the QP took it over
+        and pushes the QP's force through tau = -J^T f, so the measured foot forces follow
+        the QP (tested); with "position" the stiff servos stay and the QP is feed-forward only."""
         sim, cfg = self.sim, self.cfg
         pts = [feet_w[l - 1].tolist() for l in self.stance]
         x, R = sim.body_pose()
@@ -304,28 +319,13 @@ class TippingController:
         self.qp_forces = {l: sol.forces[i] for i, l in enumerate(self.stance)}
         self.qp_stability = sol.stability_constrained
         sim.apply_foot_forces(self.qp_forces)
-        if cfg.force_gain <= 0:
+        if cfg.stance_control != "force":
             return
-        n = np.asarray(normal)
-        n_body = R.T @ n
-        # Track only the part of the QP's distribution that keeps the body's wrench: its
-        # projection on the null space of A (internal forces). Where the FASM pyramid made
-        # the QP give up some of the weight's wrench, chasing the rest with position-servoed
-        # legs would push the body over instead of redistributing its load.
-        idx = [l - 1 for l in self.stance]
-        A = np.vstack([np.tile(np.eye(3), (1, len(idx))), np.concatenate(list(skew(feet_w[idx] - com)), axis=1)])
-        _, sv, vt = np.linalg.svd(A)
-        null = vt[int(np.sum(sv > 1e-9 * sv[0])):].T
-        meas = forces_w[idx].ravel()
-        want = (meas + null @ (null.T @ (sol.forces.ravel() - meas))).reshape(-1, 3)
-        for i, leg in enumerate(self.stance):
+        for leg in self.stance:
             if leg not in self.hold_targets:
                 self.hold_targets[leg] = (feet_w[leg - 1] - x) @ R
-                self.press[leg] = 0.0
-            err = (want[i] - forces_w[leg - 1]) @ n
-            self.press[leg] = float(np.clip(self.press[leg] + cfg.force_gain * err * cfg.control_dt,
-                                            -cfg.press_limit_m, cfg.press_limit_m))
-            sim.set_foot_target(leg, self.hold_targets[leg] - self.press[leg] * n_body)
+                sim.set_compliance(leg, cfg.compliance)
+            sim.set_foot_target(leg, self.hold_targets[leg])
 
 
 # -- results ----------------------------------------------------------------------------------
@@ -350,7 +350,7 @@ def run_summary(r: dict, threshold: float) -> dict:
         "adjustments": r["adjustments"], "final_stance": r["final_stance"],
         "control_ms_mean": r["control_ms_mean"], "control_ms_p95": r["control_ms_p95"],
     }
-    for k in ("static_tip_deg", "max_tilt_deg", "distance_m"):
+    for k in ("static_tip_deg", "max_tilt_deg", "distance_m", "max_slip_m"):
         if k in r:
             out[k] = r[k]
     if first is not None:
@@ -368,16 +368,15 @@ def run_summary(r: dict, threshold: float) -> dict:
 @dataclasses.dataclass(frozen=True)
 class TiltScenario:
     """The platform turns so that ``downhill_deg`` (0 = the robot's front, 90 = its left)
-    goes down, at ``rate_deg_s`` after ``settle_s``, and stops at ``max_tilt_deg`` or, when
-    that is None, ``overshoot_deg`` past the angle at which the stance tripod statically tips
-    (so the robot goes over unless something catches it)."""
+    goes down, at ``rate_deg_s`` after ``settle_s``, to the fixed final tilt ``max_tilt_deg``
+    and holds it (Sec. 5.2: the Stewart platform rotates; the motion never looks at the
+    robot, so whether the robot tips is an outcome, not a setting)."""
 
     downhill_deg: float = 180.0
     stance: tuple[int, ...] = (1, 3, 5)
-    rate_deg_s: float = 3.0
+    rate_deg_s: float = 10.0
     settle_s: float = 3.0
-    max_tilt_deg: float | None = None
-    overshoot_deg: float = 4.0
+    max_tilt_deg: float = 40.0
     hold_s: float = 6.0  # the run lasts at least until the platform has held its final tilt this long
     lift_m: float = 0.45
 
@@ -428,15 +427,14 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
     n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
     n_ctl = int(round(duration_s / cfg.control_dt))
     rec = _Recorder(n_ctl, m.nq, record_qpos)
+    slip = SlipMeter(0.02 * sim.mass * 9.81)
     max_tilt = scen.max_tilt_deg
-    tip_angle = None
+    tip_angle = None  # reported only: the angle at which the stance tripod would statically tip
     tipped_at = None
     control_s = []
     def tilt_at(tt: float) -> float:
         """Trapezoidal rate profile: 1 s ramps up to ``rate_deg_s`` and back down to rest at
         the final tilt (a rate step at either end would jolt a 5 t robot on a 20 t table)."""
-        if max_tilt is None:
-            return 0.0
         s, R = tt - scen.settle_s, scen.rate_deg_s
         ramp = min(1.0, max_tilt / R)
         total = max_tilt / R + ramp
@@ -456,17 +454,16 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
     while True:
         k += 1
         t = k * cfg.control_dt
-        if max_tilt is not None:  # long enough to reach the final tilt and hold it
-            n_ctl = max(n_ctl, int(round((scen.settle_s + max_tilt / scen.rate_deg_s + 1.0 + scen.hold_s) / cfg.control_dt)))
+        # long enough to reach the final tilt and hold it
+        n_ctl = max(n_ctl, int(round((scen.settle_s + max_tilt / scen.rate_deg_s + 1.0 + scen.hold_s) / cfg.control_dt)))
         if k >= n_ctl:
             break
-        if max_tilt is None and t >= scen.settle_s:  # the stance polygon as it stands, flat
+        if tip_angle is None and t >= scen.settle_s:  # the stance polygon as it stands, flat
             feet = sim.feet_world()[[l - 1 for l in stance]]
             com = sim.com()
             h = com[2] - feet[:, 2].mean() + g.foot_radius
             order = ccw_order(feet)
             tip_angle = static_tip_angle(feet[order, :2], com[:2], h, scen.downhill_deg)
-            max_tilt = tip_angle + scen.overshoot_deg
         tilt = tilt_at(t)
         for leg in LEG_IDS:
             if leg not in ctl.stance and (ctl.swing is None or ctl.swing[0] != leg):
@@ -478,10 +475,13 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
         else:
             mon = monitor(feet_w, forces_avg, com, ctl.stance)
         control_s.append(time.perf_counter() - c0)
-        normal = d.xmat[plat_body].reshape(3, 3)[:, 2]
+        R_plat = d.xmat[plat_body].reshape(3, 3)
+        normal = R_plat[:, 2]
+        if tipped_at is None:
+            slip.add(feet_w, forces_avg, R_plat)
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[:, 2] @ normal, -1, 1)))
-        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d, feet_w)
+        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d, feet_w, slip.ratio_max)
         if rel > TIPPED_DEG and tipped_at is None:
             tipped_at = t
         if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
@@ -498,6 +498,7 @@ def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom:
     tr = rec.finish()
     return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
             "tipped_at_s": tipped_at, "static_tip_deg": tip_angle, "max_tilt_deg": max_tilt,
+            "max_slip_m": float(slip.slip_m.max()), "slip_m": slip.slip_m.tolist(),
             "control_ms_mean": 1e3 * float(np.mean(control_s)), "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)),
             "model_xml": sim.spec.to_xml(), "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass,
             "final_stance": list(ctl.stance)}
@@ -509,18 +510,45 @@ def _quat_rot(q: np.ndarray) -> np.ndarray:
     return R.reshape(3, 3)
 
 
+class SlipMeter:
+    """How far each foot slides along the ground while it carries load, in the ground's own
+    frame (the platform turns under the feet): the largest distance from where the foot took
+    load in the same contact (a path length would add up contact jitter). The paper assumes
+    no slipping; the low-friction scenario tests it."""
+
+    def __init__(self, load_n: float):
+        self.load_n = load_n
+        self.anchor = np.full((6, 2), np.nan)
+        self.slip_m = np.zeros(6)
+        self.ratio_max = 0.0  # this step's largest tangential / normal force over the loaded feet
+
+    def add(self, feet_w: np.ndarray, forces_w: np.ndarray, R_ground: np.ndarray) -> None:
+        p = (feet_w @ R_ground)[:, :2]  # ground frame (its origin is on the hinge axis, the world origin)
+        f = forces_w @ R_ground
+        loaded = f[:, 2] > self.load_n
+        self.ratio_max = float(np.max(np.hypot(f[loaded, 0], f[loaded, 1]) / f[loaded, 2])) if loaded.any() else 0.0
+        new = loaded & np.isnan(self.anchor[:, 0])
+        self.anchor[new] = p[new]
+        self.anchor[~loaded] = np.nan
+        d = np.linalg.norm(p - self.anchor, axis=1)
+        self.slip_m = np.fmax(self.slip_m, np.where(loaded, d, 0.0))
+
+
 class _Recorder:
     def __init__(self, n: int, nq: int, qpos: bool):
         self.rows: dict[str, list] = {k: [] for k in ("time_s", "platform_tilt_deg", "fasm_deg", "edge_leg_a", "edge_leg_b",
                                                       "ssm_m", "nesm_m", "foot_fz_n", "com_m", "tilt_rel_deg", "stance",
-                                                      "qp_fz_n", "qp_stability", "feet_m", "foot_contact")}
+                                                      "qp_fz_n", "qp_stability", "feet_m", "foot_contact",
+                                                      "foot_f_n", "qp_f_n", "friction_ratio")}
         self.qpos = qpos
         if qpos:
             self.rows["qpos"] = []
             self.rows["mocap_quat"] = []
 
-    def add(self, t, tilt, mon: StepMonitor, forces_w, com, rel, ctl: TippingController, d, feet_w) -> None:
+    def add(self, t, tilt, mon: StepMonitor, forces_w, com, rel, ctl: TippingController, d, feet_w,
+            friction_ratio: float = 0.0) -> None:
         r = self.rows
+        r["friction_ratio"].append(friction_ratio)
         r["time_s"].append(t)
         r["platform_tilt_deg"].append(tilt)
         r["fasm_deg"].append(mon.margin_deg)
@@ -534,6 +562,8 @@ class _Recorder:
         r["stance"].append(np.array([leg in ctl.stance for leg in LEG_IDS]))
         r["qp_fz_n"].append(np.array([ctl.qp_forces.get(leg, np.zeros(3))[2] for leg in LEG_IDS]))
         r["qp_stability"].append(bool(ctl.qp_stability))
+        r["foot_f_n"].append(forces_w.copy())
+        r["qp_f_n"].append(np.array([ctl.qp_forces.get(leg, np.zeros(3)) for leg in LEG_IDS]))
         r["feet_m"].append(feet_w.copy())
         r["foot_contact"].append(forces_w[:, 2] > 0.02 * ctl.sim.mass * 9.81)
         if self.qpos:
@@ -592,7 +622,7 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
     g = geom if friction is None else dataclasses.replace(geom, friction=friction)
     # Walking on level ground needs no anti-creep friction, and with it (impratio 10) the
     # position-controlled stance tripod chatters (+-20 kN) as its feet sweep back together.
-    g = dataclasses.replace(g, impratio=1.0)
+    g = dataclasses.replace(g, impratio=1.0, noslip_iterations=0)
     side = -1 if sc.side == "right" else 1
     sim = HexapodSim(build_cliff_spec(g, cliff_x=sc.cliff_x, side=side, drop=sc.drop_m), g)
     m, d = sim.model, sim.data
@@ -611,6 +641,7 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
     n_ctl = int(round(duration_s / cfg.control_dt))
     rec = _Recorder(n_ctl, m.nq, record_qpos)
     tipped_at, control_s = None, []
+    slip = SlipMeter(0.02 * sim.mass * 9.81)
     mujoco.mj_forward(m, d)
     forces_avg = sim.foot_forces()
     for k in range(n_ctl):
@@ -627,7 +658,9 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
         control_s.append(time.perf_counter() - c0)
         _, R = sim.body_pose()
         rel = math.degrees(math.acos(np.clip(R[2, 2], -1, 1)))
-        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d, feet_w)
+        if tipped_at is None:
+            slip.add(feet_w, forces_avg, np.eye(3))
+        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d, feet_w, slip.ratio_max)
         if rel > TIPPED_DEG and tipped_at is None:
             tipped_at = t
         if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
@@ -643,4 +676,4 @@ def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom:
             "tipped_at_s": tipped_at, "control_ms_mean": 1e3 * float(np.mean(control_s)),
             "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)), "model_xml": sim.spec.to_xml(),
             "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass, "final_stance": list(ctl.stance),
-            "distance_m": float(tr["com_m"][-1][0] - tr["com_m"][0][0])}
+            "max_slip_m": float(slip.slip_m.max()), "slip_m": slip.slip_m.tolist(), "distance_m": float(tr["com_m"][-1][0] - tr["com_m"][0][0])}
