@@ -13,14 +13,14 @@ from typing import Callable
 import numpy as np
 
 from app.robots.heavy_hexapod import HEAVY, HeavyHexapodGeometry, scaled_masses
-from app.stability.scenario import ControllerConfig, TiltScenario, first_catch, run_tilt
+from app.stability.scenario import CliffScenario, ControllerConfig, TiltScenario, first_catch, run_cliff, run_tilt
 
 
 @dataclasses.dataclass(frozen=True)
 class Setup:
     """Everything one tilting-platform simulation needs."""
 
-    scen: TiltScenario
+    scen: TiltScenario | CliffScenario
     cfg: ControllerConfig
     duration_s: float = 20.0
     geom: HeavyHexapodGeometry = HEAVY
@@ -31,6 +31,9 @@ class Setup:
 
 
 def simulate(setup: Setup, record_qpos: bool = False) -> dict:
+    if isinstance(setup.scen, CliffScenario):
+        return run_cliff(setup.scen, setup.cfg, setup.duration_s, geom=setup.geom, friction=setup.friction,
+                         record_qpos=record_qpos)
     return run_tilt(setup.scen, setup.cfg, setup.duration_s, geom=setup.geom, friction=setup.friction,
                     record_qpos=record_qpos)
 
@@ -122,6 +125,9 @@ def control_setups(setup: Setup) -> list[tuple[str, str, Setup]]:
 
 # -- robustness -------------------------------------------------------------------------------
 
+ROBUSTNESS_CASES = ("dt_half", "dt_quarter", "friction_0.7", "friction_1.3", "mass_+10pct", "mass_-10pct", "payload")
+
+
 def robustness_setups(setup: Setup) -> list[tuple[str, str, Setup]]:
     g, f = setup.geom, setup.friction
     return [
@@ -170,3 +176,74 @@ def convergence_row(coarse: dict, fine: dict, tol: dict = CONVERGENCE_TOL) -> di
         diffs[k] = abs(a - b)
         ok &= diffs[k] <= t
     return {"tipped": [coarse["tipped"], fine["tipped"]], "diff": diffs, "ok": bool(ok)}
+
+
+# -- all of it, for a job ---------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class EvidencePlan:
+    controls: bool = True
+    robustness: bool = True
+    band: bool = True  # tilting platform only
+    band_lo_deg: float = 10.0
+    band_hi_deg: float = 60.0
+    band_tol_deg: float = 1.0
+    target_margin_deg: float = 0.0
+
+    def runs(self, tilt: bool, n_robust: int = len(ROBUSTNESS_CASES)) -> int:
+        """Upper bound on the simulations ``run_evidence`` makes."""
+        n = len(CONTROLS) - 1 if self.controls else 0  # no_recovery is the job's own baseline run
+        n += n_robust if self.robustness else 0
+        if self.band and tilt:
+            n += 2 * band_runs(self.band_lo_deg, self.band_hi_deg, self.band_tol_deg)
+        return n
+
+
+def run_evidence(setup: Setup, nominal: dict, baseline: dict, plan: EvidencePlan,
+                 before: Callable[[str], None] = lambda key: None, cache: dict | None = None,
+                 on_done: Callable[[str, dict], None] = lambda key, value: None) -> dict:
+    """Controls, robustness and the survivable tilt band for the recovery answer ``setup``
+    (whose outcome is ``nominal``; ``baseline`` is the same scenario without recovery), in
+    the shared result format. ``before(key)`` runs before every simulation (progress and
+    cancel); finished units are looked up in / reported to ``cache`` / ``on_done`` by key so
+    a resumed job does not repeat them."""
+    cache = {} if cache is None else cache
+
+    def unit(key: str, make: Callable[[], dict]) -> dict:
+        if key not in cache:
+            before(key)
+            cache[key] = make()
+            on_done(key, cache[key])
+        return cache[key]
+
+    tgt = plan.target_margin_deg
+    out: dict = {}
+    if plan.controls:
+        rows = [{"name": "no_recovery", "label": CONTROLS[0][1], "evaluations": 1, "metrics": baseline,
+                 "target_met": target_met(baseline, tgt), "note": "the job's baseline run"}]
+        for name, label, s in control_setups(setup)[1:]:
+            m = unit(f"control:{name}", lambda s=s: outcome(simulate(s)))
+            rows.append({"name": name, "label": label, "evaluations": 1, "metrics": m, "target_met": target_met(m, tgt),
+                         "note": "same scenario, same physics; one simulation like the method"})
+        out["controls"] = rows
+    if plan.robustness:
+        cases = []
+        for name, label, s in robustness_setups(setup):
+            m = unit(f"robust:{name}", lambda s=s: outcome(simulate(s)))
+            cases.append({"name": name, "label": label, "metrics": m, "target_met": target_met(m, tgt)})
+        out["robustness"] = {"target": target_text(tgt), "cases": cases,
+                             "met": sum(bool(c["target_met"]) for c in cases), "total": len(cases),
+                             "spread": spread(nominal, cases)}
+    if plan.band and isinstance(setup.scen, TiltScenario):
+        band = {}
+        for name, cfg in (("with_recovery", setup.cfg), ("without_recovery", dataclasses.replace(setup.cfg, recovery=False))):
+            def run_probe(s: Setup, name=name) -> dict:
+                key = f"band:{name}:{s.scen.max_tilt_deg:.4f}"
+                return unit(key, lambda: {"tipped": bool(simulate(s)["tipped"])})
+            band[name] = survivable_tilt(setup.with_(cfg=cfg), plan.band_lo_deg, plan.band_hi_deg, plan.band_tol_deg,
+                                         run=run_probe)
+        a, b = band["with_recovery"]["max_upright_deg"], band["without_recovery"]["max_upright_deg"]
+        band["gain_deg"] = None if a is None or b is None else a - b
+        band["tolerance_deg"] = plan.band_tol_deg
+        out["band"] = band
+    return out
