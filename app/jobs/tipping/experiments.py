@@ -12,7 +12,8 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
-from app.stability.scenario import ControllerConfig, TiltScenario, paper_direction, run_summary, run_tilt
+from app.stability.evidence import EvidencePlan, Setup, outcome, run_evidence, simulate
+from app.stability.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
     ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
@@ -20,54 +21,84 @@ PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
 )
 
 
-def paper_cases(duration_s: float = 25.0) -> list[dict]:
+def paper_cases(duration_s: float = 20.0, rate_deg_s: float = 10.0, max_tilt_deg: float = 40.0, friction: float = 1.5,
+                band_tol_deg: float = 1.0, robustness: bool = False, log: Callable[[str], None] = lambda m: None) -> list[dict]:
+    """Each case at the job's defaults: the recovery run, its controls (no recovery, no QP,
+    position-servoed stance, fixed swing time), the survivable tilt band with and without
+    recovery, and (``robustness``) the perturbed re-runs."""
     rows = []
+    plan = EvidencePlan(robustness=robustness, band_tol_deg=band_tol_deg)
     for axis, direction, stance, paper_leg in PAPER_CASES:
-        # The job's defaults (app/jobs/tipping/spec.py): friction 1.5, threshold 20 deg, ...
-        sc = TiltScenario(downhill_deg=paper_direction(axis, direction), stance=stance)
-        base, rec = (run_summary(run_tilt(sc, ControllerConfig(recovery=r), duration_s, friction=1.5, record_qpos=False),
-                                 ControllerConfig().threshold_deg) for r in (False, True))
+        sc = TiltScenario(downhill_deg=paper_direction(axis, direction), stance=stance, rate_deg_s=rate_deg_s,
+                          max_tilt_deg=max_tilt_deg)
+        setup = Setup(sc, ControllerConfig(), duration_s, friction=friction)
+        r = simulate(setup)
+        rec = run_summary(r, ControllerConfig().threshold_deg)
+        base = outcome(simulate(setup.with_(cfg=ControllerConfig(recovery=False))))
+        ev = run_evidence(setup, outcome(r), base, plan)
+        first = first_catch(r["adjustments"]) or {}
         rows.append({"case": f"{axis} {direction}, stance {''.join(map(str, stance))}", "paper_leg": paper_leg,
                      "tipped_without": base["tipped"], "tipped_without_at_s": base["tipped_at_s"],
                      "tipped_with": rec["tipped"], "detection_time_s": rec.get("detection_time_s"),
                      "edge": rec.get("tipping_edge"), "leg": rec.get("adjustment_leg"),
                      "foothold_body_m": rec.get("foothold_body_m"), "time_to_tip_s": rec.get("time_to_tip_s"),
-                     "adjustment_time_s": rec.get("adjustment_time_s"),
+                     "swing_s": first.get("swing_s"), "adjustment_time_s": rec.get("adjustment_time_s"),
                      "margin_at_detection_deg": rec.get("margin_at_detection_deg"),
                      "margin_before_deg": rec.get("margin_before_landing_deg"),
                      "margin_after_deg": rec.get("margin_after_landing_deg"),
                      "final_margin_deg": rec["final_margin_deg"], "static_tip_deg": rec.get("static_tip_deg"),
-                     "max_tilt_deg": rec.get("max_tilt_deg"), "control_ms_mean": rec["control_ms_mean"]})
+                     "max_tilt_deg": rec.get("max_tilt_deg"), "control_ms_mean": rec["control_ms_mean"], **ev})
+        log(f"{rows[-1]['case']}: done")
     return rows
+
+
+def _n(v, fmt):
+    return "-" if v is None else fmt.format(v)
 
 
 def markdown(rows: list[dict]) -> str:
     head = ("| case | detected (s) | edge | leg (paper) | foothold body (m) | t_s Eq.15 (s) | swing (s) "
             "| margin at detection / before landing / after (deg) | no recovery | recovery |\n|---|---|---|---|---|---|---|---|---|---|\n")
-    def n(v, fmt):  # a run too short to detect anything leaves these empty
-        return "-" if v is None else fmt.format(v)
-
     out = []
     for r in rows:
         fh = "(" + ", ".join(f"{v:.2f}" for v in r["foothold_body_m"]) + ")" if r["foothold_body_m"] else "-"
         without = f"tips at {r['tipped_without_at_s']:.1f} s" if r["tipped_without"] else "stays up"
-        out.append(f"| {r['case']} | {n(r['detection_time_s'], '{:.2f}')} | {r['edge'] or '-'} | "
+        out.append(f"| {r['case']} | {_n(r['detection_time_s'], '{:.2f}')} | {r['edge'] or '-'} | "
                    f"{r['leg'] or '-'} ({r['paper_leg']}) | {fh} "
-                   f"| {n(r['time_to_tip_s'], '{:.2f}')} | {n(r['adjustment_time_s'], '{:.2f}')} | "
-                   f"{n(r['margin_at_detection_deg'], '{:.1f}')} / "
-                   f"{n(r['margin_before_deg'], '{:.1f}')} / {n(r['margin_after_deg'], '{:.1f}')} "
+                   f"| {_n(r['time_to_tip_s'], '{:.2f}')} | {_n(r['swing_s'], '{:.2f}')} | "
+                   f"{_n(r['margin_at_detection_deg'], '{:.1f}')} / "
+                   f"{_n(r['margin_before_deg'], '{:.1f}')} / {_n(r['margin_after_deg'], '{:.1f}')} "
                    f"| {without} | {'tips' if r['tipped_with'] else 'stays up'} |")
-    return head + "\n".join(out)
+    md = head + "\n".join(out)
+    md += ("\n\n| case | upright with recovery / no QP / position stance / fixed 1.5 s swing "
+           "| margin after landing (deg): same order | survivable final tilt with / without recovery (deg) |"
+           "\n|---|---|---|---|\n")
+    for r in rows:
+        ctl = {c["name"]: c["metrics"] for c in r.get("controls", [])}
+        order = ["no_qp", "position_stance", "fixed_swing"]
+        up = " / ".join(["yes" if not r["tipped_with"] else "no"]
+                        + ["yes" if not ctl[k]["tipped"] else "no" for k in order if k in ctl])
+        ma = " / ".join([_n(r["margin_after_deg"], "{:.1f}")]
+                        + [_n(ctl[k]["margin_after_landing_deg"], "{:.1f}") for k in order if k in ctl])
+        b = r.get("band", {})
+        band = " / ".join(_n(b.get(k, {}).get("max_upright_deg"), "{:.1f}") for k in ("with_recovery", "without_recovery"))
+        md += f"| {r['case']} | {up} | {ma} | {band} |\n"
+    return md
 
 
 class CasesParams(BaseModel):
-    duration_s: float = Field(25.0, gt=1.0, le=120.0, description="simulated seconds per run")
+    duration_s: float = Field(20.0, gt=1.0, le=120.0, description="simulated seconds per run (at least)")
+    rate_deg_s: float = Field(10.0, gt=0.0, le=30.0, description="platform rate")
+    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
+    friction: float = Field(1.5, gt=0.1, le=3.0, description="foot-ground friction")
+    band_tolerance_deg: float = Field(1.0, ge=0.1, le=10.0, description="bisection tolerance of the survivable tilt")
+    robustness: bool = Field(False, description="also re-run each case under the perturbations")
     out: Path | None = Field(None, description="also write the markdown table here")
     json_out: Path | None = Field(None, description="also write the rows as JSON here")
 
 
 def cases(p: CasesParams, log: Callable[[str], None]) -> str:
-    rows = paper_cases(p.duration_s)
+    rows = paper_cases(p.duration_s, p.rate_deg_s, p.max_tilt_deg, p.friction, p.band_tolerance_deg, p.robustness, log)
     md = markdown(rows)
     if p.out:
         p.out.parent.mkdir(parents=True, exist_ok=True)
@@ -78,7 +109,7 @@ def cases(p: CasesParams, log: Callable[[str], None]) -> str:
 
 
 EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec. 5.2, Fig. 6), each without and "
-                                   "with recovery", CasesParams, cases)]
+                                   "with recovery, with the controls and the survivable tilt band", CasesParams, cases)]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:

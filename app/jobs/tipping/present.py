@@ -52,9 +52,57 @@ def headline(s: dict) -> list[HeadlineRow]:
                               f">= {s['threshold_deg']:g} deg (threshold)",
                               None if s.get("margin_after_landing_deg") is None
                               else s["margin_after_landing_deg"] >= s["threshold_deg"])]
+    band = s.get("band")
+    if band:
+        w, wo = band["with_recovery"], band["without_recovery"]
+        rows += [headline_row("largest final tilt survived with recovery", w["max_upright_deg"], "deg", "higher"),
+                 headline_row("largest final tilt survived without recovery", wo["max_upright_deg"], "deg", None),
+                 headline_row("survivable tilt gained by recovery", band.get("gain_deg"), "deg", "higher", "> 0",
+                              None if band.get("gain_deg") is None else band["gain_deg"] > 0)]
+    rob = s.get("robustness")
+    if rob:
+        rows.append(headline_row("robustness: perturbed re-runs meeting the target", f"{rob['met']}/{rob['total']}", "",
+                                 None, rob["target"], rob["met"] == rob["total"]))
     if s.get("sweep"):
         rows.append(headline_row("sweep success rate", s["sweep"].get("overall_success_rate"), "", "higher"))
     return rows
+
+
+def _num(v, fmt="{:.2f}") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    return fmt.format(v) if isinstance(v, float) else str(v)
+
+
+EVIDENCE_COLUMNS = (("tipped", "tipped"), ("margin_after_landing_deg", "margin after landing (deg)"),
+                    ("detection_time_s", "detected (s)"), ("time_to_tip_s", "Eq. 15 t_s (s)"), ("swing_s", "swing (s)"),
+                    ("final_margin_deg", "final margin (deg)"), ("max_slip_m", "foot slip (m)"),
+                    ("friction_demand", "friction demand"))
+
+
+def evidence_tables(s: dict) -> list[Table]:
+    out = []
+    heads = ["run"] + [h for _, h in EVIDENCE_COLUMNS] + ["target met"]
+    if s.get("controls"):
+        out.append(table("controls: the same scenario with parts of the method switched off", heads,
+                         [[c["name"]] + [_num(c["metrics"].get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c["target_met"])]
+                          for c in s["controls"]], [f"{c['name']}: {c['label']}" for c in s["controls"]]))
+    rob = s.get("robustness")
+    if rob:
+        out.append(table(f"robustness: the recovery re-simulated; target: {rob['target']}", heads,
+                         [[c["name"]] + [_num(c["metrics"].get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c["target_met"])]
+                          for c in rob["cases"]], [f"{rob['met']} of {rob['total']} meet the target"]))
+    band = s.get("band")
+    if band:
+        out.append(table(f"survivable final tilt (bisection to {band['tolerance_deg']:g} deg on real runs)",
+                         ["controller", "largest upright (deg)", "smallest tipped (deg)", "probes"],
+                         [[name, _num(b["max_upright_deg"], "{:.1f}"), _num(b["min_tipped_deg"], "{:.1f}"),
+                           b["evaluations"]] for name, b in (("with recovery", band["with_recovery"]),
+                                                              ("without recovery", band["without_recovery"]))],
+                         [b["note"] for b in (band["with_recovery"], band["without_recovery"]) if b["note"]]))
+    return out
 
 
 def summary_tables(s: dict) -> list[Table]:
@@ -79,7 +127,7 @@ def summary_tables(s: dict) -> list[Table]:
                           zip(sw["directions_deg"], sw["success_rate"], sw["tip_rate_without_recovery"],
                               sw["recovered_rate"])],
                          [f"overall success rate: {_rate(sw.get('overall_success_rate'))}"]))
-    return out
+    return out + evidence_tables(s)
 
 
 def _rate(v) -> str:

@@ -12,16 +12,14 @@ import numpy as np
 
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.tipping.spec import TippingSpec
-from app.stability.scenario import TiltScenario, first_catch, run_cliff, run_summary, run_tilt
+from app.stability.evidence import CONVERGENCE_TOL, Setup, convergence_row, outcome, run_evidence, simulate
+from app.stability.scenario import TiltScenario, first_catch, run_summary
 
 # -- runs -------------------------------------------------------------------------------------
 
-def _simulate(spec: TippingSpec, recovery: bool, scenario=None, record_qpos: bool = True) -> dict:
+def _setup(spec: TippingSpec, recovery: bool, scenario=None) -> Setup:
     sc = scenario if scenario is not None else spec.scenario.build()
-    cfg = spec.controller(recovery)
-    if isinstance(sc, TiltScenario):
-        return run_tilt(sc, cfg, spec.duration(), friction=spec.sim.friction, record_qpos=record_qpos)
-    return run_cliff(sc, cfg, spec.duration(), friction=spec.sim.friction, record_qpos=record_qpos)
+    return Setup(sc, spec.controller(recovery), spec.duration(), spec.geometry(), spec.sim.friction)
 
 
 def _trace_out(tr: dict) -> dict[str, np.ndarray]:
@@ -34,33 +32,58 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
     t0 = time.perf_counter()
     ckpt = ctx.load_checkpoint() or {}
     rows: list[dict] = ckpt.get("rows", [])
+    units: dict = ckpt.get("evidence", {})
     wall_before = ckpt.get("wall_s", 0.0)
     total = spec.evaluations_budget
     thr = spec.detector.threshold_deg
+    done = [0]
 
-    if ctx.is_cancelled():
-        raise Cancelled()
-    base = _simulate(spec, recovery=False)
-    ctx.progress(1, total, {"run": "no_recovery", "tipped": base["tipped"]})
+    def tick(info: dict) -> None:
+        """Before every simulation: stop on cancel, report how far the budget is spent."""
+        if ctx.is_cancelled():
+            raise Cancelled()
+        ctx.progress(done[0], total, info)
+        done[0] += 1
+
+    def save() -> None:
+        ctx.save_checkpoint({"rows": rows, "evidence": units, "wall_s": wall_before + time.perf_counter() - t0})
+
+    tick({"run": "no_recovery"})
+    base = simulate(_setup(spec, False), record_qpos=True)
     runs = {"no_recovery": base}
     if spec.recovery.enabled:
-        runs["recovery"] = _simulate(spec, recovery=True)
-    ctx.progress(2, total, {"run": "recovery", "tipped": runs.get("recovery", base)["tipped"]})
+        tick({"run": "recovery", "no_recovery_tipped": base["tipped"]})
+        runs["recovery"] = simulate(_setup(spec, True), record_qpos=True)
     sim_steps = sum(r["sim_steps"] for r in runs.values())
+
+    evidence: dict = {}
+    if spec.recovery.enabled:
+        # Units already done before a restart come from the checkpoint; the rest count here.
+        done[0] += len(units)
+
+        def before(key: str) -> None:
+            tick({"evidence": key})
+
+        def on_done(key: str, value: dict) -> None:
+            units[key] = value
+            save()
+
+        evidence = run_evidence(_setup(spec, True), outcome(runs["recovery"]), outcome(base), spec.evidence.plan(),
+                                before=before, cache=units, on_done=on_done)
 
     sweep = None
     if spec.sweep.enabled:
         s = spec.scenario
         cases = [(360.0 * k / spec.sweep.directions, tuple(st), rec)
                  for k in range(spec.sweep.directions) for st in spec.sweep.stances for rec in (False, True)]
+        done[0] += len(rows)
         for i, (psi, st, rec) in enumerate(cases):
             if i < len(rows):
                 continue  # done before a restart
-            if ctx.is_cancelled():
-                raise Cancelled()
+            tick({"downhill_deg": psi, "stance": "".join(map(str, st)), "recovery": rec})
             sc = TiltScenario(downhill_deg=psi, stance=st, rate_deg_s=s.rate_deg_s, settle_s=s.settle_s,
-                              max_tilt_deg=s.max_tilt_deg, overshoot_deg=s.overshoot_deg, hold_s=s.hold_s)
-            r = _simulate(spec, rec, sc, record_qpos=False)
+                              max_tilt_deg=s.max_tilt_deg, hold_s=s.hold_s)
+            r = simulate(_setup(spec, rec, sc))
             first = first_catch(r["adjustments"])
             rows.append({"run": i, "downhill_deg": psi, "stance": "".join(map(str, st)), "recovery": int(rec),
                          "tipped": int(r["tipped"]), "tipped_at_s": r["tipped_at_s"],
@@ -69,12 +92,10 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
                          "edge": first["edge"] if first else "", "leg": first["leg"] if first else 0,
                          "margin_after_deg": first["margin_after_landing_deg"] if first else None,
                          "final_margin_deg": float(r["trace"]["fasm_deg"][-1]), "sim_steps": r["sim_steps"]})
-            wall = wall_before + time.perf_counter() - t0
-            ctx.save_checkpoint({"rows": rows, "wall_s": wall})
-            ctx.progress(3 + i, total, {"downhill_deg": psi, "stance": rows[-1]["stance"], "recovery": rec,
-                                        "tipped": bool(r["tipped"])})
+            save()
         sweep = sweep_table(rows, spec.sweep.directions)
         sim_steps += sum(r["sim_steps"] for r in rows)
+    ctx.progress(done[0], total, {"done": True})
 
     wall = wall_before + time.perf_counter() - t0
     summaries = {name: run_summary(r, thr) for name, r in runs.items()}
@@ -82,7 +103,7 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
     scenario = sc.model_dump() | ({"downhill_deg": sc.resolved_downhill()} if sc.type == "tilt" else {})
     summary = {
         "kind": "tipping", "robot": spec.robot, "seed": spec.seed, "scenario": scenario,
-        "threshold_deg": thr,
+        "threshold_deg": thr, "target_margin_deg": spec.evidence.target_margin_deg,
         "runs": summaries,
         "recovered": (spec.recovery.enabled and summaries["no_recovery"]["tipped"]
                       and not summaries["recovery"]["tipped"]),
@@ -93,15 +114,22 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
     if "recovery" in summaries:
         rs = summaries["recovery"]
         for k in ("detection_time_s", "tipping_edge", "adjustment_leg", "foothold_body_m", "adjustment_time_s",
-                  "time_to_tip_s", "margin_before_landing_deg", "margin_after_landing_deg"):
+                  "time_to_tip_s", "margin_before_landing_deg", "margin_after_landing_deg", "max_slip_m"):
             summary[k] = rs.get(k)
+        summary["swing_s"] = (first_catch(rs["adjustments"]) or {}).get("swing_s")
+    summary.update(evidence)  # controls, robustness, band
+    rob = evidence.get("robustness")
+    if rob:
+        half = next(c for c in rob["cases"] if c["name"] == "dt_half")
+        summary["convergence"] = {"timestep_s": spec.sim.timestep_s, "tolerance": CONVERGENCE_TOL,
+                                  "step_halved": convergence_row(outcome(runs["recovery"]), half["metrics"])}
     if sweep is not None:
         summary["sweep"] = sweep
     history = rows if rows else [{"run": i, "name": n, "tipped": int(r["tipped"]),
                                   "min_margin_deg": summaries[n]["min_margin_deg"]} for i, (n, r) in enumerate(runs.items())]
     traces = {name: _trace_out(r["trace"]) for name, r in runs.items()}
     return JobResult(summary=summary, history=history, traces=traces, model_xml=base["model_xml"],
-                     evaluations=len(runs) + len(rows), sim_steps=sim_steps)
+                     evaluations=done[0], sim_steps=sim_steps)
 
 
 def sweep_table(rows: list[dict], directions: int) -> dict:
