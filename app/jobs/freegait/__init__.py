@@ -1,0 +1,71 @@
+"""Job kind ``freegait``: continuous free-crab, circling and spinning gaits of a SILO-6-like
+demining hexapod over uneven ground with forbidden zones (paper 004, Estremera, Cobano and
+Gonzalez de Santos): the foot-lifting, body-motion and foothold planners of Sec. 2-4 run
+every 0.1 s on simulated sensors and walk the robot in MuJoCo; each walk comes with its
+controls on the same field (zones ignored, periodic tripod, random valid tripod) and its
+robustness re-simulations."""
+
+from __future__ import annotations
+
+from app.jobs.base import Kind
+from app.jobs.freegait import present
+from app.jobs.freegait.spec import FreegaitSpec
+
+
+class FreegaitKind(Kind):
+    name = "freegait"
+    title = "Free-crab gaits over forbidden zones (demining hexapod)"
+    paper = ("Estremera, Cobano, Gonzalez de Santos 2010, continuous free-crab gaits for hexapod robots on a natural "
+             "terrain with forbidden zones (paper 004)")
+    Spec = FreegaitSpec
+    robots = {"silo6": "SILO-6-like demining hexapod (paper 004): 54 kg, insect-type 3-DoF legs"}
+    history_x = "transfer"
+    history_columns = present.HISTORY_COLUMNS
+    trace_descriptions = present.TRACES
+    figure_descriptions = present.FIGURES
+
+    def run(self, spec, ctx):
+        from app.jobs.freegait.run import run
+
+        return run(spec, ctx)
+
+    def robot_info(self, robot):
+        from app.robots.silo6 import describe
+
+        return describe()
+
+    def damage_text(self, spec):
+        return present.damage_text(spec)
+
+    def headline(self, summary):
+        return present.headline(summary)
+
+    def summary_tables(self, summary):
+        return present.summary_tables(summary)
+
+    def figures(self, result, out_dir):
+        return present.figures(result, out_dir)
+
+    def replay_style(self, trace_names):
+        return present.replay_style(trace_names)
+
+    def progress_text(self, info):
+        return present.progress_text(info)
+
+    def views(self, summary, traces):
+        from app.jobs.freegait.views import views
+
+        return views(summary, traces)
+
+    def experiments(self):
+        from app.jobs.freegait.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.freegait.experiments import BENCH
+
+        return BENCH
+
+
+KIND = FreegaitKind()

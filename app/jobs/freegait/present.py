@@ -1,0 +1,198 @@
+"""How a ``freegait`` result is shown: footholds in zones, route finished, SM and K_R as the
+headline; per-run tables (the walk, its controls); bundle figures (the minefield top view
+as Fig. 9, SM and K_R against time as Fig. 8b-c, the support/transfer diagram as Fig. 8a)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table  # noqa: E402
+from app.plots import _save  # noqa: E402
+
+HISTORY_COLUMNS = {
+    "tripod": "the tripod transferred (1 = legs 1, 4, 5; 2 = legs 2, 3, 6)",
+    "t_lift": "time the tripod lifted (s)",
+    "t_search": "time of the foothold search, at the end of subphase 1 (s)",
+    "stopped": "1 if no tripod was valid with the body moving, so the body stopped for this transfer",
+    "ev": "Ev = K + k_ev SM_t of the chosen tripod (Eq. 24), m",
+    "k": "K of the chosen tripod (Eq. 14), m",
+    "sm_t": "SM_t of the chosen tripod (Eq. 5), m",
+    "l": "L of the chosen tripod (Eq. 4), m",
+    "r_t2": "R_T2 of the chosen tripod (Eq. 11), m",
+    "valid": "number of valid tripods among the N^3",
+    "t_sub3": "start of subphase 3 (s)",
+    "t_touchdown": "all three feet in contact (s)",
+    "transfer_s": "transfer duration (s)",
+    "failed_legs": "feet that missed the ground in subphase 3 (the foothold became forbidden)",
+    "support_s": "duration of this tripod's support phase before the lift (s)",
+}
+TRACES = {"walk": "the planner's walk (per 0.1 s control period: pose, leg phases, SM, K_R, stops, joint state)",
+          "unaware": "the same route with the forbidden zones ignored (control, Fig. 9a)",
+          "aware": "the same route with the forbidden zones known (control)"}
+FIGURES = {
+    "minefield": "top view: footholds over the forbidden zones and safe areas, walk and control (Fig. 9)",
+    "margins": "stability margin SM and robot kinematic margin K_R against time, body stops shaded (Fig. 8b-c)",
+    "gait_diagram": "support (bar) and transfer of each leg against time (Fig. 8a)",
+}
+PHASE_NAMES = ("support", "subphase 1", "subphase 2", "subphase 3")
+
+
+def damage_text(spec) -> str:
+    r, f = spec.route, spec.forbidden
+    turn = f", {r.turn_rate_deg_s:g} deg/s" if r.gait != "crab" else ""
+    return (f"{r.gait} {r.crab_angle_deg:g} deg{turn}; {f.density_per_m2:g} zones/m2 "
+            f"({'known' if f.known else 'unknown'}), ground {spec.terrain.roughness_m:g} m")
+
+
+def headline(s: dict) -> list[HeadlineRow]:
+    rows = [
+        headline_row("footholds in forbidden zones", s.get("footholds_in_zones"), "", "lower", "0", s.get("footholds_in_zones") == 0),
+        headline_row("route finished", bool(s.get("finished")), "", "higher", "finishes", bool(s.get("finished"))),
+        headline_row("minimum stability margin SM", s.get("min_sm_m"), "m", "higher", f"> SM_min = {s.get('sm_min_m', 0.05):g} m",
+                     None if s.get("min_sm_m") is None else s["min_sm_m"] > s.get("sm_min_m", 0.05)),
+        headline_row("minimum kinematic margin K_R", s.get("min_k_r_m"), "m", "higher"),
+        headline_row("body stopped", s.get("stop_time_s"), "s", "lower"),
+        headline_row("mean speed", s.get("mean_speed_m_s"), "m/s", "higher"),
+        headline_row("tracking error (max)", s.get("tracking_error_max_m"), "m", "lower"),
+        headline_row("footholds / transfers", f"{s.get('footholds')} / {s.get('transfers')}", ""),
+    ]
+    ctl = {c["name"]: c for c in s.get("controls", [])}
+    if "unaware" in ctl:
+        rows.append(headline_row("footholds in zones, zones ignored (control)", ctl["unaware"]["metrics"]["footholds_in_zones"],
+                                 "", None))
+    return rows
+
+
+def _fmt(v):
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return round(v, 4)
+    return v
+
+
+def summary_tables(s: dict) -> list[Table]:
+    cols = ["run", "finished", "in zones", "in safe areas", "min SM (m)", "min K_R (m)", "stopped (s)",
+            "speed (m/s)", "track err (m)", "transfers", "target met"]
+
+    def row(name, m, met):
+        return [name, _fmt(m["finished"]), m["footholds_in_zones"], m["footholds_in_safe_areas"], _fmt(m["min_sm_m"]),
+                _fmt(m["min_k_r_m"]), _fmt(m["stop_time_s"]), _fmt(m["mean_speed_m_s"]),
+                _fmt(m["tracking_error_max_m"]), m["transfers"], _fmt(met)]
+
+    rows = [row("walk", s, s.get("target_met"))]
+    rows += [row(f"control: {c['name']}", c["metrics"], c["target_met"]) for c in s.get("controls", [])]
+    out = [table("Walk and controls on the same field", cols, rows,
+                 [f"target: {s.get('target', '')}", f"field: {s['field']['zones']} zones "
+                  f"({s['field']['density_per_m2']:g}/m2), ground {s['field']['roughness_m']:g} m peak to valley"])]
+    rb = s.get("robustness")
+    if rb:
+        out.append(table(f"Robustness ({rb['met']}/{rb['total']} meet the target)", cols,
+                         [row(c["name"], c["metrics"], c["target_met"]) for c in rb["cases"]], [rb["target"]]))
+    causes = s.get("stop_time_by_cause_s") or {}
+    if causes:
+        out.append(table("Body stops by cause (s)", list(causes), [[_fmt(v) for v in causes.values()]],
+                         ["stability: SM <= SM_min; kinematic: K <= 0; touchdown_failed: a foot missed the ground; "
+                          "no_valid_tripod_at_speed: the search needed the body stopped; no_valid_tripod: none at all"]))
+    return out
+
+
+def progress_text(info: dict) -> str:
+    return (f"{info.get('run', '')}: finished {info.get('finished')}, in zones {info.get('in_zones')}, "
+            f"min SM {info.get('min_sm_m', float('nan')):.3f} m")[:80]
+
+
+def replay_style(trace_names: list[str]) -> list[ReplayTrack]:
+    out = []
+    for n in trace_names:
+        if n == "walk":
+            out.append(ReplayTrack(n, "free gait (zones known)", "method", 0))
+        else:
+            out.append(ReplayTrack(n, TRACES.get(n, n).split("(")[0].strip(), "control", 1))
+    return out
+
+
+# -- bundle figures ----------------------------------------------------------------------------
+
+def _draw_zones(ax, s: dict) -> None:
+    f = s["field"]
+    for x, y in s.get("zones", []):
+        ax.add_patch(plt.Circle((x, y), f["safe_radius_m"], color="0.75", zorder=1))
+        ax.add_patch(plt.Circle((x, y), f["zone_radius_m"], color="k", zorder=2))
+
+
+def minefield_figure(s: dict, traces: dict, out: Path) -> list[Path]:
+    ctl = s.get("control_footholds")
+    panels = [("walk", s.get("footholds_list") or [])] + ([(ctl["name"], ctl["footholds"])] if ctl else [])
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.6 * len(panels)), squeeze=False)
+    for ax, (name, feet) in zip(axes[:, 0], panels):
+        _draw_zones(ax, s)
+        if name in traces:
+            p = np.asarray(traces[name]["pos"])
+            ax.plot(p[:, 0], p[:, 1], color="tab:blue", lw=1, label="body centre")
+        xy = np.array([[f["x"], f["y"]] for f in feet]) if feet else np.zeros((0, 2))
+        bad = np.array([f["in_zone"] for f in feet], dtype=bool) if feet else np.zeros(0, bool)
+        ax.scatter(xy[~bad, 0], xy[~bad, 1], s=18, facecolors="none", edgecolors="tab:blue", zorder=3, label="foothold")
+        if bad.any():
+            ax.scatter(xy[bad, 0], xy[bad, 1], s=40, marker="x", color="tab:red", zorder=4, label="foothold in a zone")
+        lo = xy.min(axis=0) - 0.3 if len(xy) else np.array([-1, -1])
+        hi = xy.max(axis=0) + 0.3 if len(xy) else np.array([1, 1])
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"{name}: {int(bad.sum())} of {len(feet)} footholds in forbidden zones")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.legend(loc="upper right", fontsize=7)
+    return _save(fig, out, "minefield")
+
+
+def margins_figure(s: dict, traces: dict, out: Path) -> list[Path]:
+    tr = traces["walk"]
+    t = np.asarray(tr["time_s"])
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    a1.plot(t, tr["sm_m"], color="tab:blue", lw=1)
+    a1.axhline(s.get("sm_min_m", 0.05), color="tab:red", ls="--", lw=1, label="SM_min")
+    a1.set_ylabel("SM (m)")
+    a1.legend(fontsize=7)
+    a2.plot(t, tr["k_r_m"], color="tab:green", lw=1)
+    a2.axhline(0.0, color="k", lw=0.8)
+    a2.set_ylabel("K_R (m)")
+    a2.set_xlabel("time (s)")
+    stop = np.asarray(tr["stop"]) > 0
+    for ax in (a1, a2):
+        ax.fill_between(t, 0, 1, where=stop, transform=ax.get_xaxis_transform(), color="tab:red", alpha=0.12, lw=0)
+    return _save(fig, out, "margins")
+
+
+def gait_diagram_figure(traces: dict, out: Path) -> list[Path]:
+    tr = traces["walk"]
+    t = np.asarray(tr["time_s"])
+    ph = np.asarray(tr["phase"])
+    fig, ax = plt.subplots(figsize=(8, 2.8))
+    dt = float(t[1] - t[0]) if len(t) > 1 else 0.1
+    for leg in range(6):
+        sup = ph[:, leg] == 0
+        edges = np.flatnonzero(np.diff(np.r_[0, sup.astype(int), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            ax.plot([t[a], t[b - 1] + dt], [leg + 1, leg + 1], color="k", lw=5, solid_capstyle="butt")
+    ax.set_yticks(range(1, 7))
+    ax.set_yticklabels([f"leg {i}" for i in range(1, 7)])
+    ax.invert_yaxis()
+    ax.set_xlabel("time (s)")
+    ax.set_title("support phase (bar) and transfer (gap) per leg")
+    return _save(fig, out, "gait_diagram")
+
+
+def figures(result: JobResult, out: Path) -> list[Path]:
+    s, tr = result.summary, result.traces
+    files = minefield_figure(s, tr, out)
+    files += margins_figure(s, tr, out)
+    files += gait_diagram_figure(tr, out)
+    return files
