@@ -177,7 +177,7 @@ def transfer_points_crab(pf, pc, pr, direction: np.ndarray, re):
     return t, t, smt
 
 
-def transfer_points_path(pf, pc, pr, motion: Motion, re, s_max: float = 1.0, iters: int = 48):
+def transfer_points_path(pf, pc, pr, motion: Motion, re, s_max: float = 1.0, iters: int = 32):
     """Def. 3-5 on a circular COG path (circling): condition 1.3 solved by bisection on
     g(t) = d_rear(cog(t)) - d_front(cog(t + R_e)), increasing in t while the path crosses
     the triangle from its rear edge to its front edge."""
