@@ -20,7 +20,7 @@ def gaitmend(*args):
     return subprocess.run([sys.executable, "-m", "app", *args], capture_output=True, text=True, timeout=600)
 
 
-@pytest.mark.parametrize("patch,needle", [
+BAD = [
     ({"route": {"crab_angle_deg": 60.0}}, "route.crab_angle_deg: Input should be less than or equal to 45"),
     ({"route": {"changes": [{"at_s": 5.0, "crab_angle_deg": -50.0}]}}, "route.changes.0.crab_angle_deg"),
     ({"planner": {"sm_min_m": -0.01}}, "planner.sm_min_m: Input should be greater than or equal to 0"),
@@ -33,17 +33,31 @@ def gaitmend(*args):
     ({"route": {"speed_m_s": "0.02"}}, "route.speed_m_s: Input should be a valid number"),
     ({"forbidden": {"safe_diameter_m": 0.02}}, "forbidden: safe_diameter_m 0.02 is smaller than zone_diameter_m"),
     ({"mines": 3}, "mines: unknown field"),
-])
-def test_bad_specs_exit_2_naming_the_field(tmp_path, patch, needle):
+]
+
+
+def _patched(patch):
     spec = dict(SHORT)
     for k, v in patch.items():
         spec[k] = {**spec.get(k, {}), **v} if isinstance(v, dict) else v
+    return spec
+
+
+@pytest.mark.parametrize("patch,needle", BAD)
+def test_bad_specs_name_the_field(patch, needle):
+    with pytest.raises(SpecError) as e:
+        KIND.Spec.parse(_patched(patch))
+    assert needle in " ".join(str(e.value).split())
+
+
+@pytest.mark.parametrize("k", [0, 4, 5])  # crab angle, N^3 over the cap, route leaving the terrain
+def test_bad_specs_exit_2_on_the_cli_and_write_nothing(tmp_path, k):
+    patch, needle = BAD[k]
     path = tmp_path / "bad.json"
-    path.write_text(json.dumps(spec))
+    path.write_text(json.dumps(_patched(patch)))
     p = gaitmend("run", str(path), "--out", str(tmp_path / "out"))
     assert p.returncode == 2, p.stderr
-    text = " ".join(p.stderr.split())
-    assert needle in text, text
+    assert needle in " ".join(p.stderr.split())
     assert not (tmp_path / "out").exists()
 
 

@@ -78,24 +78,27 @@ def _fmt(v):
 
 
 def summary_tables(s: dict) -> list[Table]:
-    cols = ["run", "finished", "in zones", "in safe areas", "min SM (m)", "min K_R (m)", "stopped (s)",
-            "speed (m/s)", "track err (m)", "transfers", "target met"]
+    cols = ["run", "finished", "in zones", "min SM m", "stopped s", "speed m/s", "track m", "target"]
 
     def row(name, m, met):
-        return [name, _fmt(m["finished"]), m["footholds_in_zones"], m["footholds_in_safe_areas"], _fmt(m["min_sm_m"]),
-                _fmt(m["min_k_r_m"]), _fmt(m["stop_time_s"]), _fmt(m["mean_speed_m_s"]),
-                _fmt(m["tracking_error_max_m"]), m["transfers"], _fmt(met)]
+        return [name, _fmt(m["finished"]), m["footholds_in_zones"], _fmt(round(m["min_sm_m"], 3)),
+                _fmt(round(m["stop_time_s"], 1)), _fmt(round(m["mean_speed_m_s"], 4)),
+                _fmt(round(m["tracking_error_max_m"], 3)), _fmt(met)]
 
     rows = [row("walk", s, s.get("target_met"))]
-    rows += [row(f"control: {c['name']}", c["metrics"], c["target_met"]) for c in s.get("controls", [])]
-    out = [table("Walk and controls on the same field", cols, rows,
-                 [f"target: {s.get('target', '')}", f"field: {s['field']['zones']} zones "
-                  f"({s['field']['density_per_m2']:g}/m2), ground {s['field']['roughness_m']:g} m peak to valley"])]
+    rows += [row(c["name"], c["metrics"], c["target_met"]) for c in s.get("controls", [])]
+    notes = [f"target: {s.get('target', '')}",
+             f"field: {s['field']['zones']} zones ({s['field']['density_per_m2']:g}/m2), ground "
+             f"{s['field']['roughness_m']:g} m peak to valley; walk: {s.get('footholds')} footholds, "
+             f"{s.get('footholds_in_safe_areas')} in safe areas, {s.get('transfers')} transfers, "
+             f"min K_R {s.get('min_k_r_m', float('nan')):.3f} m"]
+    notes += [f"{c['name']}: {c['label']}" for c in s.get("controls", [])]
+    out = [table("Walk and controls on the same field", cols, rows, notes)]
     rb = s.get("robustness")
     if rb:
         out.append(table(f"Robustness ({rb['met']}/{rb['total']} meet the target)", cols,
                          [row(c["name"], c["metrics"], c["target_met"]) for c in rb["cases"]], [rb["target"]]))
-    causes = s.get("stop_time_by_cause_s") or {}
+    causes = {k: v for k, v in (s.get("stop_time_by_cause_s") or {}).items() if v}
     if causes:
         out.append(table("Body stops by cause (s)", list(causes), [[_fmt(v) for v in causes.values()]],
                          ["stability: SM <= SM_min; kinematic: K <= 0; touchdown_failed: a foot missed the ground; "
