@@ -163,7 +163,7 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
     return {
         "stays_up": fell_at is None,
         "fell_at_s": fell_at,
-        "periods_completed": int(duration / ref.period + 1e-6),
+        "periods_completed": cfg.periods if fell_at is None else int(fell_at / ref.period),
         "speed_m_s": distance / duration if duration > 0 else 0.0,
         "mean_height_m": float(frames[:, 2].mean()),
         "cot": work / mgd,

@@ -241,6 +241,9 @@ def evaluate(geom: QuadrupedGeometry, gait: Gait, task: Task, cfg: EvalConfig = 
             "f_nlp": f_nlp, "f_qp": f_qp, "eps_nlp": eps_nlp, "eps_qp": eps_qp, "eps_final": eps_final,
             "tau_nlp": tau_nlp, "tau_qp": tau_qp, "tau_final": tau_f, "legs_nlp": legs1, "stance": stance,
             "dummy_f_legs": fl, "dummy_m_legs": ml, "wrench_nlp": jtf_nlp[:, :6], "wrench_qp": jtf_qp[:, :6],
+            # The paper's NLP (first pass, dummy legs only): Fig. 3's and Fig. 4's black curves.
+            "nlp_first": s1, "f_nlp_first": s1.forces[smp], "eps_nlp_first": eps_first,
+            "wrench_nlp_first": wb.body_wrench_of_forces(s1.r[smp], s1.theta[smp], feet[smp], s1.forces[smp]),
         }
     return out
 

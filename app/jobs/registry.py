@@ -14,12 +14,13 @@ import os
 from typing import Any
 
 from app.jobs.base import Kind, SpecError
+from app.jobs.energy import KIND as _energy
 from app.jobs.freegait import KIND as _freegait
 from app.jobs.multigait import KIND as _multigait
 from app.jobs.recovery import KIND as _recovery
 from app.jobs.tipping import KIND as _tipping
 
-KINDS: dict[str, Kind] = {k.name: k for k in (_recovery, _multigait, _tipping, _freegait)}
+KINDS: dict[str, Kind] = {k.name: k for k in (_recovery, _multigait, _tipping, _freegait, _energy)}
 
 
 def _load_extra(spec: str) -> None:

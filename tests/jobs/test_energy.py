@@ -5,13 +5,12 @@ import json
 from pathlib import Path
 
 import pytest
-from pydantic import ValidationError
 
-from app.jobs.base import Cancelled, dumps
+from app.jobs.base import Cancelled, SpecError, dumps
 from app.jobs.energy.run import run
 from app.jobs.energy.spec import EnergySpec
 
-CHEAP = {"search": {"population": 4, "generations": 3, "workers": 1}, "model": {"knots": 48},
+CHEAP = {"search": {"population": 4, "generations": 2, "workers": 1}, "model": {"knots": 48},
          "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
 
 
@@ -40,9 +39,9 @@ class Ctx:
 
 
 def _field_errors(data):
-    with pytest.raises(ValidationError) as e:
-        EnergySpec.model_validate(data)
-    return [(".".join(str(p) for p in err["loc"]), err["msg"]) for err in e.value.errors()]
+    with pytest.raises(SpecError) as e:
+        EnergySpec.parse({"kind": "energy"} | data)
+    return [(err["field"], err["message"]) for err in e.value.errors]
 
 
 @pytest.mark.parametrize("data, field", [
@@ -55,11 +54,13 @@ def _field_errors(data):
     ({"search": {"population": 41}}, "search.population"),
     ({"search": {"populaton": 40}}, "search.populaton"),
     ({"model": {"knots": 97}}, "model.knots"),
-    ({"gait": {"touchdown_s": [0, 0.1, 0.23, 0]}}, "gait"),
+    ({"gait": {"touchdown_s": [0.0, 0.1, 0.23, 0.0]}}, "gait"),
+    ({"gait": {"duty": [0.5, 0.5, 0.5]}}, "gait.duty"),
+    ({"task": {"height_m": 0.75}}, "design.links_m"),  # Table 1's legs cannot reach that high
 ])
 def test_bad_specs_name_their_field(data, field):
     errors = _field_errors(data)
-    assert any(f == field or m.startswith(field) or field in m for f, m in errors), errors
+    assert any(f == field for f, m in errors), errors
 
 
 def test_defaults_are_table1():
@@ -67,11 +68,11 @@ def test_defaults_are_table1():
     assert (s.task.speed_m_s, s.task.height_m, s.task.swing_height_m) == (1.0, 0.5, 0.25)
     assert s.gait.period_s == 0.46 and s.gait.touchdown_s == [0.0, 0.23, 0.23, 0.0]
     assert s.design.links_m == [0.06, 0.33, 0.33]
-    assert s.evaluations_budget == 2 * 40 * 40 + 1 + 7 + 2 + 6
+    assert s.evaluations_budget == 2 * 40 * 41 + 1 + 7 + 2 + 6
 
 
 def test_run_is_deterministic_and_resumes_bit_identically(tmp_path):
-    spec = EnergySpec.model_validate(CHEAP)
+    spec = EnergySpec.parse(CHEAP)
     a = run(spec, Ctx(tmp_path))
     with pytest.raises(Cancelled):
         run(spec, Ctx(tmp_path, cancel_after_saves=2))  # GA generation 2 of 3
@@ -88,7 +89,7 @@ def test_run_is_deterministic_and_resumes_bit_identically(tmp_path):
 
 
 def test_result_carries_the_stages_and_the_physics_check(tmp_path):
-    spec = EnergySpec.model_validate(CHEAP | {"search": {"optimizer": "none", "workers": 1},
+    spec = EnergySpec.parse(CHEAP | {"search": {"optimizer": "none", "workers": 1},
                                               "evidence": {"controls": True, "robustness": True,
                                                            "random_search": False}})
     r = run(spec, Ctx(tmp_path))
@@ -105,3 +106,23 @@ def test_result_carries_the_stages_and_the_physics_check(tmp_path):
     assert rob["total"] == len(rob["cases"]) == 6 and 0 <= rob["met"] <= 6
     assert r.evaluations == spec.evaluations_budget
     assert "qpos" in r.traces["physics"] and "f_qp" in r.traces["forces"]
+
+
+@pytest.mark.parametrize("bad, field", [
+    ({"gait": {"family": "free", "duty": [0.5, 0.5, 1.0, 0.5]}}, "gait.duty"),
+    ({"design": {"links_m": [0.06, 0.22, 0.22]}}, "design.links_m"),
+    ({"task": {"speed_m_s": -0.5}}, "task.speed_m_s"),
+])
+def test_cli_exits_2_naming_the_field_and_writes_nothing(tmp_path, bad, field):
+    import os
+    import subprocess
+    import sys
+
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"kind": "energy"} | bad))
+    out = tmp_path / "out"
+    p = subprocess.run([sys.executable, "-m", "app", "run", str(spec), "--out", str(out)], capture_output=True,
+                       text=True, env=os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[2])})
+    assert p.returncode == 2, p.stderr
+    assert field in p.stderr
+    assert not out.exists()

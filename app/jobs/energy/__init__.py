@@ -1,1 +1,63 @@
-"""Job kind ``energy``: energy-optimal quadruped gaits with heavy legs (paper 003)."""
+"""Job kind ``energy``: energy-optimal quadruped gaits with heavy legs (paper 003): a GA over
+gait timing and link lengths around an SRB + dummy-leg force NLP, a residual QP on the full
+multibody equations, a forward check, and the answer played in full MuJoCo physics."""
+
+from __future__ import annotations
+
+from app.jobs.base import Kind
+from app.jobs.energy import present
+from app.jobs.energy.spec import EnergySpec
+from app.robots.quadruped import QUADRUPED25, describe
+
+
+class EnergyKind(Kind):
+    name = "energy"
+    title = "Energy-optimal quadruped gaits with heavy legs"
+    paper = "Quadruped gait optimization with leg dynamics: GA + NLP + QP (paper 003)"
+    Spec = EnergySpec
+    robots = {"quadruped25": "25 kg quadruped of paper 003 (Table 1): 18 DoF, heavy legs"}
+    history_columns = present.HISTORY_COLUMNS
+    trace_descriptions = present.TRACES
+    figure_descriptions = present.FIGURES
+
+    def run(self, spec, ctx):
+        from app.jobs.energy.run import run
+
+        return run(spec, ctx)
+
+    def robot_info(self, robot):
+        return describe(QUADRUPED25)
+
+    def damage_text(self, spec):
+        return present.damage_text(spec)
+
+    def headline(self, summary):
+        return present.headline(summary)
+
+    def summary_tables(self, summary):
+        return present.summary_tables(summary)
+
+    def figures(self, result, out_dir):
+        return present.figures(result, out_dir)
+
+    def replay_style(self, trace_names):
+        return present.replay_style(trace_names)
+
+    def progress_text(self, info):
+        return present.progress_text(info)
+
+    def views(self, summary, traces):
+        return present.views(summary, traces)
+
+    def experiments(self):
+        from app.jobs.energy.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.energy.experiments import BENCH
+
+        return BENCH
+
+
+KIND = EnergyKind()

@@ -9,9 +9,11 @@ import numpy as np
 from app.plots import _save, plt
 from app.robots.quadruped import LEGS
 
-NLP_STYLE = dict(color="black", lw=1.2, ls="--", label="NLP (SRB + dummy legs)")
-FINAL_STYLE = dict(color="#e0a000", lw=1.8, label="final (QP)")
-FWD_STYLE = dict(color="#2060c0", lw=1.2, label="NLP forces in the full equations")
+from app.colors import hex_color  # noqa: E402
+
+NLP_STYLE = dict(color=hex_color("baseline"), lw=1.2, ls="--", label="NLP (SRB + dummy legs)")
+FINAL_STYLE = dict(color=hex_color("method"), lw=1.8, label="final (QP)")
+FWD_STYLE = dict(color=hex_color("reference"), lw=1.2, label="NLP forces in the full equations")
 
 
 def forces(traces: dict, out: Path) -> list[Path]:
@@ -33,7 +35,7 @@ def forces(traces: dict, out: Path) -> list[Path]:
     for ax in axes[-1]:
         ax.set_xlabel("t (s)")
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Contact forces per leg (Fig. 3)")
+    fig.suptitle("Contact forces per leg (Fig. 3); NLP dashed, final solid")
     return _save(fig, out, "forces")
 
 
@@ -50,8 +52,8 @@ def wrench(traces: dict, out: Path) -> list[Path]:
         axes[0, j].plot(t, wn[:, j], **NLP_STYLE)
         axes[0, j].plot(t, wq[:, j], **FINAL_STYLE)
         axes[0, j].set_title(names[j], fontsize=9)
-        axes[1, j].plot(t, en[:, j], color="black", lw=1.0, label="eps NLP (first pass)")
-        axes[1, j].plot(t, eq[:, j], color="#e0a000", lw=1.4, label="eps QP")
+        axes[1, j].plot(t, en[:, j], color=hex_color("baseline"), lw=1.0, label="eps NLP (first pass)")
+        axes[1, j].plot(t, eq[:, j], color=hex_color("method"), lw=1.4, label="eps QP")
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
         axes[1, j].set_xlabel("t (s)")
@@ -93,7 +95,7 @@ def gait_diagram(summary: dict, out: Path) -> list[Path]:
         for start in (t0 - T, t0, t0 + T):
             a, b = max(start, 0.0), min(start + dur, 2 * T)
             if b > a:
-                ax.broken_barh([(a, b - a)], (i - 0.35, 0.7), color="#2060c0")
+                ax.broken_barh([(a, b - a)], (i - 0.35, 0.7), color=hex_color("support"))
     ax.set_yticks(range(len(g["legs"])), g["legs"])
     ax.set_xlim(0, 2 * T)
     ax.axvline(T, color="grey", lw=0.8, ls=":")
@@ -108,7 +110,7 @@ def convergence(history: list[dict], out: Path) -> list[Path]:
     for phase, style in (("ga", "-"), ("random_search", "--")):
         rows = [r for r in history if r.get("phase") == phase]
         if rows:
-            ax.plot([r["generation"] for r in rows], [r["best_J"] for r in rows], style,
+            ax.plot([r["generation"] for r in rows], [r["best"] for r in rows], style,
                     label={"ga": "GA", "random_search": "random search (same budget)"}[phase])
     ax.set_xlabel("generation")
     ax.set_ylabel("best J (Eq. 11)")

@@ -113,7 +113,7 @@ def _evaluate_one(args) -> dict[str, Any]:
     spec_dict, x = args
     from app.jobs.energy.spec import EnergySpec  # noqa: PLC0415 (worker process import)
 
-    spec = EnergySpec.model_validate(spec_dict)
+    spec = EnergySpec.parse(spec_dict)
     sp = space(spec)
     gait, links = decode(sp, np.asarray(x))
     return compact(evaluate(geometry(spec, links), gait, task_of(spec), eval_config(spec)))

@@ -32,7 +32,8 @@ def _gait_summary(gait: Gait) -> dict[str, Any]:
 def _search_loop(name, opt, minimise_sign, evaluator, spec, ctx, state, done_before, total):
     """Shared generation loop of the GA and its random-search control; returns the state."""
     G = spec.search.generations
-    while state["generation"] < G:
+    # The project's counting convention: generation 0 is the initial population, then G more.
+    while state["generation"] <= G:
         if ctx.is_cancelled():
             raise Cancelled()
         X = opt.ask()
@@ -46,16 +47,16 @@ def _search_loop(name, opt, minimise_sign, evaluator, spec, ctx, state, done_bef
         state["evaluations"] += len(rows)
         state["generation"] += 1
         state["history"].append({
-            "phase": name, "generation": state["generation"], "evaluations": state["evaluations"],
-            "best_J": state["best"]["row"]["fitness"], "generation_best_J": float(J[i]),
-            "feasible_share": len(feas) / len(rows),
-            "mean_J_feasible": float(np.mean([r["fitness"] for r in feas])) if feas else None,
+            "phase": name, "generation": state["generation"] - 1, "evaluations": state["evaluations"],
+            "best": state["best"]["row"]["fitness"], "generation_best": float(J[i]), "mean": float(J.mean()),
+            "worst": float(J.max()), "feasible_share": len(feas) / len(rows),
+            "mean_feasible": float(np.mean([r["fitness"] for r in feas])) if feas else None,
             "best_cot": state["best"]["row"].get("cot_final"),
         })
         state["opt"] = opt.state()
         ctx.save_checkpoint({**state["ckpt_root"], name: {k: v for k, v in state.items() if k != "ckpt_root"}})
         ctx.progress(done_before + state["evaluations"], total,
-                     {"phase": name, "generation": state["generation"], "best_J": state["best"]["row"]["fitness"],
+                     {"phase": name, "generation": state["generation"] - 1, "best_J": state["best"]["row"]["fitness"],
                       "feasible_share": len(feas) / len(rows)})
     return state
 
@@ -333,16 +334,18 @@ def _traces(best: dict, phys: dict | None) -> dict[str, dict[str, np.ndarray]]:
     tr = best.get("trajectories")
     if tr is None:
         return {}
-    sol, fwd, fwd_nlp = tr["nlp"], tr["final"], tr["forward_nlp"]
+    sol, first, fwd, fwd_nlp = tr["nlp"], tr["nlp_first"], tr["final"], tr["forward_nlp"]
+    n_s = len(tr["t_samples"])
     out = {
-        "body": {"time_s": tr["t_knots"], **{f"nlp_{k}": getattr(sol, k) for k in ("r", "theta")},
+        "body": {"time_s": tr["t_knots"], **{f"nlp_{k}": getattr(first, k) for k in ("r", "theta")},
+                 **{f"nlp_iterated_{k}": getattr(sol, k) for k in ("r", "theta")},
                  **{f"final_{k}": getattr(fwd, k) for k in ("r", "theta")},
                  **{f"forward_nlp_{k}": getattr(fwd_nlp, k) for k in ("r", "theta")}},
-        "forces": {"time_s": tr["t_samples"], "f_nlp": tr["f_nlp"].reshape(len(tr["t_samples"]), 12),
-                   "f_qp": tr["f_qp"].reshape(len(tr["t_samples"]), 12),
-                   "wrench_nlp": tr["wrench_nlp"], "wrench_qp": tr["wrench_qp"],
-                   "eps_nlp": tr["eps_nlp"], "eps_qp": tr["eps_qp"], "tau_final": tr["tau_final"],
-                   "stance": tr["stance"].astype(np.int8)},
+        "forces": {"time_s": tr["t_samples"], "f_nlp": tr["f_nlp_first"].reshape(n_s, 12),
+                   "f_nlp_iterated": tr["f_nlp"].reshape(n_s, 12), "f_qp": tr["f_qp"].reshape(n_s, 12),
+                   "wrench_nlp": tr["wrench_nlp_first"], "wrench_qp": tr["wrench_qp"],
+                   "eps_nlp": tr["eps_nlp_first"], "eps_nlp_iterated": tr["eps_nlp"], "eps_qp": tr["eps_qp"],
+                   "tau_final": tr["tau_final"], "stance": tr["stance"].astype(np.int8)},
     }
     if phys is not None:
         out["physics"] = {"time_s": phys["frames_t"], "qpos": phys["frames_qpos"]}

@@ -5,9 +5,12 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from typing import ClassVar
 
-Strict = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+from pydantic import BaseModel, Field, field_validator, model_validator
+
+from app.jobs.base import STRICT as Strict
+from app.jobs.base import SpecBase, SpecError
 TABLE1_LINKS = (0.06, 0.33, 0.33)
 TABLE1_TOUCHDOWN = (0.0, 0.23, 0.23, 0.0)  # FR, HR, FL, HL (s)
 LINK_NAMES = ("hip", "thigh", "calf")
@@ -155,15 +158,15 @@ def reach_needed(task: Task, period: float, duty: float) -> float:
     return math.hypot(task.height_m, half_stride)
 
 
-class EnergySpec(BaseModel):
-    """Budget (evaluations, each one fitness evaluation or one physics run): GA population x
-    generations; the same again for the random-search control when ``evidence.random_search``;
-    1 for the answer in detail; 5 analysis evaluations (Table 1 baseline, SRB-only, massless
-    legs, high step on the best and on Table 1's design) plus 2 ablations (rod inertias, no
-    residual iteration) when ``evidence.controls``; physics runs: 2 (as specified, and with
-    the balance feedback switched the other way) plus 6 robustness cases when
-    ``evidence.robustness``."""
+class EnergySpec(SpecBase):
+    """An energy-optimal gait for the quadruped of paper 003 (defaults: Table 1)."""
 
+    budget_formula: ClassVar[str] = (
+        "GA: population x (generations + 1) fitness evaluations (generation 0 is the initial population); "
+        "the same again for the random-search control (evidence.random_search); 1 for the answer in detail; "
+        "7 analysis evaluations when evidence.controls (Table 1 baseline, SRB-only, massless legs, high step on "
+        "the best and on Table 1's design, rod inertias, no residual iteration); 2 physics runs (as specified and "
+        "with the balance feedback switched the other way); 6 physics runs when evidence.robustness")
     model_config = Strict
     kind: Literal["energy"] = "energy"
     robot: Literal["quadruped25"] = "quadruped25"
@@ -189,10 +192,25 @@ class EnergySpec(BaseModel):
                 raise ValueError(f"design.link_bounds_m: the longest thigh + calf ({top:.3f} m) cannot reach the "
                                  f"stance height {self.task.height_m} m")
         if self.evidence.high_step_swing_height_m >= self.task.height_m:
-            raise ValueError("evidence.high_step_swing_height_m must be below task.height_m")
+            raise ValueError("evidence.high_step_swing_height_m: must be below task.height_m")
         if self.task.swing_height_m >= self.task.height_m:
-            raise ValueError("task.swing_height_m must be below task.height_m (the foot rises under the hip)")
+            raise ValueError("task.swing_height_m: must be below task.height_m (the foot rises under the hip)")
         return self
+
+    @classmethod
+    def parse(cls, data):
+        """As SpecBase.parse; the cross-section checks above name their field as the message's
+        first word ("design.links_m: ..."), which becomes the error's field."""
+        try:
+            return super().parse(data)
+        except SpecError as e:
+            errors = []
+            for err in e.errors:
+                head, sep, rest = err["message"].partition(": ")
+                if err["field"] == "spec" and sep and "." in head and " " not in head:
+                    err = {"field": head, "message": rest}
+                errors.append(err)
+            raise SpecError(errors) from None
 
     @property
     def seed(self) -> int:
@@ -200,7 +218,9 @@ class EnergySpec(BaseModel):
 
     @property
     def search_evaluations(self) -> int:
-        return self.search.population * self.search.generations if self.search.optimizer == "ga" else 0
+        if self.search.optimizer != "ga":
+            return 0
+        return self.search.population * (self.search.generations + 1)  # generation 0 is the initial population
 
     @property
     def evaluations_budget(self) -> int:

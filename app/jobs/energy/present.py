@@ -1,0 +1,199 @@
+"""How an ``energy`` result is shown: the cost of transport per stage, the residuals, the
+gait and links as the headline; tables for the CLI and dashboard; figures; plotly views."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app.colors import hex_color
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+from app.robots.quadruped import LEGS
+
+HISTORY_COLUMNS = {
+    "phase": "ga (the method) or random_search (its equal-budget control)",
+    "generation": "0 = the initial population",
+    "evaluations": "fitness evaluations so far in this phase",
+    "best": "best J (Eq. 11) so far; infeasible candidates carry a penalty >= 1e4",
+    "generation_best": "best J in this generation",
+    "mean": "mean J in this generation (penalties included)",
+    "worst": "worst J in this generation",
+    "feasible_share": "share of this generation that is periodic and reachable",
+    "mean_feasible": "mean J of this generation's feasible candidates",
+    "best_cot": "CoT (final stage) of the best so far",
+}
+TRACES = {
+    "body": "trunk position and angles over one period on the NLP knots: the paper's NLP (first pass), the NLP "
+            "re-solved with the legs' true wrench, forward with the first NLP's forces, final",
+    "forces": "per QP sample: contact forces of the NLP (first pass and re-solved) and of the QP (FR, HR, FL, HL x "
+              "xyz), their wrench on the trunk, the residual of the full equations per stage, final joint torques, "
+              "stance mask",
+    "physics": "the full-physics play-back: MuJoCo qpos per frame",
+}
+FIGURES = {
+    "forces": "contact forces per leg and axis, NLP against final (Fig. 3)",
+    "wrench": "the contacts' force and moment on the trunk and the residual of the full equations (Eq. 9)",
+    "body_motion": "trunk motion over a period: NLP, NLP forces in the full equations, final (Fig. 4)",
+    "gait_diagram": "contact phases of the four legs over two periods",
+    "convergence": "best J per generation: GA and random search at the same budget",
+    "residuals": "RMS residual per axis and stage (log scale)",
+    "physics": "trunk drift and height in the MuJoCo play-back",
+}
+
+
+def _f(v, fmt="{:.3g}"):
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        return fmt.format(v)
+    return str(v)
+
+
+def damage_text(spec) -> str:
+    t = spec.task
+    return f"V {t.speed_m_s:g} m/s, h {t.height_m:g} m, step {t.swing_height_m:g} m, {spec.gait.family}"
+
+
+def headline(s: dict) -> list[HeadlineRow]:
+    rows = [headline_row("feasible (periodic, reachable)", bool(s.get("feasible")), "", "higher", "periodic within "
+                         "tolerance", bool(s.get("feasible")))]
+    cot = s.get("cot")
+    if cot:
+        rows.append(headline_row("CoT final (Eq. 11)", cot["final"], "", "lower"))
+        rows.append(headline_row("CoT in MuJoCo physics", cot.get("physics"), "", "lower"))
+        rows.append(headline_row("J = CoT + w x jerk (Eq. 11)", s["J"], "", "lower"))
+        ratio = s.get("eps_ratio_nlp_over_qp")
+        rows.append(headline_row("eps_NLP / eps_QP", ratio, "x", "higher", ">= 100", None if ratio is None else ratio >= 100))
+        w = s.get("periodicity_error")
+        rows.append(headline_row("periodicity error w", w, "", "lower", "<= 1", None if w is None else w <= 1.0))
+    g = s["gait"]
+    rows.append(headline_row("period T", g["period_s"], "s", None))
+    rows.append(headline_row("links hip / thigh / calf", " / ".join(f"{v:.3f}" for v in s["links_m"]), "m", None))
+    ph = s.get("physics")
+    if ph:
+        rows.append(headline_row(f"walks {ph['periods_completed']} periods in MuJoCo", ph["stays_up"], "", "higher",
+                                 "up every period, speed within 10 %", ph["target_met"]))
+        rows.append(headline_row("realised speed", ph["speed_m_s"], "m/s", None))
+    return rows
+
+
+def summary_tables(s: dict) -> list[Table]:
+    g = s["gait"]
+    out = [table("Gait and design", ["leg", "touchdown t_i (s)", "duty beta_i"],
+                 [[leg, _f(t, "{:.4f}"), _f(b, "{:.3f}")] for leg, t, b in zip(g["legs"], g["touchdown_s"], g["duty"])],
+                 [f"T = {g['period_s']:.4f} s; links hip/thigh/calf = "
+                  + ", ".join(f"{v:.4f}" for v in s["links_m"]) + " m; link masses "
+                  + ", ".join(f"{v:.3f}" for v in s["link_masses_kg"]) + f" kg; total {s['total_mass_kg']:.2f} kg; "
+                  f"inertias: {s['inertia']}"])]
+    cot = s.get("cot")
+    if cot:
+        ph = s.get("physics") or {}
+        out.append(table("Cost of transport per stage", ["NLP", "QP", "final", "physics"],
+                         [[_f(cot["nlp"], "{:.4f}"), _f(cot["qp"], "{:.4f}"), _f(cot["final"], "{:.4f}"),
+                           _f(cot.get("physics"), "{:.4f}")]],
+                         [f"J = {s['J']:.4f} = CoT {s['objective']['cot']:.4f} + {s['objective']['jerk_weight_s']:g} s x "
+                          f"{s['objective']['jerk_term_N_s']:.1f} N/s (mean force rate)",
+                          f"physics: feedback share of the work {_f(ph.get('feedback_cot_share'), '{:.1%}')}"]))
+        axes = ("x", "y", "z", "roll", "pitch", "yaw", "norm")
+        out.append(table("Residual of the full equations, RMS per axis (N; N m)", ["stage", *axes],
+                         [[st, *[_f(s["eps"][st][a], "{:.3g}") for a in axes]] for st in s["eps"]],
+                         [f"eps_NLP / eps_QP = {s['eps_ratio_nlp_over_qp']:.0f}; periodicity error w = "
+                          f"{s['periodicity_error']:.3f} (forward check, 1 = tolerance); with the NLP's forces "
+                          f"instead: {_f(s.get('nlp_forward_periodicity_error'), '{:.3f}')}"]))
+    for key, title in (("physics", "Full-physics play-back"), ("physics_other_feedback", "Play-back, feedback switched")):
+        ph = s.get(key)
+        if ph:
+            d = ph.get("drift_per_period") or {}
+            out.append(table(title + (" (trunk balance feedback on)" if ph.get("balance") else " (joint PD only)"),
+                             ["stays up", "periods", "speed (m/s)", "height (m)", "CoT", "feedback share",
+                              "drift pos (m)", "drift angle (rad)"],
+                             [[_f(ph["stays_up"]), ph["periods_completed"], _f(ph["speed_m_s"], "{:.3f}"),
+                               _f(ph["mean_height_m"], "{:.3f}"), _f(ph["cot"], "{:.4f}"),
+                               _f(ph.get("feedback_cot_share"), "{:.1%}"), _f(d.get("pos_m"), "{:.4f}"),
+                               _f(d.get("angle_rad"), "{:.4f}")]]))
+    if s.get("controls"):
+        out.append(table("Controls", ["control", "evaluations", "metrics", "target met"],
+                         [[c["label"], c["evaluations"], ", ".join(f"{k} {_f(v)}" for k, v in c["metrics"].items()),
+                           _f(c["target_met"])] for c in s["controls"]],
+                         [c["name"] + ": " + c["note"] for c in s["controls"]]))
+    rob = s.get("robustness")
+    if rob:
+        out.append(table(f"Robustness: {rob['target']} ({rob['met']}/{rob['total']})",
+                         ["case", "stays up", "speed (m/s)", "height (m)", "CoT", "met"],
+                         [[c["label"], _f(c["metrics"]["stays_up"]), _f(c["metrics"]["speed_m_s"], "{:.3f}"),
+                           _f(c["metrics"]["mean_height_m"], "{:.3f}"), _f(c["metrics"]["cot"], "{:.4f}"),
+                           _f(c["target_met"])] for c in rob["cases"]]))
+    return out
+
+
+def figures(result: JobResult, out_dir: Path) -> list[Path]:
+    from app.jobs.energy.plots import all_plots
+
+    return all_plots(result, Path(out_dir))
+
+
+def replay_style(trace_names: list[str]) -> list[ReplayTrack]:
+    return [ReplayTrack(n, "the gait in MuJoCo physics" if n == "physics" else n, "method", i)
+            for i, n in enumerate(trace_names)]
+
+
+def progress_text(info: dict[str, Any]) -> str:
+    if info.get("phase") in ("ga", "random_search"):
+        return f"{info['phase']} gen {info['generation']}  best J {info['best_J']:.4g}  feasible {info['feasible_share']:.0%}"
+    return "  ".join(f"{k} {v}" for k, v in info.items() if isinstance(v, (str, int, bool)))[:80]
+
+
+def views(summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
+    """Plotly figure dicts: forces (Fig. 3), trunk motion (Fig. 4), residuals, gait diagram."""
+    out = []
+    f = traces.get("forces")
+    if f is not None and "f_qp" in f:
+        t = np.asarray(f["time_s"]).tolist()
+        fn, fq = np.asarray(f["f_nlp"]), np.asarray(f["f_qp"])
+        data = []
+        for i, leg in enumerate(LEGS):
+            data.append({"type": "scatter", "x": t, "y": fq[:, 3 * i + 2].tolist(), "name": f"{leg} F_z final",
+                         "line": {"color": hex_color(None, i)}})
+            data.append({"type": "scatter", "x": t, "y": fn[:, 3 * i + 2].tolist(), "name": f"{leg} F_z NLP",
+                         "line": {"color": hex_color(None, i), "dash": "dash"}})
+        out.append({"data": data, "layout": {"title": {"text": "Normal contact forces: NLP (dashed) and final (Fig. 3)"},
+                                             "xaxis": {"title": {"text": "t (s)"}}, "yaxis": {"title": {"text": "F_z (N)"}}}})
+    b = traces.get("body")
+    if b is not None and "nlp_r" in b:
+        t = np.asarray(b["time_s"]).tolist()
+        data = []
+        for key, role, label in (("nlp", "baseline", "NLP"), ("forward_nlp", "reference", "NLP forces, full equations"),
+                                 ("final", "method", "final")):
+            data.append({"type": "scatter", "x": t, "y": np.asarray(b[f"{key}_r"])[:, 2].tolist(), "name": f"z {label}",
+                         "line": {"color": hex_color(role)}})
+            data.append({"type": "scatter", "x": t, "y": np.asarray(b[f"{key}_theta"])[:, 1].tolist(),
+                         "name": f"pitch {label}", "yaxis": "y2", "line": {"color": hex_color(role), "dash": "dot"}})
+        out.append({"data": data, "layout": {"title": {"text": "Trunk height and pitch over a period (Fig. 4)"},
+                                             "xaxis": {"title": {"text": "t (s)"}}, "yaxis": {"title": {"text": "z (m)"}},
+                                             "yaxis2": {"title": {"text": "pitch (rad)"}, "overlaying": "y", "side": "right"}}})
+    eps = summary.get("eps")
+    if eps:
+        axes = ["x", "y", "z", "roll", "pitch", "yaw"]
+        out.append({"data": [{"type": "bar", "x": axes, "y": [eps[st][a] for a in axes], "name": st,
+                              "marker": {"color": hex_color(None, i)}} for i, st in enumerate(eps)],
+                    "layout": {"title": {"text": "RMS residual of the full equations per stage"}, "barmode": "group",
+                               "yaxis": {"type": "log", "title": {"text": "N, N m"}}}})
+    g = summary.get("gait")
+    if g:
+        T = g["period_s"]
+        data = []
+        for i, leg in enumerate(g["legs"]):
+            t0, dur = g["touchdown_s"][i], g["duty"][i] * T
+            for start in (t0 - T, t0, t0 + T):
+                a, e = max(start, 0.0), min(start + dur, 2 * T)
+                if e > a:
+                    data.append({"type": "bar", "orientation": "h", "y": [leg], "x": [e - a], "base": [a],
+                                 "showlegend": False, "marker": {"color": hex_color("support")}})
+        out.append({"data": data, "layout": {"title": {"text": f"Gait diagram (T = {T:.3f} s)"}, "barmode": "overlay",
+                                             "xaxis": {"title": {"text": "t (s)"}, "range": [0, 2 * T]},
+                                             "yaxis": {"autorange": "reversed"}}})
+    return out
