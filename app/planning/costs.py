@@ -83,10 +83,12 @@ def _root_pose(sim: ModularSim) -> np.ndarray:
     return np.array([xyz[0], xyz[1], xyz[2], yaw])
 
 
-def verify_tree(sim: ModularSim, gaits: np.ndarray, k: int, tree: dict, max_nodes: int = 60) -> dict:
+def verify_tree(sim: ModularSim, gaits: np.ndarray, k: int, tree: dict, max_nodes: int = 60,
+                tick=lambda n: None) -> dict:
     """Replay the first ``max_nodes`` nodes of a composed tree in full simulation: each node
     from its parent's *simulated* state (joint angles and velocities carried over), one
-    rollout per tree depth. Returns per-node planar position and heading errors."""
+    rollout per tree depth, then ``tick(nodes of that depth)`` (progress, cancel). Returns
+    per-node planar position and heading errors."""
     n = min(int(len(tree["pos"])), int(max_nodes))
     parent, gait = tree["parent"][:n], tree["gait"][:n]
     depth = np.zeros(n, dtype=int)
@@ -106,6 +108,7 @@ def verify_tree(sim: ModularSim, gaits: np.ndarray, k: int, tree: dict, max_node
         p, _ = sim.pivot_pose(end)
         pos[idx] = p
         yaw[idx] = yaw[parent[idx]] + (yw[:, -1] - yw[:, 0])  # unwrapped heading change
+        tick(len(idx))
     err = np.linalg.norm(pos[1:, :2] - tree["pos"][1:n, :2], axis=-1)
     yerr = np.abs(wrap(yaw[1:] - tree["yaw"][1:n]))
     gait_len = np.linalg.norm(tree["pos"][1:n, :2] - tree["pos"][parent[1:]][:, :2], axis=-1)

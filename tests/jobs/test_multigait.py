@@ -1,5 +1,6 @@
-"""Job kind ``multigait`` (paper 001): spec validation, a small real run, determinism and
-resume, the staircase with simulated expansions, plots."""
+"""Job kind ``multigait`` (paper 001): spec validation, a small real run with its controls
+and robustness, determinism and resume, the budget and cancel in every phase, the
+staircase with simulated expansions, plots."""
 
 import copy
 
@@ -16,15 +17,18 @@ SMALL = {"kind": "multigait", "robot": "lizard", "search": {"particles": 6, "gen
 
 
 class Ctx:
-    def __init__(self, cancel_after=None, ckpt=None):
+    def __init__(self, cancel_after=None, ckpt=None, cancel_in=None):
         self.artifact_dir = None
         self._ckpt = copy.deepcopy(ckpt)
         self.cancel_after = cancel_after
+        self.cancel_in = cancel_in  # cancel as soon as this phase reports progress
         self.calls = 0
         self.progress_rows = []
+        self.phases = []
 
     def progress(self, done, total, info):
         self.progress_rows.append((done, total))
+        self.phases.append(info.get("phase"))
 
     def save_checkpoint(self, state):
         self._ckpt = copy.deepcopy(state)
@@ -34,18 +38,38 @@ class Ctx:
 
     def is_cancelled(self):
         self.calls += 1
+        if self.cancel_in is not None:
+            return bool(self.phases) and self.phases[-1] == self.cancel_in
         return self.cancel_after is not None and self.calls > self.cancel_after
 
 
 def test_defaults_are_the_papers():
     s = parse_spec({"kind": "multigait"})
     assert s.search.optimizer == "pso" and s.search.particles == 20 and s.search.generations == 150
-    assert (s.search.w, s.search.phi1, s.search.phi2) == (0.1, 2.0, 2.0)
+    assert s.search.pso == "paper"
+    assert s.search.pso_coefficients() == {"w": 0.1, "phi1": 2.0, "phi2": 2.0, "vmax": 1.0}
+    c = parse_spec({"kind": "multigait", "search": {"pso": "constriction", "w": 0.6}}).search.pso_coefficients()
+    assert c == {"w": 0.6, "phi1": 1.49618, "phi2": 1.49618, "vmax": 0.2}
     assert s.k == 3 and s.iterations == 150 and s.gait_duration_s == 30.0
     assert parse_spec({"kind": "multigait", "cost": "distance"}).iterations == 100
     st = parse_spec({"kind": "multigait", "map": "stairs", "cost": "distance"})
     assert st.k == 2 and st.iterations == 150
-    assert s.evaluations_budget == 3000
+    # every phase counts: search 3000, random search 3000, examine 1, held-out 2 x 20, verify 60,
+    # reuse 3 x 20, robustness 6
+    assert s.budget_parts() == {"search": 3000, "random_search": 3000, "examine": 1, "heldout": 40, "verify": 60,
+                                "reuse": 60, "robustness": 6}
+    assert s.evaluations_budget == 6167
+    assert st.budget_parts()["verify"] == st.budget_parts()["reuse"] == 0  # nothing composed on the staircase
+
+
+def test_a_budget_over_the_limit_is_refused_with_its_formula():
+    with pytest.raises(SpecError) as e:
+        parse_spec({"kind": "multigait", "search": {"particles": 1000, "generations": 1500}})
+    msg = str(e.value)
+    assert "evaluations_budget: 3000167 units exceed the limit of 2000000" in msg
+    assert "units of work" in msg and "reuse.plans" in msg and "controls.random_search" in msg
+    assert parse_spec({"kind": "multigait", "search": {"particles": 1000, "generations": 1500},
+                       "controls": {"random_search": False}}).evaluations_budget == 1500000 + 1 + 20 + 60 + 60 + 6
 
 
 @pytest.mark.parametrize("bad,field", [
@@ -58,6 +82,10 @@ def test_defaults_are_the_papers():
     ({"damage": {"stuck_modules": [7]}}, "damage.stuck_modules"),
     ({"cost": "speed"}, "cost"),
     ({"planner": {"iterations": 0}}, "planner.iterations"),
+    ({"search": {"pso": "clerc"}}, "search.pso"),
+    ({"search": {"vmax": 0.0}}, "search.vmax"),
+    ({"controls": {"heldout_plans": 0}}, "controls.heldout_plans"),
+    ({"robustness": {"enabled": 1}}, "robustness.enabled"),
     ({"colour": "red"}, "colour"),
 ])
 def test_bad_specs_name_the_field(bad, field):
@@ -67,16 +95,21 @@ def test_bad_specs_name_the_field(bad, field):
 
 
 @pytest.fixture(scope="module")
-def small_run():
+def small_ctx():
+    return Ctx()
+
+
+@pytest.fixture(scope="module")
+def small_run(small_ctx):
     spec = parse_spec(SMALL)
-    return spec, multigait.run(spec, Ctx())
+    return spec, multigait.run(spec, small_ctx)
 
 
 def test_small_run_improves_on_its_first_generation(small_run):
     spec, res = small_run
     s = res.summary
     h = res.history
-    assert len(h) == 5 and res.evaluations == 30
+    assert len(h) == 5 and s["timing"]["search_evaluations"] == 30
     assert s["result"]["final_best"] > h[0]["generation_best"] > 0
     assert s["result"]["reproduced"]  # the best gaits planned again give the recorded cost
     assert all(b2 >= b1 for b1, b2 in zip([r["best"] for r in h], [r["best"] for r in h][1:]))
@@ -95,7 +128,7 @@ def test_same_seed_same_numbers_and_resume_is_bit_identical(small_run):
     ctx = Ctx(cancel_after=2)
     with pytest.raises(Cancelled):
         multigait.run(spec, ctx)
-    assert len(ctx._ckpt["history"]) == 2
+    assert len(ctx._ckpt["search"]["history"]) == 2
     resumed = multigait.run(spec, Ctx(ckpt=ctx._ckpt))
     assert resumed.history == full.history
     assert resumed.summary["best_params"] == full.summary["best_params"]
@@ -139,3 +172,71 @@ def test_plots(small_run, tmp_path):
     names = {p.name for p in files}
     for n in ("convergence", "gait_traces", "gait_distance_rotation", "tree_map", "composition_error", "reuse"):
         assert f"{n}.png" in names and f"{n}.svg" in names
+
+
+def test_controls_and_robustness_are_computed(small_run):
+    spec, res = small_run
+    s = res.summary
+    ctl = {c["name"]: c for c in s["controls"]}
+    assert set(ctl) == {"heldout_rescoring", "random_search", "first_generation"}
+    for c in ctl.values():
+        assert set(c) == {"name", "label", "evaluations", "metrics", "target_met", "note"}
+    rs = ctl["random_search"]
+    assert rs["evaluations"] == 30  # the search's budget, the same evaluator
+    assert len(s["control_history"]) == 5 and s["control_history"][-1]["evaluations"] == 30
+    # the control's recorded best is what its history says
+    assert rs["metrics"]["in_sample_best"] == s["control_history"][-1]["best"] > 0
+    ho = ctl["heldout_rescoring"]
+    assert ho["evaluations"] == 20 and ho["metrics"]["in_sample"] == s["result"]["final_best"]
+    assert ho["metrics"]["heldout_mean"] == pytest.approx(s["result"]["heldout_mean"])
+    assert ho["metrics"]["heldout_min"] <= ho["metrics"]["heldout_mean"] <= ho["metrics"]["heldout_max"]
+    assert ctl["first_generation"]["metrics"]["mean"] == s["history"][0]["mean"]
+    rob = s["robustness"]
+    assert [c["name"] for c in rob["cases"]] == ["dt_half", "dt_quarter", "friction_0.7", "friction_1.3",
+                                                 "mass_-10pct", "mass_+10pct"]
+    assert rob["total"] == 6 and rob["met"] == sum(c["target_met"] for c in rob["cases"])
+    assert rob["spread"]["coverage_pct"]["nominal"] == pytest.approx(s["result"]["final_best"])
+    # real re-simulations: the perturbed physics moves the gaits by other distances
+    nominal = rob["spread"]["gait_distance_mu"]["nominal"]
+    assert all(c["metrics"]["gait_distance_mu"] != nominal for c in rob["cases"])
+
+
+def test_every_phase_counts_and_progress_covers_them(small_run, small_ctx):
+    spec, res = small_run
+    b = res.summary["budget"]
+    assert b["total"] == spec.evaluations_budget == sum(b["planned"].values())
+    assert b["used"]["search"] == b["used"]["random_search"] == 30
+    assert b["used"]["heldout"] == 40 and b["used"]["reuse"] == 9 and b["used"]["robustness"] == 6
+    assert 1 <= b["used"]["verify"] <= 12
+    assert res.evaluations == res.summary["timing"]["evaluations"] == sum(b["used"].values())
+    done = [d for d, _ in small_ctx.progress_rows]
+    assert all(t == spec.evaluations_budget for _, t in small_ctx.progress_rows)
+    assert done == sorted(done) and done[-1] == spec.evaluations_budget
+    seen = [p for i, p in enumerate(small_ctx.phases) if p not in small_ctx.phases[:i]]
+    assert seen == ["search", "random_search", "examine", "heldout", "verify", "reuse", "robustness", "done"]
+
+
+@pytest.mark.parametrize("phase", ["random_search", "heldout", "verify", "reuse", "robustness"])
+def test_cancel_stops_every_post_search_phase(small_ctx, small_run, phase):
+    spec, _ = small_run
+    # resume from the finished search's checkpoint, so only the later phases run again
+    ckpt = copy.deepcopy(small_ctx._ckpt)
+    if phase == "random_search":
+        ckpt["random_search"] = None
+        ckpt.pop("random_search")
+    ctx = Ctx(ckpt=ckpt, cancel_in=phase)
+    with pytest.raises(Cancelled):
+        multigait.run(spec, ctx)
+    assert ctx.phases[-1] == phase  # stopped inside the phase, nothing after it ran
+    assert ctx.phases.count(phase) == 1  # at the first unit of work
+
+
+def test_cancel_in_the_control_then_resume_gives_the_same_result(small_run):
+    spec, full = small_run
+    ctx = Ctx(cancel_after=7)  # 5 search generations + 2 of the random search
+    with pytest.raises(Cancelled):
+        multigait.run(spec, ctx)
+    assert len(ctx._ckpt["search"]["history"]) == 5 and len(ctx._ckpt["random_search"]["history"]) == 2
+    resumed = multigait.run(spec, Ctx(ckpt=ctx._ckpt))
+    assert resumed.summary["controls"] == full.summary["controls"]
+    assert resumed.summary["control_history"] == full.summary["control_history"]

@@ -11,14 +11,20 @@ import time
 
 import numpy as np
 
-from app.jobs.base import Cancelled, JobResult, RunContext
+from app.jobs.base import JobResult, RunContext
+from app.jobs.multigait.phases import Budget, controls_block, search_phase
 from app.jobs.multigait.spec import MultigaitSpec
 from app.optim.registry import make_optimizer
 from app.planning.costs import cost_value, evaluate, planner_draws, verify_tree
+from app.planning.evidence import CHUNK, heldout_values, robustness_block, robustness_cases
 from app.planning.maps import PlanMap, get_map
 from app.planning.primitives import ModularSim, Primitives
 from app.planning.rrt import composed_expander, path_to, rrt_mp
 from app.robots.modular import MU, get_shape
+
+RANDOM_SEED_OFFSET = 7919  # the random-search control draws its own stream from the job's seed
+ROBUST_COVERAGE_SHARE = 0.8
+ROBUST_GOAL_MU = 2.0
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -47,18 +53,22 @@ def reuse_scenarios(pmap: PlanMap, distance: float) -> dict[str, PlanMap]:
 
 
 def reuse_experiment(prims: Primitives, scenarios: dict[str, PlanMap], plans: int, iterations: int, seed: int,
-                     radius: float, root_z: float) -> dict:
+                     radius: float, root_z: float, tick=lambda n: None) -> dict:
     """Plan ``plans`` times per scenario with the cached primitives of one gait set (each
-    plan its own random stream); distance to the goal and coverage, mean / std."""
+    plan its own random stream); distance to the goal and coverage, mean / std. Plans grow
+    in chunks of ``CHUNK`` trees, with ``tick(plans in the chunk)`` after each."""
     out = {}
-    B = plans
-    p = Primitives(np.repeat(prims.end_xy, B, 0), np.repeat(prims.dyaw, B, 0), np.repeat(prims.path, B, 0))
-    draws = np.concatenate([planner_draws(seed, 1, iterations, stream=1000 + i) for i in range(B)])
     for name, pm in scenarios.items():
         root = np.array([pm.start[0], pm.start[1], root_z, pm.start[2]])
-        tree = rrt_mp(pm, composed_expander(p), prims.k, draws, radius, root_pose=root)
-        dist = cost_value(tree, "distance", pm)
-        cov = cost_value(tree, "coverage", pm)
+        dist, cov = np.empty(plans), np.empty(plans)
+        for a in range(0, plans, CHUNK):
+            n = min(CHUNK, plans - a)
+            p = Primitives(np.repeat(prims.end_xy, n, 0), np.repeat(prims.dyaw, n, 0), np.repeat(prims.path, n, 0))
+            draws = np.concatenate([planner_draws(seed, 1, iterations, stream=1000 + a + i) for i in range(n)])
+            tree = rrt_mp(pm, composed_expander(p), prims.k, draws, radius, root_pose=root)
+            dist[a : a + n] = cost_value(tree, "distance", pm)
+            cov[a : a + n] = cost_value(tree, "coverage", pm)
+            tick(n)
         out[name] = {"distance_mu": {"mean": float(dist.mean()), "std": float(dist.std())},
                      "coverage_pct": {"mean": float(cov.mean()), "std": float(cov.std())},
                      "start": list(pm.start), "goal": list(pm.goal[:2])}
@@ -105,54 +115,34 @@ def plan_trace(sim: ModularSim, gaits: np.ndarray, k: int, tree: dict, node: int
 # -- the job ---------------------------------------------------------------------------------
 
 def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
-    t0 = time.perf_counter()
     shape = get_shape(spec.robot)
     stuck = tuple(spec.damage.stuck_modules)
     pmap = problem_map(spec)
     k, K = spec.k, spec.iterations
     radius = shape.radius_mu()
+    s = spec.search
+    coeffs = s.pso_coefficients()
+    budget = Budget(ctx, spec.budget_parts())
     sim = ModularSim(shape, stuck, pmap, spec.gait_duration_s, spec.settle_s)
     try:
         lower, upper = sim.bounds(k)
-        s = spec.search
-        opt = make_optimizer(s.optimizer, lower, upper, s.particles, s.seed, cr=s.cr, f=s.f, w=s.w, phi1=s.phi1,
-                             phi2=s.phi2)
-        history: list[dict] = []
-        evaluations = 0
-        wall_before = sim_s = plan_s = 0.0
-        ckpt = ctx.load_checkpoint()
-        if ckpt is not None:
-            opt.restore(ckpt["optimizer"])
-            history, evaluations = ckpt["history"], ckpt["evaluations"]
-            sim.sim_steps, wall_before = ckpt["sim_steps"], ckpt["wall_s"]
-            sim_s, plan_s = ckpt["sim_s"], ckpt["plan_s"]
-        total = s.generations
+        ckpt = ctx.load_checkpoint() or {}
+        if "optimizer" in ckpt:  # a checkpoint written before the phases had their own keys
+            ckpt = {"search": {**ckpt, "sim_steps": ckpt.get("sim_steps", 0)}}
+        opt = make_optimizer(s.optimizer, lower, upper, s.particles, s.seed, cr=s.cr, f=s.f, **coeffs)
+        search = search_phase("search", opt, sim, spec, pmap, k, K, radius, budget, ctx, ckpt)
+        control = None
+        if spec.controls.random_search:
+            rs = make_optimizer("random", lower, upper, s.particles, s.seed + RANDOM_SEED_OFFSET)
+            control = search_phase("random_search", rs, sim, spec, pmap, k, K, radius, budget, ctx, ckpt)
+        history = search["history"]
         sign = 1.0 if spec.cost == "coverage" else -1.0
-        seg_start = time.perf_counter()
-        while opt.generation < total:
-            if ctx.is_cancelled():
-                raise Cancelled()
-            x = opt.ask()
-            ev = evaluate(sim, x, k, pmap, K, spec.cost, spec.seed, radius)
-            opt.tell(ev.fitness)
-            evaluations += len(ev.fitness)
-            sim_s += ev.sim_s
-            plan_s += ev.plan_s
-            row = {"generation": opt.generation, "best": sign * opt.best[1],
-                   "mean": float(ev.value.mean()), "generation_best": float(ev.value.max() if sign > 0 else ev.value.min()),
-                   "worst": float(ev.value.min() if sign > 0 else ev.value.max()),
-                   "nodes_mean": float(ev.tree.n.mean()), "evaluations": evaluations}
-            history.append(row)
-            wall = wall_before + time.perf_counter() - seg_start
-            ctx.save_checkpoint({"optimizer": opt.state(), "history": history, "evaluations": evaluations,
-                                 "sim_steps": sim.sim_steps, "wall_s": wall, "sim_s": sim_s, "plan_s": plan_s})
-            ctx.progress(opt.generation, total, {"best": row["best"], "mean": row["mean"], "evaluations": evaluations,
-                                                 "sim_steps_per_s": sim.sim_steps / max(wall, 1e-9)})
-        search_wall = wall_before + time.perf_counter() - seg_start
 
         # -- the best gait set, examined ----------------------------------------------------
         t_an = time.perf_counter()
-        best_x, best_f = opt.best
+        budget.begin("examine")
+        best_x = search["best_x"]
+        best_f = sign * search["best_value"]
         ev = evaluate(sim, best_x[None], k, pmap, K, spec.cost, spec.seed, radius, record_paths=True)
         tree = ev.tree.single(0)
         value = float(ev.value[0])
@@ -172,8 +162,23 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
             per_gait.append({"gait": j + 1, "distance_mu": float(np.hypot(*d)),
                              "rotation_deg": float(tr["heading_deg"][-1] - tr["heading_deg"][0]),
                              "end_mu": d.tolist()})
+        budget.tick(1)
+
+        # -- controls: held-out planner draws, the random search's best the same way ---------
+        budget.begin("heldout")
+        n_ho = spec.controls.heldout_plans
+        held = heldout_values(sim, best_x, k, pmap, K, spec.cost, spec.seed, radius, n_ho, prims=ev.prims,
+                              tick=budget.tick)
+        control_held = None
+        if control is not None:
+            control_held = heldout_values(sim, control["best_x"], k, pmap, K, spec.cost, spec.seed, radius, n_ho,
+                                          tick=budget.tick)
+
+        # -- the composition check and the reuse experiment (flat maps) ----------------------
         if pmap.flat:
-            verification = verify_tree(sim, best_x, k, tree, spec.verify.nodes) if spec.verify.nodes > 0 else None
+            budget.begin("verify")
+            verification = (verify_tree(sim, best_x, k, tree, spec.verify.nodes, tick=budget.tick)
+                            if spec.verify.nodes > 0 else None)
             composition = None
             if verification is not None:
                 composition = {key: verification[key] for key in
@@ -185,17 +190,37 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
                                          "simulated_mu": verification["simulated_pos"]}
             reuse = None
             if spec.reuse.enabled:
+                budget.begin("reuse")
                 reuse = reuse_experiment(ev.prims, reuse_scenarios(pmap, spec.reuse.distance_mu), spec.reuse.plans,
-                                         spec.reuse.iterations, spec.seed, radius, root_z=float(tree["pos"][0, 2]))
+                                         spec.reuse.iterations, spec.seed, radius, root_z=float(tree["pos"][0, 2]),
+                                         tick=budget.tick)
         else:
             composition = {"note": "expansions simulated from the parent's full state (non-flat map); nothing composed"}
             reuse = None
+
+        # -- robustness: the best gaits under perturbed physics -----------------------------
+        nominal = {"coverage_pct": float(100.0 * ev.tree.coverage()[0]),
+                   "goal_distance_mu": float(ev.tree.goal_distance(pmap.goal, pmap.flat)[0])}
+        if ev.prims is not None:
+            nominal["gait_distance_mu"] = float(ev.prims.distance()[0].mean())
+        robustness = None
+        if spec.robustness.enabled:
+            budget.begin("robustness")
+            cases = robustness_cases(shape, stuck, pmap, spec.gait_duration_s, spec.settle_s, best_x, k, K,
+                                     spec.cost, spec.seed, radius, tick=budget.tick)
+            target, met = robustness_target(spec.cost, nominal)
+            for c in cases:
+                c["target_met"] = met(c["metrics"])
+            robustness = robustness_block(target, nominal, cases)
         analysis_s = time.perf_counter() - t_an
     finally:
         sim.close()
-    wall = search_wall + analysis_s
+    budget.finish()
+    search_wall = search["wall_s"]
+    wall = search_wall + (control["wall_s"] if control else 0.0) + analysis_s
     first = history[0] if history else {}
     gens = len(history)
+    evaluations = search["evaluations"]
     summary = {
         "kind": "multigait",
         "robot": spec.robot,
@@ -207,10 +232,14 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
         "map": pmap.describe(),
         "gaits": k,
         "iterations": K,
-        "result": {"final_best": value, "initial_best": first.get("generation_best"),
+        "search": {"optimizer": s.optimizer, **({"pso": s.pso, **coeffs} if s.optimizer == "pso" else {})},
+        "result": {"final_best": value, "heldout_mean": float(held.mean()), "heldout_std": float(held.std()),
+                   "initial_best": first.get("generation_best"),
                    "initial_mean": first.get("mean"), "final_mean": history[-1]["mean"] if history else None,
                    "best_fitness": best_f, "reproduced": bool(abs(sign * value - best_f) < 1e-9),
                    "tree_nodes": int(len(tree["pos"])), "goal_distance_mu": float(ev.tree.goal_distance(pmap.goal, pmap.flat)[0])},
+        "controls": controls_block(spec, search, held, control, control_held),
+        "robustness": robustness,
         "per_gait": per_gait,
         "best_params": {"names": [f"g{j + 1}_{n}" for j in range(k) for n in _names(sim)], "values": best_x.tolist()},
         "bounds": {"lower": lower.tolist(), "upper": upper.tolist()},
@@ -219,17 +248,32 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
         "composition": composition,
         "reuse": reuse,
         "history": history,
-        "timing": {"wall_s": wall, "evaluations": evaluations, "sim_steps": sim.sim_steps,
-                   "sim_steps_per_s": sim.sim_steps / max(wall, 1e-9), "setup_s": seg_start - t0,
-                   "search_s": search_wall, "analysis_s": analysis_s, "rollout_s": sim_s, "planner_s": plan_s,
+        "control_history": ([{key: r[key] for key in ("generation", "best", "mean", "evaluations")}
+                             for r in control["history"]] if control else None),
+        "budget": {"formula": spec.budget_formula, "planned": spec.budget_parts(), "used": dict(budget.used),
+                   "total": spec.evaluations_budget},
+        "timing": {"wall_s": wall, "evaluations": sum(budget.used.values()), "search_evaluations": evaluations,
+                   "sim_steps": sim.sim_steps, "sim_steps_per_s": sim.sim_steps / max(wall, 1e-9),
+                   "search_s": search_wall, "random_search_s": control["wall_s"] if control else 0.0,
+                   "analysis_s": analysis_s, "rollout_s": search["sim_s"], "planner_s": search["plan_s"],
                    "per_generation_s": search_wall / max(gens, 1),
-                   "planner_per_tree_s": plan_s / max(evaluations, 1)},
+                   "planner_per_tree_s": search["plan_s"] / max(evaluations, 1)},
     }
     # the recorded swept paths are drawn by the plots; they ride along in the traces
     traces["tree"] = {"time_s": np.arange(len(tree["pos"])) * 1.0, "pos_mu": tree["pos"], "parent": tree["parent"],
                       "gait": tree["gait"], "paths_mu": tree["paths"]}
     return JobResult(summary=summary, history=history, traces=traces, model_xml=sim.spec.to_xml(),
-                     evaluations=evaluations, sim_steps=sim.sim_steps)
+                     evaluations=summary["timing"]["evaluations"], sim_steps=sim.sim_steps)
+
+
+def robustness_target(cost: str, nominal: dict):
+    """The target checked under each perturbation, in words and as a test."""
+    if cost == "coverage":
+        ref = nominal["coverage_pct"]
+        return (f"coverage at least {ROBUST_COVERAGE_SHARE:.0%} of the nominal {ref:.1f} %",
+                lambda m: bool(m["coverage_pct"] >= ROBUST_COVERAGE_SHARE * ref))
+    return (f"the tree ends within {ROBUST_GOAL_MU:g} mu of the goal (the paper's Sec. V-B figure)",
+            lambda m: bool(m["goal_distance_mu"] <= ROBUST_GOAL_MU))
 
 
 def _names(sim: ModularSim) -> list[str]:

@@ -1,6 +1,9 @@
 """The ``multigait`` spec (paper 001): modular robot and its stuck modules, number of
-gaits, cost (coverage or distance), map, PSO/DE search, planner, reuse experiment and
-tree verification; every default is the paper's."""
+gaits, cost (coverage or distance), map, PSO/DE search, planner, reuse experiment, tree
+verification, controls and robustness; every default is the paper's.
+
+The evaluation budget counts the work of every phase (``budget_formula``), and a spec
+whose total exceeds ``MAX_BUDGET`` units is refused with the formula in the message."""
 
 from __future__ import annotations
 
@@ -9,9 +12,12 @@ from typing import ClassVar, Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.jobs.base import SpecBase, StrictModel
+from app.optim.pso import PRESETS
+from app.planning.evidence import CASES
 from app.planning.maps import MAPS
 from app.robots.modular import SHAPES
 
+MAX_BUDGET = 2_000_000
 
 
 class Damage(StrictModel):
@@ -31,9 +37,12 @@ class Search(StrictModel):
     optimizer: Literal["pso", "de"] = "pso"
     particles: int = Field(20, ge=2, le=1000)
     generations: int = Field(150, ge=1, le=10000)
-    w: float = Field(0.1, ge=0.0, le=2.0)
-    phi1: float = Field(2.0, ge=0.0, le=4.0)
-    phi2: float = Field(2.0, ge=0.0, le=4.0)
+    # PSO coefficients: a preset (app/optim/pso.py), each number overridable
+    pso: Literal["paper", "constriction"] = "paper"
+    w: float | None = Field(None, ge=0.0, le=2.0)
+    phi1: float | None = Field(None, ge=0.0, le=4.0)
+    phi2: float | None = Field(None, ge=0.0, le=4.0)
+    vmax: float | None = Field(None, gt=0.0, le=1.0)  # |v| limit as a fraction of the box width
     cr: float = Field(0.6, ge=0.0, le=1.0)
     f: float = Field(0.5, ge=0.0, le=1.0)
     seed: int = Field(0, ge=0, le=2**32 - 1)
@@ -43,6 +52,13 @@ class Search(StrictModel):
         if self.optimizer == "de" and self.particles < 4:
             raise ValueError("particles: DE needs at least 4 (current-to-best/1 uses two other members)")
         return self
+
+    def pso_coefficients(self) -> dict[str, float]:
+        c = dict(PRESETS[self.pso])
+        for key in ("w", "phi1", "phi2", "vmax"):
+            if getattr(self, key) is not None:
+                c[key] = getattr(self, key)
+        return c
 
 
 class Planner(StrictModel):
@@ -65,6 +81,21 @@ class Verify(StrictModel):
     nodes: int = Field(60, ge=0, le=2000)
 
 
+class Controls(StrictModel):
+    """Controls of the result: a random search with the same evaluator and planner draws at
+    the search's budget, and the best gait sets planned again on fresh (held-out) draws."""
+
+    random_search: bool = True
+    heldout_plans: int = Field(20, ge=1, le=500)
+
+
+class Robustness(StrictModel):
+    """The best gait set re-simulated with the timestep halved and quartered, friction x 0.7
+    and x 1.3, module masses -10 % and +10 % (app/planning/evidence.py: CASES)."""
+
+    enabled: bool = True
+
+
 class MultigaitSpec(SpecBase):
     kind: Literal["multigait"] = "multigait"
     robot: str = "lizard"
@@ -76,6 +107,8 @@ class MultigaitSpec(SpecBase):
     planner: Planner = Field(default_factory=Planner)
     reuse: Reuse = Field(default_factory=Reuse)
     verify: Verify = Field(default_factory=Verify)
+    controls: Controls = Field(default_factory=Controls)
+    robustness: Robustness = Field(default_factory=Robustness)
     gait_duration_s: float = Field(30.0, gt=0.0, le=120.0)  # tau^p
     settle_s: float = Field(1.0, ge=0.0, le=10.0)
 
@@ -103,6 +136,14 @@ class MultigaitSpec(SpecBase):
             raise ValueError("damage.stuck_modules: at least one module must work")
         return self
 
+    @model_validator(mode="after")
+    def _budget_fits(self):
+        n = self.evaluations_budget
+        if n > MAX_BUDGET:
+            raise ValueError(f"evaluations_budget: {n} units exceed the limit of {MAX_BUDGET}; "
+                             f"budget = {self.budget_formula}")
+        return self
+
     @property
     def seed(self) -> int:
         return self.search.seed
@@ -117,12 +158,30 @@ class MultigaitSpec(SpecBase):
             return self.planner.iterations
         return 150 if (self.cost == "coverage" or not MAPS[self.map].flat) else 100
 
-    budget_formula: ClassVar[str] = ("particles x generations gait sets, each scored by one RRT-MP plan "
-                                     "(generation 1 is the initial swarm)")
+    budget_formula: ClassVar[str] = (
+        "units of work over all phases: search.particles x search.generations gait sets (the search; generation "
+        "1 is the initial swarm; each gait set simulated once and scored by one RRT-MP plan), the same number "
+        "again for the random-search control (controls.random_search), 1 to re-examine the best gait set, "
+        "controls.heldout_plans held-out plans of the best (twice with the random-search control: its best too), "
+        "on flat maps verify.nodes single-gait re-simulations of the best tree and 3 x reuse.plans reuse plans "
+        "(reuse.enabled), and 6 robustness re-simulations (robustness.enabled); one simulated gait set, one plan "
+        "or one re-simulated tree node is one unit")
+
+    def budget_parts(self) -> dict[str, int]:
+        """Units per phase, in run order (their sum is ``evaluations_budget``)."""
+        search = self.search.particles * self.search.generations
+        flat = MAPS[self.map].flat
+        return {"search": search,
+                "random_search": search if self.controls.random_search else 0,
+                "examine": 1,
+                "heldout": self.controls.heldout_plans * (2 if self.controls.random_search else 1),
+                "verify": self.verify.nodes if flat else 0,
+                "reuse": 3 * self.reuse.plans if (flat and self.reuse.enabled) else 0,
+                "robustness": len(CASES) if self.robustness.enabled else 0}
 
     @property
     def evaluations_budget(self) -> int:
-        return self.search.particles * self.search.generations
+        return sum(self.budget_parts().values())
 
 
 Spec = MultigaitSpec
