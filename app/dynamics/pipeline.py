@@ -152,6 +152,9 @@ def evaluate(geom: QuadrupedGeometry, gait: Gait, task: Task, cfg: EvalConfig = 
         if it == 0:
             eps_first = eps_k[smp]
             sol_first, legs_first = sol, legs1
+            # The paper's CoT_NLP: Eq. 3's torques along the first NLP's path with its forces.
+            qf, jf, _ = wb.inverse(qpos_k[smp], qvel_k[smp], qacc_k[smp], forces=sol.forces[smp])
+            tau_first = wb.joint_torques(qf, jf)
         # The legs' true pull on the trunk along this path replaces the dummy legs' (beyond the
         # paper: two point feet cannot make a moment about the line through them, so what the
         # SRB model gets wrong about that axis no force redistribution can remove).
@@ -202,6 +205,7 @@ def evaluate(geom: QuadrupedGeometry, gait: Gait, task: Task, cfg: EvalConfig = 
     d_nlp = task.speed * T
     d_fwd = float(fwd.r[-1, 0] - fwd.r[0, 0])
     cot = {
+        "nlp_first": _cot(tau_first, legs_first.qd[smp], dts, mt, d_nlp),
         "nlp": _cot(tau_nlp, legs1.qd[smp], dts, mt, d_nlp),
         "qp": _cot(tau_qp, legs1.qd[smp], dts, mt, d_nlp),
         "final": _cot(tau_f, fwd.qd[smp], dts, mt, d_fwd),

@@ -95,7 +95,7 @@ def test_result_carries_the_stages_and_the_physics_check(tmp_path):
     r = run(spec, Ctx(tmp_path))
     s = json.loads(dumps(r.summary))
     assert s["gait"]["period_s"] == 0.46 and s["links_m"] == [0.06, 0.33, 0.33]
-    assert set(s["cot"]) == {"nlp", "qp", "final", "physics"}
+    assert set(s["cot"]) == {"nlp_first", "nlp", "qp", "final", "physics"}
     assert s["eps"]["qp"]["norm"] < s["eps"]["nlp"]["norm"]
     assert s["physics"]["periods_completed"] == 1
     names = {c["name"] for c in s["controls"]}

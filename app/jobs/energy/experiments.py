@@ -35,7 +35,8 @@ def report(summary: dict, wall_s: float, spec_json: str) -> str:
                         ("SRB solution re-evaluated on the heavy legs", a["srb_on_heavy_legs"]),
                         ("SRB + dummy legs (this kind)", a["leg_dynamics"])):
             rows.append([name, *(f"{m[k]:.4g}" if isinstance(m.get(k), float) else str(m.get(k, "-"))
-                                 for k in ("cot_nlp", "cot_final", "eps_nlp_N", "eps_qp_N", "periodicity_error", "feasible"))])
+                                 for k in ("cot_nlp_first", "cot_final", "eps_nlp_N", "eps_qp_N", "periodicity_error",
+                                           "feasible"))])
         out.append("**SRB only vs leg dynamics (same gait and links)**\n\n"
                    + _md_table(["model", "CoT NLP", "CoT final", "eps_NLP (N)", "eps_QP (N)", "w", "feasible"], rows))
     return "\n\n".join(out)

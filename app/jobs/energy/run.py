@@ -200,7 +200,8 @@ def _row(name, label, evaluations, metrics, target_met, note):
 def _metrics(r: dict) -> dict[str, Any]:
     if "cot" not in r:
         return {"feasible": False, "failed": r["failed"], "J": r["fitness"]}
-    return {"feasible": r["feasible"], "J": r["fitness"], "cot_nlp": r["cot"]["nlp"], "cot_qp": r["cot"]["qp"],
+    return {"feasible": r["feasible"], "J": r["fitness"], "cot_nlp_first": r["cot"]["nlp_first"],
+            "cot_nlp": r["cot"]["nlp"], "cot_qp": r["cot"]["qp"],
             "cot_final": r["cot"]["final"], "eps_nlp_N": r["eps"]["nlp"]["norm"], "eps_qp_N": r["eps"]["qp"]["norm"],
             "periodicity_error": r["periodicity_error"]}
 
