@@ -126,3 +126,11 @@ def test_cli_exits_2_naming_the_field_and_writes_nothing(tmp_path, bad, field):
     assert p.returncode == 2, p.stderr
     assert field in p.stderr
     assert not out.exists()
+
+
+def test_numbers_do_not_depend_on_the_worker_count(tmp_path):
+    base = {"kind": "energy", "search": {"population": 4, "generations": 1}, "model": {"knots": 48},
+            "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False, "random_search": False}}
+    one = run(EnergySpec.parse(base | {"search": base["search"] | {"workers": 1}}), Ctx(tmp_path))
+    two = run(EnergySpec.parse(base | {"search": base["search"] | {"workers": 2}}), Ctx(tmp_path))
+    assert one.history == two.history and one.summary["J"] == two.summary["J"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 import numpy as np
@@ -140,9 +141,15 @@ class PopulationEvaluator:
 
     def __call__(self, X: np.ndarray) -> list[dict[str, Any]]:
         jobs = [(self._spec_dict, [float(v) for v in x]) for x in X]
-        if self._pool is None:
-            return [_evaluate_one(j) for j in jobs]
-        return list(self._pool.map(_evaluate_one, jobs))
+        if self._pool is not None:
+            try:
+                return list(self._pool.map(_evaluate_one, jobs))
+            except (AssertionError, BrokenProcessPool, OSError):
+                # A daemonic worker process may not have children: evaluate here instead
+                # (same numbers, one core).
+                self.close()
+                self.workers = 1
+        return [_evaluate_one(j) for j in jobs]
 
     def close(self) -> None:
         if self._pool is not None:
