@@ -63,3 +63,13 @@ def test_the_trot_walks_in_full_physics(table1):
     weak = simulate(QUADRUPED25, dataclasses.replace(ref, tau=ref.tau * 0.0), 0.6,
                     PhysicsConfig(periods=3, kp_joint=5.0, kd_joint=0.1))
     assert not weak["stays_up"]
+
+
+def test_a_free_walk_with_four_phases_is_feasible():
+    from app.dynamics.gait import Gait
+
+    T = 0.6
+    walk = Gait(period=T, touchdown=(0.0, 0.5 * T, 0.75 * T, 0.25 * T), duty=(0.75,) * 4)
+    r = evaluate(QUADRUPED25, walk, Task(), EvalConfig(knots=96))
+    assert r["feasible"], r["failed"]
+    assert r["eps"]["qp"]["norm"] * 100 < r["eps"]["nlp"]["norm"]

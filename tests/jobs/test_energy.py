@@ -134,3 +134,19 @@ def test_numbers_do_not_depend_on_the_worker_count(tmp_path):
     one = run(EnergySpec.parse(base | {"search": base["search"] | {"workers": 1}}), Ctx(tmp_path))
     two = run(EnergySpec.parse(base | {"search": base["search"] | {"workers": 2}}), Ctx(tmp_path))
     assert one.history == two.history and one.summary["J"] == two.summary["J"]
+
+
+def test_free_family_space_round_trips_table1_and_decodes_timing():
+    from app.jobs.energy.problem import decode, encode_nominal, space
+
+    spec = EnergySpec.parse({"kind": "energy", "gait": {"family": "free"}})
+    sp = space(spec)
+    assert sp.names[:8] == ("T_s", "phase_HR", "phase_FL", "phase_HL", "beta_FR", "beta_HR", "beta_FL", "beta_HL")
+    assert len(sp.lower) == 11 and (sp.lower < sp.upper).all()
+    gait, links = decode(sp, encode_nominal(sp, spec))
+    assert gait.period == 0.46 and gait.touchdown == pytest.approx((0.0, 0.23, 0.23, 0.0))
+    assert gait.duty == (0.5,) * 4 and links == (0.06, 0.33, 0.33)
+    x = encode_nominal(sp, spec)
+    x[1:4], x[4:8] = (0.5, 0.75, 0.25), (0.7, 0.7, 0.7, 0.7)  # a walk
+    gait, _ = decode(sp, x)
+    assert gait.touchdown == pytest.approx((0.0, 0.23, 0.345, 0.115)) and gait.duty == (0.7,) * 4
