@@ -155,6 +155,10 @@ def polygon_margin(feet_xy: np.ndarray, x=(0.0, 0.0)) -> float:
     return float(np.min(np.sum(n * (x - hull), axis=-1)))
 
 
+def _cross(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
 def transfer_points_crab(pf, pc, pr, direction: np.ndarray, re):
     """Transfer starting point I and final point F on the straight path (Def. 3-5), closed form.
 
@@ -163,16 +167,31 @@ def transfer_points_crab(pf, pc, pr, direction: np.ndarray, re):
     transfer stability margin: the distance from I to the rear edge C-R, equal to that from
     F = I + R_e d to the front edge F-C (condition 1.3). Where the side edge R-F is closer
     (large crab angles) SM_t is the true smaller margin at I or F — the intent of Def. 5,
-    "the absolute stability margin at the beginning and ending of a transfer phase"."""
+    "the absolute stability margin at the beginning and ending of a transfer phase".
+
+    Each edge's terms depend on two of the three legs only, so they are computed on the
+    smaller broadcast shapes; only the triangle's orientation and the final arithmetic run
+    on all N^3 tripods (this is the hot path of the foothold search)."""
     d = np.asarray(direction, dtype=float)
-    nr, cr = line_terms(pc, pr, pf)
-    nf, cf = line_terms(pf, pc, pr)
-    ns, cs = line_terms(pr, pf, pc)
-    br, bf, bs = np.sum(nr * d, -1), np.sum(nf * d, -1), np.sum(ns * d, -1)
-    den = br - bf
+    pf, pc, pr = (np.asarray(p, dtype=float) for p in (pf, pc, pr))
+
+    def edge(a, b):
+        # distance of t d from line ab, before the orientation sign: (A + B t) with
+        # A = cross(e, -a) / |e|, B = cross(e, d) / |e|
+        ex, ey = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
+        ln = np.maximum(np.hypot(ex, ey), 1e-15)
+        return _cross(ex, ey, -a[..., 0], -a[..., 1]) / ln, _cross(ex, ey, d[0], d[1]) / ln
+
+    ar, br = edge(pc, pr)  # rear
+    af, bf = edge(pf, pc)  # front
+    a_s, b_s = edge(pr, pf)  # side
+    # orientation of (F, C, R): +1 counter-clockwise; inside is where every signed distance is positive
+    s = np.sign(_cross(pc[..., 0] - pf[..., 0], pc[..., 1] - pf[..., 1], pr[..., 0] - pf[..., 0], pr[..., 1] - pf[..., 1]))
+    s = np.where(s == 0, 1.0, s)
+    den = s * (br - bf)
     ok = den > 1e-12
-    t = np.where(ok, (cf + bf * re - cr) / np.where(ok, den, 1.0), np.nan)
-    smt = np.minimum(np.minimum(cr + br * t, cs + bs * t), cs + bs * (t + re))
+    t = np.where(ok, (af + bf * re - ar) / np.where(ok, br - bf, 1.0), np.nan)
+    smt = np.minimum(np.minimum(s * (ar + br * t), s * (a_s + b_s * t)), s * (a_s + b_s * (t + re)))
     smt = np.where(ok, smt, -np.inf)
     return t, t, smt
 

@@ -221,12 +221,15 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
     def allowed_fn(pos_xy: np.ndarray, yaw: float):
         pts_extra = np.array(forbidden_extra) if forbidden_extra else np.zeros((0, 2))
         c, s = math.cos(yaw), math.sin(yaw)
+        # only zones within reach of a foot can matter (candidates lie within 0.9 m of the body centre)
+        near = field.centres[np.linalg.norm(field.centres - pos_xy[:2], axis=1) < 1.2] if len(field.centres) else field.centres
+        local = Minefield(near, field.zone_radius, field.safe_radius)
 
         def allowed(p):
             w = np.stack([pos_xy[0] + c * p[..., 0] - s * p[..., 1], pos_xy[1] + s * p[..., 0] + c * p[..., 1]], -1)
             ok = np.ones(w.shape[:-1], dtype=bool)
             if cfg.aware:
-                ok &= field.distance(w) >= field.safe_radius
+                ok &= local.distance(w) >= field.safe_radius
             if len(pts_extra):
                 ok &= np.linalg.norm(w[..., None, :] - pts_extra, axis=-1).min(axis=-1) >= field.safe_radius
             return ok
