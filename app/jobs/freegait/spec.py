@@ -25,7 +25,7 @@ class ChangeIn(StrictModel):
 
     at_s: float = Field(ge=0.0, le=MAX_DURATION_S)
     crab_angle_deg: float | None = Field(None, ge=-MAX_CRAB_DEG, le=MAX_CRAB_DEG)
-    k_ev: float | None = Field(None, ge=0.0, le=1.0)
+    k_ev: float | None = Field(None, ge=0.0, le=20.0)
 
     @model_validator(mode="after")
     def _something(self):
@@ -80,7 +80,7 @@ class ForbiddenIn(StrictModel):
 
 class PlannerIn(StrictModel):
     sm_min_m: float = Field(0.05, ge=0.0, le=0.3, description="SM_min (Def. 2)")
-    k_ev: float = Field(0.04, ge=0.0, le=1.0, description="weight of SM_t in Ev = K + k_ev SM_t (Eq. 24)")
+    k_ev: float = Field(0.04, ge=0.0, le=20.0, description="weight of SM_t in Ev = K + k_ev SM_t (Eq. 24)")
     candidates_per_leg: int = Field(15, description=f"N, 2 or more; all N^3 tripods are checked, N^3 <= {MAX_TRIPODS}")
     h1_m: float = Field(0.13, gt=0.0, le=0.3)
     h2_m: float = Field(0.11, ge=0.0, le=0.3)
