@@ -51,3 +51,24 @@ def test_deterministic(blind_run):
     again = walk(TERRAIN, empty, WalkConfig(route=ROUTE, aware=False))
     for k in ("pos", "phase", "sm", "k_r", "qpos"):
         np.testing.assert_array_equal(again.steps[k], blind_run.steps[k])
+
+
+def test_spinning_turns_in_place():
+    r = walk(TERRAIN, Minefield(np.zeros((0, 2)), 0.025, 0.075),
+             WalkConfig(route=Route(gait="spinning", speed=0.0, turn_rate_deg_s=2.0, turn_deg=20.0)))
+    s = r.summary()
+    assert s["finished"] and s["transfers"] >= 2
+    yaw = np.degrees(r.steps["rpy"][-1][2] - r.steps["rpy"][0][2])
+    assert yaw == pytest.approx(20.0, abs=4.0)
+    assert np.linalg.norm(r.steps["pos"][-1, :2] - r.steps["pos"][0, :2]) < 0.05  # the COG stays put
+    assert s["min_sm_m"] > 0.05
+
+
+def test_circling_follows_the_arc():
+    route = Route(gait="circling", speed=0.015, distance=0.3, turn_rate_deg_s=0.5)
+    r = walk(TERRAIN, Minefield(np.zeros((0, 2)), 0.025, 0.075), WalkConfig(route=route))
+    s = r.summary()
+    assert s["finished"]
+    yaw = np.degrees(r.steps["rpy"][-1][2] - r.steps["rpy"][0][2])
+    assert yaw == pytest.approx(np.degrees(0.3 / (0.015 / np.radians(0.5))), abs=3.0)
+    assert s["tracking_error_max_m"] < 0.05
