@@ -328,8 +328,13 @@ def sweep(p: SweepParams, log: Callable[[str], None]) -> str:
     route = Route(distance=p.distance_m)
     rows = []
     t0 = time.perf_counter()
-    for d in dens:
-        for f in range(p.fields):
+    partial = p.json_out.with_suffix(".partial.jsonl") if p.json_out else None
+    if partial:
+        partial.parent.mkdir(parents=True, exist_ok=True)
+        partial.write_text("")
+    # field-major, so that a partial sweep covers every density evenly
+    for f in range(p.fields):
+        for d in dens:
             ter, fld = _world(p.distance_m + 2.5, 3.0, p.roughness_m, 1000 + f, d, 2000 + f)
             for aware in ((True, False) if p.unaware else (True,)):
                 s = walk(ter, fld, WalkConfig(route=route, aware=aware, seed=f)).summary()
@@ -337,14 +342,24 @@ def sweep(p: SweepParams, log: Callable[[str], None]) -> str:
                     "outcome", "finished", "footholds", "footholds_in_zones", "stop_time_s", "min_sm_m",
                     "tracking_error_max_m", "tracking_error_final_m", "mean_speed_m_s", "failed_touchdowns")},
                     "target_met": target_met(s, 0.05)})
+                if partial:
+                    with partial.open("a") as fh:
+                        fh.write(json.dumps(rows[-1], default=float) + "\n")
             log(f"density {d:g} field {f}: {rows[-1]['outcome']}  ({time.perf_counter() - t0:.0f} s)")
-    md = [f"{p.fields} random minefields per density (terrain and zones from seeds 1000+i / 2000+i), {p.distance_m} m "
+    return _write(p, sweep_markdown(rows, dens, p), rows)
+
+
+def sweep_markdown(rows: list[dict], dens: list[float], p: SweepParams) -> str:
+    fields = len({r["field"] for r in rows})
+    md = [f"{fields} random minefields per density (terrain and zones from seeds 1000+i / 2000+i), {p.distance_m} m "
           f"straight route at 0.02 m/s, ground {p.roughness_m} m:", "",
           "| zones/m^2 | planner | finished | footholds in zones (total) | runs with a foothold in a zone | body stopped (s, mean) "
           "| min SM (m, worst) | tracking error max (m, mean / worst) | mean speed (m/s) |", "|---|---|---|---|---|---|---|---|---|"]
     for d in dens:
         for aware in ((True, False) if p.unaware else (True,)):
             rs = [r for r in rows if r["density"] == d and r["aware"] == aware]
+            if not rs:
+                continue
             md.append(f"| {d:g} | {'aware' if aware else 'unaware'} | {sum(r['finished'] for r in rs)}/{len(rs)} | "
                       f"{sum(r['footholds_in_zones'] for r in rs)} | {sum(r['footholds_in_zones'] > 0 for r in rs)}/{len(rs)} | "
                       f"{np.mean([r['stop_time_s'] for r in rs]):.1f} | {min(r['min_sm_m'] for r in rs):.3f} | "
@@ -354,7 +369,7 @@ def sweep(p: SweepParams, log: Callable[[str], None]) -> str:
     if fails:
         md += ["", "Aware runs that did not finish: " + ", ".join(f"{r['density']:g}/m^2 field {r['field']} ({r['outcome']})"
                                                                  for r in fails)]
-    return _write(p, "\n".join(md), rows)
+    return "\n".join(md)
 
 
 EXPERIMENTS = [
