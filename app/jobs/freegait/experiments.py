@@ -56,7 +56,7 @@ class KevParams(BaseModel):
     seeds: int = Field(3, ge=1, le=20, description="terrain seeds of the constant-k_ev runs")
     constant_m: float = Field(1.5, gt=0.2, le=5.0, description="route length of each constant-k_ev run")
     roughness_m: float = Field(0.04, ge=0.0, le=0.09)
-    extra_kevs: str = Field("0.5,1,2,5,10", description="k_ev values beyond the paper's range for the constant runs")
+    extra_kevs: str = Field("1,5", description="k_ev values beyond the paper's range for the constant runs")
     out: Path | None = None
     json_out: Path | None = None
 
