@@ -133,8 +133,23 @@ def _write(p: TablesParams, rows: list[dict], write_json: bool = True) -> str:
     return md
 
 
+def _compare(p, log):
+    from app.jobs.multigait.compare import compare
+
+    return compare(p, log)
+
+
+def _compare_params():
+    from app.jobs.multigait.compare import CompareParams
+
+    return CompareParams
+
+
 EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and distance gaits, stuck modules, reuse) "
-                                    "at a chosen PSO budget", TablesParams, tables)]
+                                    "at a chosen PSO budget", TablesParams, tables),
+               Experiment("compare", "PSO (paper and constriction coefficients) against random search at equal "
+                                     "budget over seeds, with held-out re-scoring and a Mann-Whitney U test",
+                          _compare_params(), _compare)]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
