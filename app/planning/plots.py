@@ -18,12 +18,16 @@ from app.plots import _save  # noqa: E402
 COLOURS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
 
 
-def convergence(history: list[dict], cost: str, out: Path) -> list[Path]:
+def convergence(history: list[dict], cost: str, out: Path, control: list[dict] | None = None) -> list[Path]:
     g = [r["generation"] for r in history]
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.plot(g, [r["best"] for r in history], "-", label="best so far")
     ax.plot(g, [r["generation_best"] for r in history], ":", label="best of generation")
     ax.plot(g, [r["mean"] for r in history], "--", label="generation mean")
+    if control:  # the random search at the same budget, same evaluator
+        cg = [r["generation"] for r in control]
+        ax.plot(cg, [r["best"] for r in control], "-", color="0.45", label="random search: best so far")
+        ax.plot(cg, [r["mean"] for r in control], "--", color="0.65", label="random search: generation mean")
     ax.set_xlabel("generation")
     ax.set_ylabel("coverage (% of cells)" if cost == "coverage" else "distance to goal (mu)")
     ax.set_title(f"{cost}-based cost per generation")
@@ -143,7 +147,7 @@ def reuse(summary: dict, out: Path) -> list[Path]:
 def all_plots(result, out) -> list[Path]:
     out = Path(out)
     s = result.summary
-    files = convergence(result.history, s["cost"], out)
+    files = convergence(result.history, s["cost"], out, s.get("control_history"))
     files += gait_traces(result.traces, out)
     files += gait_stats(s["per_gait"], out)
     files += tree_map(s, result.traces.get("tree", s["tree"]), out)

@@ -15,6 +15,8 @@ HISTORY_COLUMNS = {
     "worst": "worst cost among the gait sets evaluated in this generation",
     "nodes_mean": "mean RRT-MP tree size of this generation",
     "evaluations": "gait sets evaluated so far",
+    "at_bounds": "PSO: share of the swarm's coordinates on a wall of the box",
+    "spread": "PSO: mean per-coordinate standard deviation of the swarm over the box width (uniform: 0.289)",
 }
 TRACES = {
     "plan": "the plan from the root of the best tree, executed in full simulation gait after gait",
@@ -22,7 +24,8 @@ TRACES = {
     "composition": "composed vs. fully simulated positions of replayed tree nodes (indexed by node, not time)",
 }
 FIGURES = {
-    "convergence": "best-so-far, generation best and generation mean cost per generation (Tables I-II)",
+    "convergence": "best-so-far, generation best and generation mean cost per generation (Tables I-II), beside the "
+                   "random search at the same budget",
     "gait_traces": "the path of each evolved gait from the same start (Figs. 4, 5, 8)",
     "gait_distance_rotation": "distance and rotation per gait (Fig. 7)",
     "tree_map": "the best tree over the map, coloured by gait, with start, goal and plan (Figs. 6, 10)",
@@ -45,7 +48,16 @@ def headline(s: dict) -> list[HeadlineRow]:
     unit, better = _unit(s)
     label = "coverage of the map" if s["cost"] == "coverage" else "distance to the goal"
     rows = [headline_row(label, r["final_best"], unit, better),
-            headline_row(f"first generation best {s['cost']}", r["initial_best"], unit, better),
+            headline_row(f"{label} on held-out planner draws (mean)", r.get("heldout_mean"), unit, better)]
+    ctl = {c["name"]: c for c in s.get("controls") or []}
+    if "random_search" in ctl:
+        rows.append(headline_row("random search, same budget: held-out mean", ctl["random_search"]["metrics"]
+                                 ["heldout_mean"], unit, better))
+    rob = s.get("robustness")
+    if rob:
+        rows.append(headline_row("robustness cases meeting the target", f"{rob['met']} / {rob['total']}", "", None,
+                                 target=rob["target"], met=rob["met"] == rob["total"]))
+    rows += [headline_row(f"first generation best {s['cost']}", r["initial_best"], unit, better),
             headline_row("tree nodes", r["tree_nodes"], "", None),
             headline_row("tree to goal", r["goal_distance_mu"], "mu", "lower"),
             headline_row("re-planned cost matches the search", r["reproduced"], "", None)]
@@ -68,6 +80,19 @@ def summary_tables(s: dict) -> list[Table]:
     out = [table(title, ["", "first generation best", "first generation mean", "final best", "final mean"],
                  [[s["cost"], g(r["initial_best"]), g(r["initial_mean"]), g(r["final_best"]), g(r["final_mean"])]],
                  notes)]
+    if s.get("controls"):
+        out.append(table("controls", ["control", "evaluations", "numbers", "note"],
+                         [[c["label"], c["evaluations"],
+                           ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}"
+                                     for k, v in c["metrics"].items()), c["note"]] for c in s["controls"]]))
+    rob = s.get("robustness")
+    if rob:
+        keys = list(rob["spread"])
+        out.append(table(f"robustness: {rob['met']} of {rob['total']} cases meet the target ({rob['target']})",
+                         ["case"] + keys + ["target met"],
+                         [["nominal"] + [g(rob["spread"][k]["nominal"]) for k in keys] + ["-"]] +
+                         [[c["label"]] + [g(c["metrics"].get(k)) for k in keys] + [str(c["target_met"])]
+                          for c in rob["cases"]]))
     if s.get("per_gait"):
         out.append(table("per gait", ["gait", "distance (mu)", "rotation (deg)"],
                          [[p["gait"], f"{p['distance_mu']:.2f}", f"{p['rotation_deg']:.1f}"] for p in s["per_gait"]]))
