@@ -131,6 +131,91 @@ def report(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def _empty_map():
+    pmap = get_map("empty")
+    return pmap.with_start_goal(pmap.start, (pmap.start[0] + 15.0, pmap.start[1], 0.5))
+
+
+def _problem(robot: str, gait_s: float = 30.0, settle_s: float = 1.0):
+    shape, pmap = get_shape(robot), _empty_map()
+    return shape, pmap, ModularSim(shape, (), pmap, gait_s, settle_s)
+
+
+def ruggedness(robot: str = "lizard", n: int = 40, seed: int = 1, streams: int = 8, iterations: int = 150,
+               eps=(0.001, 0.01, 0.05), gait_s: float = 30.0) -> dict:
+    """How much of the coverage of random gait sets is structure a search could follow:
+    ``n`` uniform gait sets scored on the search's draws (stream 0), (a) planned again on
+    ``streams`` other draw streams (planner noise) and (b) perturbed by Gaussian steps of
+    ``eps`` x the box width per coordinate and simulated again (physics). Correlations of
+    the cost between the originals and their re-plans / perturbations."""
+    from app.planning.costs import _root_pose, cost_value, planner_draws
+    from app.planning.rrt import composed_expander, rrt_mp
+
+    shape, pmap, sim = _problem(robot, gait_s)
+    radius = shape.radius_mu()
+    try:
+        lo, hi = sim.bounds(3)
+        w = hi - lo
+        rng = np.random.default_rng(seed)
+        x = lo + rng.random((n, lo.size)) * w
+        ev = evaluate(sim, x, 3, pmap, iterations, "coverage", 0, radius)
+        f0 = ev.value
+        replans = []
+        for st in range(1, streams + 1):
+            tree = rrt_mp(pmap, composed_expander(ev.prims), 3, planner_draws(0, n, iterations, stream=st), radius,
+                          root_pose=_root_pose(sim))
+            replans.append(cost_value(tree, "coverage", pmap))
+        f = np.array(replans)
+        out = {"n": n, "mean": float(f0.mean()), "std_between_sets": float(f0.std()),
+               "planner": {"streams": streams, "corr": float(np.corrcoef(f0, f.mean(0))[0, 1]),
+                           "std_within_set": float(f.std(0).mean())},
+               "perturbed": []}
+        for e in eps:
+            xp = np.clip(x + rng.normal(size=x.shape) * e * w, lo, hi)
+            e2 = evaluate(sim, xp, 3, pmap, iterations, "coverage", 0, radius)
+            d0, d1 = ev.prims.distance().ravel(), e2.prims.distance().ravel()
+            out["perturbed"].append({"eps": e, "corr": float(np.corrcoef(f0, e2.value)[0, 1]),
+                                     "mean_abs_change": float(np.abs(f0 - e2.value).mean()),
+                                     "gait_distance_corr": float(np.corrcoef(d0, d1)[0, 1]),
+                                     "gait_distance_rel_change_median":
+                                         float(np.median(np.abs(d1 - d0) / np.maximum(d0, 1e-3)))})
+        return out
+    finally:
+        sim.close()
+
+
+def robustness_of_bests(rows: list[dict], log: Callable[[str], None] = print) -> list[dict]:
+    """Every arm's best of every seed re-simulated under the job's robustness cases."""
+    from app.planning.evidence import robustness_cases
+
+    out = []
+    for r in rows:
+        shape, pmap = get_shape(r["robot"]), _empty_map()
+        cases = robustness_cases(shape, (), pmap, r.get("gait_s", 30.0), 1.0, np.asarray(r["best_x"]), 3,
+                                 r.get("iterations", 150), "coverage", r["seed"], shape.radius_mu())
+        out.append({"arm": r["arm"], "seed": r["seed"], "nominal": r["in_sample_best"],
+                    "cases": {c["name"]: c["metrics"]["coverage_pct"] for c in cases}})
+        log(json.dumps(out[-1]))
+    return out
+
+
+def robustness_report(rob: list[dict]) -> str:
+    names = list(rob[0]["cases"])
+    lines = ["| arm | seed | nominal | " + " | ".join(names) + " | cases >= 80 % of nominal |",
+             "|---|---|---|" + "---|" * (len(names) + 1)]
+    for r in sorted(rob, key=lambda r: (r["arm"], r["seed"])):
+        met = sum(v >= 0.8 * r["nominal"] for v in r["cases"].values())
+        lines.append(f"| {r['arm']} | {r['seed']} | {r['nominal']:.1f} | "
+                     + " | ".join(f"{r['cases'][n]:.1f}" for n in names) + f" | {met} / {len(names)} |")
+    for arm in sorted({r["arm"] for r in rob}):
+        sel = [r for r in rob if r["arm"] == arm]
+        allv = [v for r in sel for v in r["cases"].values()]
+        lines.append(f"| **{arm}: mean** | | {np.mean([r['nominal'] for r in sel]):.1f} | "
+                     + " | ".join(f"{np.mean([r['cases'][n] for r in sel]):.1f}" for n in names)
+                     + f" | mean over cases {np.mean(allv):.1f} |")
+    return "\n".join(lines) + "\n"
+
+
 class CompareParams(BaseModel):
     robot: str = Field("lizard", description="modular robot (healthy)")
     seeds: str = Field("0,1,2,3,4", description="comma-separated seeds")
@@ -144,6 +229,8 @@ class CompareParams(BaseModel):
     out: Path = Field(Path("docs/multigait_compare.md"), description="markdown to write")
     json_out: Path = Field(Path("multigait_compare.json"), description="the runs (read first: runs there are kept)")
     report_only: bool = Field(False, description="only write the markdown from json_out")
+    robustness: bool = Field(False, description="also re-simulate every run's best under the job's robustness "
+                                                "cases (dt/2, dt/4, friction x0.7/x1.3, masses -/+10 %)")
 
 
 def compare(p: CompareParams, log: Callable[[str], None] = print) -> str:
@@ -160,7 +247,38 @@ def compare(p: CompareParams, log: Callable[[str], None] = print) -> str:
             done.append(one(arm, p.robot, s, p.particles, p.generations, p.heldout, log, gait_s=p.gait_s,
                             iterations=p.iterations))
             p.json_out.write_text(json.dumps(done, indent=1))
+        if p.robustness:
+            for r in done:
+                if "robustness" not in r:
+                    r["robustness"] = robustness_of_bests([r], log)[0]["cases"]
+                    p.json_out.write_text(json.dumps(done, indent=1))
     md = report(done)
+    rob = [{"arm": r["arm"], "seed": r["seed"], "nominal": r["in_sample_best"], "cases": r["robustness"]}
+           for r in done if "robustness" in r]
+    if rob:
+        md += ("\nEach run's best re-simulated (robustness cases of the job), coverage % planned on the search's "
+               "draws:\n\n" + robustness_report(rob))
     p.out.parent.mkdir(parents=True, exist_ok=True)
     p.out.write_text(md)
     return md
+
+
+class RuggednessParams(BaseModel):
+    robot: str = Field("lizard", description="modular robot (healthy)")
+    n: int = Field(40, ge=3, le=1000, description="uniform random gait sets")
+    seed: int = Field(1, ge=0, le=2**32 - 1, description="seed of the gait sets and perturbations")
+    out: Path = Field(Path("multigait_ruggedness.json"), description="JSON to write")
+
+
+def ruggedness_experiment(p: RuggednessParams, log: Callable[[str], None] = print) -> str:
+    r = ruggedness(p.robot, p.n, p.seed)
+    p.out.write_text(json.dumps(r, indent=1))
+    lines = [f"{p.n} random gait sets ({p.robot}, coverage, K = 150): mean {r['mean']:.2f} %, std between sets "
+             f"{r['std_between_sets']:.2f}",
+             f"planner draws: corr(stream 0, mean of {r['planner']['streams']} other streams) = "
+             f"{r['planner']['corr']:.3f}, std within a set {r['planner']['std_within_set']:.2f}"]
+    for q in r["perturbed"]:
+        lines.append(f"perturbed by {q['eps']:g} of the box width: corr {q['corr']:.2f}, mean |change| "
+                     f"{q['mean_abs_change']:.2f}, gait distance corr {q['gait_distance_corr']:.2f}, median relative "
+                     f"change {q['gait_distance_rel_change_median']:.2f}")
+    return "\n".join(lines) + "\n"

@@ -145,11 +145,26 @@ def _compare_params():
     return CompareParams
 
 
+def _ruggedness(p, log):
+    from app.jobs.multigait.compare import ruggedness_experiment
+
+    return ruggedness_experiment(p, log)
+
+
+def _ruggedness_params():
+    from app.jobs.multigait.compare import RuggednessParams
+
+    return RuggednessParams
+
+
 EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and distance gaits, stuck modules, reuse) "
                                     "at a chosen PSO budget", TablesParams, tables),
                Experiment("compare", "PSO (paper and constriction coefficients) against random search at equal "
                                      "budget over seeds, with held-out re-scoring and a Mann-Whitney U test",
-                          _compare_params(), _compare)]
+                          _compare_params(), _compare),
+               Experiment("ruggedness", "How much of a random gait set's coverage a search could follow: re-plans "
+                                        "on other planner draws, re-simulations of slightly perturbed gaits",
+                          _ruggedness_params(), _ruggedness)]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
