@@ -81,7 +81,7 @@ def summary_tables(s: dict) -> list[Table]:
     cols = ["run", "finished", "in zones", "min SM m", "stopped s", "speed m/s", "track m", "target"]
 
     def row(name, m, met):
-        return [name, _fmt(m["finished"]), m["footholds_in_zones"], _fmt(round(m["min_sm_m"], 3)),
+        return [name, _fmt(m["finished"]), m["footholds_in_zones"], _fmt(None if m["min_sm_m"] is None else round(m["min_sm_m"], 3)),
                 _fmt(round(m["stop_time_s"], 1)), _fmt(round(m["mean_speed_m_s"], 4)),
                 _fmt(round(m["tracking_error_max_m"], 3)), _fmt(met)]
 
@@ -90,8 +90,9 @@ def summary_tables(s: dict) -> list[Table]:
     notes = [f"target: {s.get('target', '')}",
              f"field: {s['field']['zones']} zones ({s['field']['density_per_m2']:g}/m2), ground "
              f"{s['field']['roughness_m']:g} m peak to valley; walk: {s.get('footholds')} footholds, "
-             f"{s.get('footholds_in_safe_areas')} in safe areas, {s.get('transfers')} transfers, "
-             f"min K_R {s.get('min_k_r_m', float('nan')):.3f} m"]
+             f"{s.get('footholds_in_safe_areas')} in safe areas (closest zone centre {_fmt(s.get('closest_zone_m'))} m), "
+             f"{s.get('transfers')} transfers, min K_R {_fmt(s.get('min_k_r_m'))} m, touchdowns within "
+             f"{_fmt(s.get('foothold_error_max_m'))} m of the planned footholds"]
     notes += [f"{c['name']}: {c['label']}" for c in s.get("controls", [])]
     out = [table("Walk and controls on the same field", cols, rows, notes)]
     rb = s.get("robustness")
@@ -107,8 +108,9 @@ def summary_tables(s: dict) -> list[Table]:
 
 
 def progress_text(info: dict) -> str:
+    sm = info.get("min_sm_m")
     return (f"{info.get('run', '')}: finished {info.get('finished')}, in zones {info.get('in_zones')}, "
-            f"min SM {info.get('min_sm_m', float('nan')):.3f} m")[:80]
+            f"min SM {'-' if sm is None else f'{sm:.3f}'} m")[:80]
 
 
 def replay_style(trace_names: list[str]) -> list[ReplayTrack]:

@@ -37,8 +37,9 @@ ROBUST_LABELS = {
     "mass_+10pct": "every mass +10 %",
     "dt_half": "physics timestep halved (1 ms)",
 }
-METRICS = ("finished", "footholds_in_zones", "footholds_in_safe_areas", "min_sm_m", "min_k_r_m", "stop_time_s",
-           "mean_speed_m_s", "tracking_error_max_m", "transfers", "failed_touchdowns", "time_s")
+METRICS = ("finished", "footholds_in_zones", "footholds_in_safe_areas", "closest_zone_m", "min_sm_m", "min_k_r_m",
+           "stop_time_s", "mean_speed_m_s", "tracking_error_max_m", "foothold_error_max_m", "transfers",
+           "failed_touchdowns", "time_s")
 
 
 def world(spec: FreegaitSpec) -> tuple[Terrain, Minefield]:
@@ -73,7 +74,7 @@ def unit_configs(spec: FreegaitSpec) -> list[tuple[str, str, WalkConfig]]:
 
 
 def target_met(s: dict, sm_min: float) -> bool:
-    return bool(s["finished"] and s["footholds_in_zones"] == 0 and s["min_sm_m"] > sm_min)
+    return bool(s["finished"] and s["footholds_in_zones"] == 0 and s["min_sm_m"] is not None and s["min_sm_m"] > sm_min)
 
 
 def _metrics(s: dict) -> dict:
@@ -143,8 +144,8 @@ def run(spec: FreegaitSpec, ctx: RunContext) -> JobResult:
                   "target_met": target_met(done[n]["summary"], sm_min)} for n in ROBUSTNESS_CASES]
         spread = {}
         for m in ("footholds_in_zones", "min_sm_m", "stop_time_s", "mean_speed_m_s", "tracking_error_max_m"):
-            vals = [c["metrics"][m] for c in cases]
-            spread[m] = {"min": float(np.min(vals)), "max": float(np.max(vals)), "nominal": float(ms[m])}
+            vals = [c["metrics"][m] for c in cases if c["metrics"][m] is not None]
+            spread[m] = {"min": min(vals, default=None), "max": max(vals, default=None), "nominal": ms[m]}
         robustness = {"target": TARGET, "cases": cases, "met": sum(c["target_met"] for c in cases), "total": len(cases),
                       "spread": spread}
 

@@ -111,6 +111,11 @@ class WalkResult:
     searches: int
 
     def summary(self) -> dict:
+        """Numbers of the walk; a value that cannot exist (no transfer, no zone) is None, never NaN."""
+        out = self._summary()
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
+
+    def _summary(self) -> dict:
         s = self.steps
         dt = float(s["t"][1] - s["t"][0]) if len(s["t"]) > 1 else 0.1
         moving = s["t"] > 0
@@ -118,6 +123,8 @@ class WalkResult:
         n_safe = sum(1 for f in self.footholds if f["in_safe_area"])
         stop = s["stop"][moving] > 0
         sup = [tr for tr in self.transfers if tr.get("support_s") is not None]
+        dev = [math.hypot(f["x"] - f["planned_x"], f["y"] - f["planned_y"]) for f in self.footholds
+               if f["planned_x"] is not None]
         return {
             "outcome": self.outcome,
             "finished": self.outcome == "finished",
@@ -127,6 +134,9 @@ class WalkResult:
             "footholds": len(self.footholds),
             "footholds_in_zones": n_zone,
             "footholds_in_safe_areas": n_safe,
+            "closest_zone_m": min((f["zone_distance"] for f in self.footholds if f["zone_distance"] is not None),
+                                  default=None),
+            "foothold_error_max_m": max(dev, default=0.0),  # touchdown vs planned F' (Eq. 18)
             "transfers": len(self.transfers),
             "failed_touchdowns": sum(tr.get("failed_legs", 0) for tr in self.transfers),
             "stop_time_s": float(stop.sum() * dt),
@@ -425,7 +435,7 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
                                 "x": float(xy[0]), "y": float(xy[1]), "z": float(tips_w[l, 2]),
                                 "planned_x": float(planned[n_, 0]) if planned is not None else None,
                                 "planned_y": float(planned[n_, 1]) if planned is not None else None,
-                                "zone_distance": float(field.distance(xy)),
+                                "zone_distance": float(field.distance(xy)) if len(field.centres) else None,
                                 "in_zone": bool(field.in_zone(xy)), "in_safe_area": bool(field.in_safe_area(xy)),
                             })
                         last_touchdown[transfer["tri"]] = t
