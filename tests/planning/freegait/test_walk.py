@@ -72,3 +72,15 @@ def test_circling_follows_the_arc():
     yaw = np.degrees(r.steps["rpy"][-1][2] - r.steps["rpy"][0][2])
     assert yaw == pytest.approx(np.degrees(0.3 / (0.015 / np.radians(0.5))), abs=3.0)
     assert s["tracking_error_max_m"] < 0.05
+
+
+def test_executed_subphases_take_eq_7_to_10_durations(blind_run):
+    # Subphase 1 lasts H1/V1 = 1.3 s (13 periods: the search runs in the 13th); subphase 2 lasts
+    # max|P1x - F_x| / V2 = R_T2 / V_BH, rounded up to the 0.1 s period; subphase 3 at most H3/V3 = 2 s.
+    rows = [r for r in blind_run.transfers if not r["stopped"]]
+    assert rows
+    for r in rows:
+        assert r["t_search"] - r["t_lift"] + 0.1 == pytest.approx(1.3)
+        t2 = r["t_sub3"] - r["t_search"]
+        assert r["r_t2"] / 0.02 <= t2 + 1e-9 <= r["r_t2"] / 0.02 + 0.1 + 1e-9
+        assert 0.0 < r["t_touchdown"] - r["t_sub3"] <= 2.0 + 1e-9
