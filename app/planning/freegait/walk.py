@@ -40,6 +40,10 @@ from app.robots.silo6 import SENSOR_SLICES, SILO6, Silo6Geometry
 from app.sim.terrain import Minefield, Terrain, add_heightfield, add_zone_markers
 
 TRIPODS0 = tuple(tuple(l - 1 for l in t) for t in silo6.TRIPODS)  # leg indices 0..5, (F, C, R)
+# A foothold the foot could not reach becomes a forbidden point (Sec. 3.3.3) of this radius:
+# a foot (0.02 m) plus the touchdown error we measure (< 0.015 m), so the search moves on to
+# the next candidate instead of clearing a mine-sized safe area around it.
+MISSED_RADIUS = 0.04
 STOP_CAUSES = ("", "stability", "kinematic", "touchdown_failed", "no_valid_tripod_at_speed", "no_valid_tripod")
 PHASES = ("support", "subphase1", "subphase2", "subphase3")
 
@@ -109,6 +113,7 @@ class WalkResult:
     sim_steps: int
     wall_s: float
     searches: int
+    missed: list = dataclasses.field(default_factory=list)  # footholds that became forbidden (world xy)
 
     def summary(self) -> dict:
         """Numbers of the walk; a value that cannot exist (no transfer, no zone) is None, never NaN."""
@@ -138,7 +143,7 @@ class WalkResult:
                                   default=None),
             "foothold_error_max_m": max(dev, default=0.0),  # touchdown vs planned F' (Eq. 18)
             "transfers": len(self.transfers),
-            "failed_touchdowns": sum(tr.get("failed_legs", 0) for tr in self.transfers),
+            "failed_touchdowns": len(self.missed),
             "stop_time_s": float(stop.sum() * dt),
             "stop_time_by_cause_s": {c: float(((s["stop"] == i) & moving).sum() * dt) for i, c in enumerate(STOP_CAUSES) if i},
             "min_sm_m": float(np.nanmin(s["sm"][moving])) if moving.any() else float("nan"),
@@ -241,7 +246,7 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
             if cfg.aware:
                 ok &= local.distance(w) >= field.safe_radius
             if len(pts_extra):
-                ok &= np.linalg.norm(w[..., None, :] - pts_extra, axis=-1).min(axis=-1) >= field.safe_radius
+                ok &= np.linalg.norm(w[..., None, :] - pts_extra, axis=-1).min(axis=-1) >= MISSED_RADIUS
             return ok
 
         return allowed
@@ -473,18 +478,20 @@ def walk(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometr
 
     steps = {key: np.asarray(val) for key, val in rec.items()}
     return WalkResult(steps=steps, transfers=transfers, footholds=footholds, outcome=outcome, model_xml=xml,
-                      sim_steps=sim_steps, wall_s=time.perf_counter() - t_wall, searches=searches)
+                      sim_steps=sim_steps, wall_s=time.perf_counter() - t_wall, searches=searches,
+                      missed=[p.tolist() for p in forbidden_extra])
 
 
 def _search_stopped(inp: SearchInput, pick):
-    """Support conditions with the body stopped during this transfer: its R_T2 and R are
-    zero (so conditions 2 and 6 lose that term and F' = F), while K keeps the R_1 of the
-    next lift at speed and R_e stays the nominal one (the next transfer is at speed)."""
+    """Support conditions with the body stopped during this transfer: its R_T2, R_3 and R
+    are zero (so conditions 2, 4 and 6 lose those terms and F' = F), while K keeps the R_1
+    of the next lift at speed and R_e stays the nominal one (the next transfer is at speed)."""
     e = evaluate(inp)
     conds = dict(e["conds"])
     if "c2_support_margin" in conds:
         conds["c1_zones"] = _zones_unshifted(inp)
         conds["c2_support_margin"] = e["l"] < inp.k_support
+        conds["c4_touchdown"] = e["l"] > 0.0  # this transfer's R_3 is zero too
         conds["c6_displacement"] = np.ones_like(conds["c6_displacement"])
     else:
         conds["t1_zones"] = _zones_unshifted(inp)

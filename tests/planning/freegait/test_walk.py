@@ -84,3 +84,21 @@ def test_executed_subphases_take_eq_7_to_10_durations(blind_run):
         t2 = r["t_sub3"] - r["t_search"]
         assert r["r_t2"] / 0.02 <= t2 + 1e-9 <= r["r_t2"] / 0.02 + 0.1 + 1e-9
         assert 0.0 < r["t_touchdown"] - r["t_sub3"] <= 2.0 + 1e-9
+
+
+def test_a_missed_foothold_becomes_forbidden_and_the_search_repeats():
+    # The planner believes the ground 8 cm higher than it is (beyond H3/2 - I_T): some feet find
+    # nothing within H3 of subphase 3. Each missed foothold becomes a forbidden point (Sec. 3.3.3),
+    # the body stops (stop case 3) and the tripod is lifted and placed elsewhere.
+    from app.planning.freegait.walk import MISSED_RADIUS, STOP_CAUSES
+
+    r = walk(TERRAIN, Minefield(np.zeros((0, 2)), 0.025, 0.075),
+             WalkConfig(route=Route(distance=0.3), ground_bias=0.08, stall_s=2.0))
+    s = r.summary()
+    assert s["failed_touchdowns"] >= 2 and len(r.missed) == s["failed_touchdowns"]
+    assert s["stop_time_by_cause_s"]["touchdown_failed"] > 0
+    missed = np.array(r.missed)
+    # a missed point is forbidden from then on, so no later plan comes within MISSED_RADIUS of it
+    d = np.linalg.norm(missed[:, None, :] - missed[None, :, :], axis=-1)
+    assert d[np.triu_indices(len(missed), 1)].min() >= MISSED_RADIUS - 1e-9
+    assert (r.steps["stop"] == STOP_CAUSES.index("touchdown_failed")).any()
