@@ -135,7 +135,7 @@ def _draw_zones(ax, s: dict) -> None:
 def minefield_figure(s: dict, traces: dict, out: Path) -> list[Path]:
     ctl = s.get("control_footholds")
     panels = [("walk", s.get("footholds_list") or [])] + ([(ctl["name"], ctl["footholds"])] if ctl else [])
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.6 * len(panels)), squeeze=False)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.8 * len(panels)), squeeze=False, constrained_layout=True)
     for ax, (name, feet) in zip(axes[:, 0], panels):
         _draw_zones(ax, s)
         if name in traces:
