@@ -100,10 +100,27 @@ def test_presentation(short_result, tmp_path):
     assert {"minefield.svg", "margins.svg", "gait_diagram.svg"} <= files
 
 
-def test_job_is_deterministic(short_result):
+def test_deterministic_resumable_and_cancellable(short_result):
+    from app.jobs.base import Cancelled
+
     spec = KIND.Spec.parse(SHORT | {"evidence": {"controls": True, "robustness": False}})
-    a = KIND.run(spec, MemoryContext())
+    ctx = MemoryContext()
+    first = KIND.run(spec, ctx)
+    # the same spec and seed: the same numbers (the walk and controls of the fixture's job)
     for k in ("footholds_list", "min_sm_m", "min_k_r_m", "tracking_error_max_m", "footholds_in_zones"):
-        assert a.summary[k] == short_result.summary[k]
-    assert a.summary["controls"] == short_result.summary["controls"]
-    np.testing.assert_array_equal(a.traces["walk"]["qpos"], short_result.traces["walk"]["qpos"])
+        assert first.summary[k] == short_result.summary[k]
+    assert first.summary["controls"] == short_result.summary["controls"]
+    np.testing.assert_array_equal(first.traces["walk"]["qpos"], short_result.traces["walk"]["qpos"])
+    state = ctx.load_checkpoint()
+    assert set(state["units"]) == {"walk", "unaware", "periodic", "random_valid"}
+    # a worker that died after the last unit: the resumed job re-simulates only what it must draw
+    resumed = KIND.run(spec, ctx)
+    assert resumed.summary["controls"] == first.summary["controls"]
+    assert resumed.summary["footholds_list"] == first.summary["footholds_list"]
+
+    class Cancelling(MemoryContext):
+        def is_cancelled(self):
+            return True
+
+    with pytest.raises(Cancelled):
+        KIND.run(spec, Cancelling())
