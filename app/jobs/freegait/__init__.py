@@ -34,6 +34,10 @@ class FreegaitKind(Kind):
 
         return describe()
 
+    def smoke_spec(self):
+        return {"kind": "freegait", "route": {"distance_m": 0.3}, "terrain": {"length_m": 3.0, "width_m": 3.0},
+                "forbidden": {"density_per_m2": 6.0}}
+
     def damage_text(self, spec):
         return present.damage_text(spec)
 

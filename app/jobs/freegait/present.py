@@ -16,6 +16,7 @@ from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_r
 from app.plots import _save  # noqa: E402
 
 HISTORY_COLUMNS = {
+    "transfer": "transfer number, from 0",
     "tripod": "the tripod transferred (1 = legs 1, 4, 5; 2 = legs 2, 3, 6)",
     "t_lift": "time the tripod lifted (s)",
     "t_search": "time of the foothold search, at the end of subphase 1 (s)",

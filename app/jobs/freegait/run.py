@@ -172,9 +172,9 @@ def run(spec: FreegaitSpec, ctx: RunContext) -> JobResult:
     summary.pop("wall_s", None)
     if robustness is not None:
         summary["robustness"] = robustness
-    history = [dict(row) for row in main.transfers]
-    for row in history:
-        row.pop("index", None)
+    # one row per transfer; its number is the history's x column (Kind.history_x). A row's
+    # "index" is the chosen candidate of each leg, not a number: it stays out of history.csv.
+    history = [{"transfer": i} | {k: v for k, v in row.items() if k != "index"} for i, row in enumerate(main.transfers)]
     traces = {"walk": trace_of(main)}
     if first_control:
         traces[first_control] = trace_of(keep[first_control])
