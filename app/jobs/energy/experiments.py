@@ -140,21 +140,24 @@ def bench_energy(quick: bool = False, log: Callable[[str], None] = print) -> dic
 
     log("(a) one fitness evaluation, Table 1 trot, one core ...")
     evaluate(QUADRUPED25, trot(0.46), Task(), EvalConfig())  # imports, caches
-    times, parts = [], []
+    times, cpu, parts = [], [], []
     for _ in range(3 if quick else 10):
+        c0 = time.process_time()
         r = evaluate(QUADRUPED25, trot(0.46), Task(), EvalConfig())
+        cpu.append(time.process_time() - c0)  # on a shared machine wall time also counts the others' work
         times.append(r["seconds"])
         parts.append(r["timings_s"])
-    fig = {"fitness_eval_s": float(np.median(times)),
+    fig = {"fitness_eval_s": float(np.median(times)), "fitness_eval_cpu_s": float(np.median(cpu)),
            "fitness_eval_parts_s": {k: float(np.median([p[k] for p in parts])) for k in parts[0]}}
     pop, gens = (8, 2) if quick else (40, 40)
     log(f"(b) GA {pop} x ({gens} + 1) on two worker processes ...")
     spec = EnergySpec.parse({"kind": "energy", "search": {"population": pop, "generations": gens, "workers": 2},
                              "physics": {"periods": 1}, "evidence": {"controls": False, "random_search": False,
                                                                      "robustness": False}})
-    t = time.perf_counter()
+    t, c0 = time.perf_counter(), time.process_time()
     s = run(spec, MemoryContext()).summary
     fig["ga_wall_s"] = time.perf_counter() - t
+    fig["ga_parent_cpu_s"] = time.process_time() - c0  # the workers' CPU is not in it
     fig["ga_evaluations"] = s["search"]["evaluations"]
     fig["ga_best_J"] = s["J"]
     if not quick:
