@@ -106,6 +106,17 @@ def test_result_carries_the_stages_and_the_physics_check(tmp_path):
     assert rob["total"] == len(rob["cases"]) == 6 and 0 <= rob["met"] <= 6
     assert r.evaluations == spec.evaluations_budget
     assert "qpos" in r.traces["physics"] and "f_qp" in r.traces["forces"]
+    # Presentation through the contract: headline, tables, plotly views, figures.
+    from app.jobs.registry import get_kind
+
+    kind = get_kind("energy")
+    rows = kind.headline(s)
+    assert any(row["label"].startswith("CoT final") for row in rows)
+    assert {t["title"] for t in kind.summary_tables(s)} >= {"Gait and design", "Cost of transport per stage"}
+    views = kind.views(s, r.traces)
+    assert len(views) == 4 and json.loads(json.dumps(views))
+    files = kind.figures(r, tmp_path / "plots")
+    assert {f.stem for f in files} == set(kind.figure_descriptions)
 
 
 @pytest.mark.parametrize("bad, field", [

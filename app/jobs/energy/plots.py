@@ -114,9 +114,12 @@ def convergence(history: list[dict], out: Path) -> list[Path]:
                     label={"ga": "GA", "random_search": "random search (same budget)"}[phase])
     ax.set_xlabel("generation")
     ax.set_ylabel("best J (Eq. 11)")
-    ax.set_yscale("log")
     ax.grid(alpha=0.3)
-    ax.legend()
+    if history:
+        ax.set_yscale("log")
+        ax.legend()
+    else:
+        ax.text(0.5, 0.5, "no search (search.optimizer = none)", ha="center", va="center", transform=ax.transAxes)
     ax.set_title("Convergence")
     return _save(fig, out, "convergence")
 
