@@ -6,17 +6,20 @@ friction) and is driven by joint torques only:
   tau = tau_ff(t)                          the solution's joint torques (Eq. 3, final stage)
       + Kp (q_ref - q) + Kd (qd_ref - qd)  joint PD on the solution's leg angles
       - J_l^T df                           stance legs only: balance feedback
-Open-loop tracking might not hold a trot, which stands on a line of two feet (no support
-polygon): a roll about that line is not opposed by the stance forces. We measured that the
-joint PD with the feed-forward alone holds the paper's trot and the GA's answers (40 periods
-and every perturbation in the job's robustness block), so the default adds no balance
-feedback. The optional one (``balance``) is the smallest that tracks the speed: a trunk
-damping wrench on the error from the planned trunk velocity and angular rate,
-dW = [Kd_v e_v ; Kd_w e_omega], spread over the feet in contact by the least-norm forces
-(df = A^+ dW, A = [I ...; [p_i - r]x ...]). Position and attitude terms (kp_pos, kp_att)
-exist but are off: with them the slow trot the GA found (T = 0.73 s) fell after 4 s,
-because the planned positions drift against the feet's actual footholds. The feedback's
-share of the work is reported.
+Open-loop tracking does not hold every trot: a trot stands on a line of two feet (no
+support polygon), and a roll or a speed error about that line grows for the whole stance
+(an inverted pendulum, time constant sqrt(h/g) = 0.23 s). We measured that joint PD with
+the feed-forward alone holds the paper's trot (T = 0.46 s) for 40 periods, but the slow
+trot a GA found at T = 0.8 s fell within 3 periods. The smallest feedback we found that
+holds both is Raibert's foot placement: every swing foot's planned target is shifted by
+k (v - v_ref), the horizontal trunk-velocity error, blended in over the swing, with k a
+fraction of the stance time (0.5 x beta T: 0.115 s for the paper's trot, 0.2 s at
+T = 0.8 s; 0.3 s made the fast trot drift 0.11 rad per period). It changes only where the
+feet land, not the stance torques. Optional (``balance``): a trunk damping wrench on the
+velocity and angular-rate errors, dW = [Kd_v e_v ; Kd_w e_omega], spread over the feet in
+contact by least-norm forces (df = A^+ dW, A = [I ...; [p_i - r]x ...]); position and
+attitude terms exist (kp_pos, kp_att) but are off: with them the T = 0.73 s trot fell
+after 4 s. The feedback's share of the work is reported.
 
 The reference repeats every period with x advanced by the distance the solution covers.
 Reports: whether it stays up (trunk above half its height, roll and pitch below 0.5 rad),
@@ -34,7 +37,7 @@ import mujoco
 import numpy as np
 
 from app.dynamics.whole_body import GRAVITY, euler, quat
-from app.robots.quadruped import LEGS, QuadrupedGeometry, build_model, dof_index, qpos_index
+from app.robots.quadruped import LEGS, QuadrupedGeometry, build_model, dof_index, leg_fk, leg_ik, qpos_index
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +51,7 @@ class PhysicsConfig:
     kp_att: float = 0.0  # N m / rad (off)
     kd_att: float = 20.0  # N m s / rad
     balance: bool = True
+    foot_placement_s: float = 0.0  # Raibert gain: swing feet land k (v - v_ref) further (0 = off)
     friction: float | None = None  # None: the task's
     mass_scale: float = 1.0  # every body's mass and inertia (perturbation)
     record_every: int = 10  # steps between recorded frames
@@ -68,6 +72,8 @@ class Reference:
     tau: np.ndarray  # (K+1, 12)
     stance: np.ndarray  # (K+1, 4) bool
     distance: float
+    touchdown: tuple = (0.0, 0.0, 0.0, 0.0)
+    duty: tuple = (1.0, 1.0, 1.0, 1.0)
 
     def at(self, t: float) -> dict[str, np.ndarray]:
         n, tau_ = divmod(t, self.period)
@@ -122,7 +128,10 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
         ref_t = ref.at(t)
         q, qd = d.qpos[qadr], d.qvel[vadr]
         tau_ff = ref_t["tau"]
-        tau = tau_ff + cfg.kp_joint * (ref_t["q"] - q) + cfg.kd_joint * (ref_t["qd"] - qd)
+        q_target = ref_t["q"]
+        if cfg.foot_placement_s > 0.0:
+            q_target = _place_swing_feet(geom, ref, t, ref_t, d, trunk, cfg.foot_placement_s)
+        tau = tau_ff + cfg.kp_joint * (q_target - q) + cfg.kd_joint * (ref_t["qd"] - qd)
         if cfg.balance:
             R = d.xmat[trunk].reshape(3, 3)
             th = euler(d.qpos[3:7][None])[0]
@@ -181,6 +190,31 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
     }
 
 
+def _place_swing_feet(geom, ref: Reference, t: float, ref_t: dict, d, trunk: int, gain: float) -> np.ndarray:
+    """Raibert's foot placement: each swing foot's planned target (body frame) shifted by
+    gain x (measured - planned) horizontal trunk velocity, blended in over the swing."""
+    q = ref_t["q"].copy()
+    R = d.xmat[trunk].reshape(3, 3)
+    dv = d.qvel[:3] - ref_t["v"]
+    dv[2] = 0.0
+    shift = R.T @ (gain * dv)
+    shift[2] = 0.0
+    T = ref.period
+    for i, leg in enumerate(LEGS):
+        beta = ref.duty[i]
+        tau = (t - ref.touchdown[i]) % T
+        if beta >= 1.0 or tau < beta * T:
+            continue
+        u = (tau - beta * T) / ((1.0 - beta) * T)
+        s = u * u * (3.0 - 2.0 * u)
+        hip, side = geom.hip(leg), geom.side(leg)
+        p = leg_fk(q[3 * i:3 * i + 3], geom.links, side) + s * shift
+        qi, ok = leg_ik(p, geom.links, side)
+        if ok:
+            q[3 * i:3 * i + 3] = qi
+    return q
+
+
 def reference_from(trajectories: dict[str, Any], gait, speed: float) -> Reference:
     """The periodic NLP trunk and leg path with the QP stage's joint torques (Eq. 3 along
     that path with the residual-free forces) as the feed-forward."""
@@ -199,4 +233,5 @@ def reference_from(trajectories: dict[str, Any], gait, speed: float) -> Referenc
     tau = np.stack([np.interp(tk, ts_ext, tau_ext[:, j]) for j in range(12)], axis=1)
     _, stance = gait.phase(tk)
     return Reference(period=T, t=tk, r=sol.r, theta=sol.theta, v=sol.v, omega=sol.omega, q=close(legs.q),
-                     qd=close(legs.qd), tau=tau, stance=stance, distance=speed * T)
+                     qd=close(legs.qd), tau=tau, stance=stance, touchdown=tuple(gait.touchdown), duty=tuple(gait.duty),
+                     distance=speed * T)

@@ -73,3 +73,15 @@ def test_a_free_walk_with_four_phases_is_feasible():
     r = evaluate(QUADRUPED25, walk, Task(), EvalConfig(knots=96))
     assert r["feasible"], r["failed"]
     assert r["eps"]["qp"]["norm"] * 100 < r["eps"]["nlp"]["norm"]
+
+
+def test_foot_placement_holds_a_slow_trot_that_open_loop_tracking_drops():
+    # The GA's answer at T = 0.8 s (seed 0, 16 x 9): long stances on a line of two feet.
+    g = dataclasses.replace(QUADRUPED25, links=(0.0424, 0.3120, 0.2990))
+    r = evaluate(g, trot(0.8), Task(), EvalConfig(), detail=True)
+    assert r["feasible"]
+    ref = reference_from(r["trajectories"], trot(0.8), 1.0)
+    open_loop = simulate(g, ref, 0.6, PhysicsConfig(periods=5, balance=False))
+    placed = simulate(g, ref, 0.6, PhysicsConfig(periods=5, balance=False, foot_placement_s=0.5 * 0.4))
+    assert not open_loop["stays_up"]
+    assert placed["stays_up"] and placed["speed_m_s"] == pytest.approx(1.0, rel=0.1)

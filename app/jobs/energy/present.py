@@ -105,11 +105,11 @@ def summary_tables(s: dict) -> list[Table]:
                          [f"eps_NLP / eps_QP = {s['eps_ratio_nlp_over_qp']:.0f}; periodicity error w = "
                           f"{s['periodicity_error']:.3f} (forward check, 1 = tolerance); with the NLP's forces "
                           f"instead: {_f(s.get('nlp_forward_periodicity_error'), '{:.3f}')}"]))
-    for key, title in (("physics", "Full-physics play-back"), ("physics_other_feedback", "Play-back, feedback switched")):
+    for key, title in (("physics", "Full-physics play-back"), ("physics_other_feedback", "Play-back, the control")):
         ph = s.get(key)
         if ph:
             d = ph.get("drift_per_period") or {}
-            out.append(table(title + (" (trunk balance feedback on)" if ph.get("balance") else " (joint PD only)"),
+            out.append(table(f"{title}: {ph.get('feedback', '')}",
                              ["stays up", "periods", "speed (m/s)", "height (m)", "CoT", "feedback share",
                               "drift pos (m)", "drift angle (rad)"],
                              [[_f(ph["stays_up"]), ph["periods_completed"], _f(ph["speed_m_s"], "{:.3f}"),

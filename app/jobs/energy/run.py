@@ -77,7 +77,9 @@ def _physics_summary(p: dict, ref_cot: float, speed: float) -> dict[str, Any]:
 
 def _physics(spec, geom, ref, task, **over):
     ph = spec.physics
-    cfg = PhysicsConfig(periods=ph.periods, timestep=ph.timestep_s, balance=ph.balance)
+    stance = max(ref.duty) * ref.period
+    cfg = PhysicsConfig(periods=ph.periods, timestep=ph.timestep_s, balance=ph.balance,
+                        foot_placement_s=over.get("foot_placement", ph.foot_placement) * stance)
     friction = task.friction
     if "timestep_scale" in over:
         cfg = dataclasses.replace(cfg, timestep=cfg.timestep * over["timestep_scale"])
@@ -151,11 +153,13 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
         p = _physics(spec, geom, ref, task)
         phys = _physics_summary(p, best["cot"]["qp"], task.speed)
         phys_raw = p
-        p2 = _physics(spec, geom, ref, task, balance=not spec.physics.balance)
+        feedback = spec.physics.balance or spec.physics.foot_placement > 0
+        p2 = (_physics(spec, geom, ref, task, balance=False, foot_placement=0.0) if feedback
+              else _physics(spec, geom, ref, task, foot_placement=0.5))
         sim_steps += p["steps"] + p2["steps"]
         phys_other = _physics_summary(p2, best["cot"]["qp"], task.speed)
-        phys_other["balance"] = not spec.physics.balance
-        phys["balance"] = spec.physics.balance
+        phys["feedback"] = _feedback_text(spec.physics.balance, spec.physics.foot_placement)
+        phys_other["feedback"] = _feedback_text(False, 0.0) if feedback else _feedback_text(False, 0.5)
         done += 2
         ctx.progress(done, total, {"phase": "analysis", "step": "physics check", "stays_up": phys["stays_up"]})
 
@@ -174,6 +178,15 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
     model_xml = build_spec(dataclasses.replace(geom, timestep=spec.physics.timestep_s)).to_xml()
     return JobResult(summary=summary, history=history, traces=traces, model_xml=model_xml, evaluations=done,
                      sim_steps=int(sim_steps + (robustness or {}).get("sim_steps", 0)))
+
+
+def _feedback_text(balance: bool, foot_placement: float) -> str:
+    parts = []
+    if foot_placement > 0:
+        parts.append(f"foot placement {foot_placement:g} x stance time")
+    if balance:
+        parts.append("trunk rate damping")
+    return " + ".join(parts) if parts else "joint PD only"
 
 
 class _RSAdapter:

@@ -140,7 +140,9 @@ class Physics(BaseModel):
     model_config = Strict
     periods: int = Field(10, ge=1, le=100)
     timestep_s: float = Field(0.001, ge=0.0001, le=0.004)
-    balance: bool = False  # trunk PD wrench spread over the stance feet (see app/dynamics/physics.py)
+    # Raibert foot placement, gain as a fraction of the stance time (0 = off); see app/dynamics/physics.py
+    foot_placement: float = Field(0.5, ge=0.0, le=2.0)
+    balance: bool = False  # trunk velocity/rate damping spread over the stance feet
 
 
 class Evidence(BaseModel):
@@ -166,7 +168,8 @@ class EnergySpec(SpecBase):
         "the same again for the random-search control (evidence.random_search); 1 for the answer in detail; "
         "7 analysis evaluations when evidence.controls (Table 1 baseline, SRB-only, massless legs, high step on "
         "the best and on Table 1's design, rod inertias, no residual iteration); 2 physics runs (as specified and "
-        "with the balance feedback switched the other way); 6 physics runs when evidence.robustness")
+        "without any feedback, joint PD only, or with the default foot placement when the spec has none); 6 physics "
+        "runs when evidence.robustness")
     model_config = Strict
     kind: Literal["energy"] = "energy"
     robot: Literal["quadruped25"] = "quadruped25"
