@@ -8,11 +8,12 @@ token holder sees exactly the jobs the REST API shows them.
 
 from __future__ import annotations
 
-import csv
+import fnmatch
 import functools
 import hashlib
 import hmac
 import io
+import json
 import math
 import os
 import secrets
@@ -38,9 +39,6 @@ PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
          "compare": ("compare.html", "compare", "/compare")}
 NAV = (("/", "Jobs"), ("/compare", "Compare"), ("/docs", "API"))
 HEADER_MARK = "<!-- gaitmend: header -->"
-# Trace columns a plot uses; the rest (joint angles, quaternions, feet) stay in the bundle.
-SKIP_PREFIXES = ("qpos_", "torso_quat_", "feet_m_", "torso_pos_m_")
-MAX_POINTS = 800
 LINK_TTL_S = 3600
 
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
@@ -111,64 +109,61 @@ def _read_member(bundle: str, name: str) -> bytes:
         return z.read(name)
 
 
-def _contact_intervals(t: list[float], contact: list[int]) -> list[list[float]]:
-    """Swing phases (foot off the ground) of one leg as [start, end] times."""
-    out, start = [], None
-    for ti, c in zip(t, contact):
-        if not c and start is None:
-            start = ti
-        elif c and start is not None:
-            out.append([start, ti])
-            start = None
-    if start is not None:
-        out.append([start, t[-1]])
+def _jsonable(x: Any) -> Any:
+    """numpy scalars to Python, NaN and infinities to None (JSON has neither)."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if hasattr(x, "tolist") and not isinstance(x, (str, bytes)):
+        return _jsonable(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _readme_rows(text: str) -> list[tuple[str, str]]:
+    """(file or pattern, what it is) from the bundle README's file table."""
+    out = []
+    for line in text.splitlines():
+        parts = [p.strip() for p in line.strip().strip("|").split("|")]
+        if len(parts) >= 2 and parts[0].startswith("`") and parts[0].endswith("`"):
+            out.append((parts[0].strip("`"), parts[1]))
     return out
 
 
-def _num(x: str) -> float | None:
-    if x == "":
-        return None
-    v = float(x)
-    return v if math.isfinite(v) else None  # JSON has no NaN
+def _describe(name: str, rows: list[tuple[str, str]]) -> str:
+    for pattern, what in rows:
+        if name == pattern or fnmatch.fnmatch(name, pattern) or (pattern.endswith("/") and name.startswith(pattern)):
+            return what
+    return ""
 
 
-@functools.lru_cache(maxsize=32)
-def _traces(bundle: str, mtime_ns: int) -> dict[str, Any]:
-    """Per trajectory: the plotted columns decimated to at most MAX_POINTS rows, and every
-    leg's swing phases from the full-rate foot contacts."""
+@functools.lru_cache(maxsize=16)
+def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
+    """What the kind shows of its result (headline rows, tables, plotly figures) plus the
+    shared evidence tables, computed once per bundle from result.json and the trajectories."""
     import numpy as np
 
-    out: dict[str, Any] = {}
+    from app.web_views import for_kind
+    from app.web_views.evidence import controls_panel, robustness_panel
+
     with zipfile.ZipFile(bundle) as z:
-        names = sorted(n for n in z.namelist() if n.startswith("trajectories/") and n.endswith(".csv"))
-        for name in names:
-            key = name.removeprefix("trajectories/").removesuffix(".csv")
-            rows = list(csv.reader(io.StringIO(z.read(name).decode())))
-            if len(rows) < 2 or "time_s" not in rows[0]:
-                continue
-            header, body = rows[0], rows[1:]
-            cols = {h: [r[i] for r in body] for i, h in enumerate(header) if not h.startswith(SKIP_PREFIXES)}
-            num = {}
-            for h, v in cols.items():
-                try:
-                    num[h] = [_num(x) for x in v]
-                except ValueError:
-                    continue
-            t = num.pop("time_s")
-            contact_cols = [h for h in num if h.startswith("foot_contact_")]
-            legs = list(range(len(contact_cols)))
-            npz = name.removesuffix(".csv") + ".npz"
-            if npz in z.namelist():
-                with np.load(io.BytesIO(z.read(npz))) as d:
-                    if "legs" in d and len(d["legs"]) == len(contact_cols):
-                        legs = [int(x) for x in d["legs"]]
-            swing = {str(leg): _contact_intervals(t, [int(c or 0) for c in num[h]])
-                     for leg, h in zip(legs, contact_cols)}
-            step = max(1, -(-len(t) // MAX_POINTS))
-            series = {h: v[::step] for h, v in num.items() if h not in contact_cols}
-            out[key] = {"time_s": t[::step], "series": series, "legs": legs, "swing": swing,
-                        "duration_s": t[-1] if t else 0.0, "rows": len(t)}
-    return out
+        names = z.namelist()
+        summary = json.loads(z.read("result.json"))
+        kind = json.loads(z.read("manifest.json")).get("kind") or summary.get("kind")
+        traces = {}
+        for n in names:
+            if n.startswith("trajectories/") and n.endswith(".npz"):
+                traces[n.removeprefix("trajectories/").removesuffix(".npz")] = np.load(io.BytesIO(z.read(n)))
+        readme = z.read("README.md").decode() if "README.md" in names else ""
+    mod = for_kind(kind)
+    panels = list(mod.views(summary, traces)) if mod is not None and hasattr(mod, "views") else []
+    headline = list(mod.headline(summary)) if mod is not None and hasattr(mod, "headline") else []
+    evidence = [p for p in (controls_panel(summary), robustness_panel(summary)) if p]
+    rows = _readme_rows(readme)
+    return _jsonable({"kind": kind, "headline": headline, "panels": panels, "evidence": evidence,
+                      "describe": {n: _describe(n, rows) for n in names if not n.endswith("/")}})
 
 
 def render_page(path: Path, title: str, current: str | None) -> str:
@@ -277,10 +272,34 @@ def install_dashboard(app: FastAPI) -> None:
                                                                           "application/octet-stream")
         return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
 
-    @app.get("/api/jobs/{job_id}/traces", tags=["dashboard"], responses=ERROR_RESPONSES)
-    async def traces(job_id: JobId, who: Principal = Depends(principal)):
-        """The bundle's trajectories for plotting: time, body angles, CoM and the other
-        per-step scalars at most 800 points each, and per-leg swing phases at full rate."""
-        bundle = await bundle_of(job_id, who)
-        data = await run_in_threadpool(_traces, bundle, os.stat(bundle).st_mtime_ns)
-        return JSONResponse(data, headers={"Cache-Control": "private, max-age=3600"})
+    @app.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def views(job_id: JobId, who: Principal = Depends(principal)):
+        """What the job page shows, supplied by the job's kind: what its history columns mean
+        (units, which way is better), and once it succeeded its headline rows, tables and
+        plotly figures, the controls and robustness tables, and every bundle member with a
+        short-lived download link and what it is."""
+        owner = who.owner_filter if who is not None else None
+        job = await db(lambda s: repo.get_job(s, job_id, owner))
+        from app.web_views import for_kind
+
+        mod = for_kind(job.kind)
+        conv = mod.convergence(job.spec or {}) if mod is not None and hasattr(mod, "convergence") else None
+        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "headline": [],
+                               "panels": [], "evidence": [], "files": [], "figures": []}
+        if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
+            bundle = job.bundle_path
+            mtime = os.stat(bundle).st_mtime_ns
+            v = await run_in_threadpool(_bundle_views, bundle, mtime)
+            members = _members(bundle, mtime)
+            files = [{"path": n, "size": size, "what": v["describe"].get(n, ""),
+                      "url": signed_url(link_key, job_id, n, who.token_id)[0]} for n, size in members.items()]
+            figs = {}
+            for f in files:
+                p = Path(f["path"])
+                if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
+                    figs.setdefault(p.stem, {"name": p.stem})[p.suffix[1:]] = f["url"]
+            out.update({k: v[k] for k in ("headline", "panels", "evidence")}, files=files,
+                       figures=[f for f in figs.values() if "png" in f])
+        elif job.summary:
+            out["headline"] = _jsonable(mod.headline(job.summary)) if mod is not None and hasattr(mod, "headline") else []
+        return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})

@@ -1,23 +1,20 @@
-// The job page: status and actions, the Table II headline, convergence (live while the job
-// runs, from the event stream), body angles and CoM against time, gait diagram, the kind's
-// summary, and viser's client playing the bundle's replay.viser.
+// The job page: status and actions, convergence (live while the job runs, from the event
+// stream, labelled with what the kind says its history means), then what the kind supplies
+// once it succeeded (headline rows, tables, figures; see views.js), the controls and
+// robustness tables, the bundle's own figures and files, and viser's client playing the
+// bundle's replay.viser. No kind is named here.
 "use strict";
 
 (() => {
-  const { api, el, num, badge, progressText, damageText, plot, empty, FINAL, COLORS, PALETTE } = GM;
+  const { api, el, num, badge, progressText, damageText, plot, empty, FINAL, COLORS } = GM;
   const $ = (id) => document.getElementById(id);
   const jobId = decodeURIComponent(location.pathname.split("/").filter(Boolean).pop());
   let job = null;
   let resultShown = false;
   let live = null;
 
-  const tint = (hex, f) => { // mix with white: the legend shows the same light colour as the bars
-    const n = parseInt(hex.slice(1), 16);
-    const ch = [16, 8, 0].map((sh) => Math.round(((n >> sh) & 255) * (1 - f) + 255 * f));
-    return `rgb(${ch.join(",")})`;
-  };
-  const colorOf = (name, i) => COLORS[name] || PALETTE[(i + 2) % PALETTE.length];
-  const label = (name) => ({ best: "recovered (best)", baseline: "baseline (tripod)" }[name] || name.replace(/_/g, " "));
+  let meta = null; // GET /views: what the history means, and the kind's result views
+  const yLabel = () => (meta && meta.convergence ? meta.convergence.y : "objective");
 
   // ---------- header ----------
   function header(j) {
@@ -27,7 +24,7 @@
       : el("progress", { max: 1, value: j.progress.fraction, "aria-label": "progress" });
     const info = j.progress.info || {};
     const extra = [];
-    if (j.status === "running" && typeof info.best === "number") extra.push(`best F ${num(info.best, 4)}`);
+    if (j.status === "running" && typeof info.best === "number") extra.push(`best ${yLabel()} ${num(info.best, 4)}`);
     if (typeof info.sim_steps_per_s === "number") extra.push(`${Math.round(info.sim_steps_per_s)} sim steps/s`);
     if (j.cancel_requested && !FINAL.has(j.status)) extra.push("cancel requested");
     $("status-line").replaceChildren(...[badge(j.status), bar].filter(Boolean), el("span", { class: "small", text: progressText(j) }),
@@ -42,7 +39,7 @@
     $("compare-link").href = `/compare?ids=${j.id}`;
     const spec = j.spec || {};
     const s = spec.search || {};
-    const facts = [["Robot", j.robot || "–"], ["Damage", damageText(spec)]];
+    const facts = [["Robot", j.robot || "–"], ["Damage", j.damage || damageText(spec)]];
     if (s.optimizer && s.population !== undefined) {
       facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
     } else if (Object.keys(s).length) {
@@ -50,7 +47,8 @@
     }
     if (spec.sim && spec.sim.duration_s) facts.push(["Walk", `${spec.sim.duration_s} s`]);
     facts.push(["Created", new Date(j.created_at).toLocaleString()]);
-    if (j.wall_s !== null && j.wall_s !== undefined) facts.push(["Wall time", `${num(j.wall_s, 1)} s`]);
+    // wall time only once the job has ended: while running it is a moving number, not a result
+    if (FINAL.has(j.status) && j.wall_s !== null && j.wall_s !== undefined) facts.push(["Wall time", `${num(j.wall_s, 1)} s`]);
     facts.push(["Attempts", `${j.attempt} of ${j.max_attempts}`], ["Owner", j.owner]);
     $("facts").replaceChildren(...facts.flatMap(([k, v]) => [el("dt", { text: k }), el("dd", { text: v })]));
     $("spec").textContent = JSON.stringify(spec, null, 2);
@@ -60,26 +58,33 @@
   let firstPlot = true;
   function convergence(rows) {
     const div = $("plot-convergence");
-    const keys = ["best", "mean", "worst"].filter((k) => rows.some((r) => typeof r[k] === "number"));
-    const xKey = rows.length && "generation" in rows[0] ? "generation" : rows.length && "run" in rows[0] ? "run" : null;
+    const conv = meta && meta.convergence;
+    const names = (conv && conv.series) || { best: "best so far", mean: "mean", worst: "worst" };
+    const keys = Object.keys(names).filter((k) => rows.some((r) => typeof r[k] === "number"));
+    const xKey = (conv && conv.x) || (rows.length && "generation" in rows[0] ? "generation" : null);
     historyTable(rows);
     if (!rows.length) {
       empty(div, FINAL.has(job.status) ? "No per-generation history." : "Waiting for the first generation…");
       return;
     }
-    if (!keys.length) {
-      empty(div, "This job kind reports no fitness per generation; its rows are in the table below.");
+    if (!conv || !keys.length) {
+      empty(div, "This job's history has no objective per generation; its rows are in the table below.");
       const d = $("history-table").querySelector("details");
       if (d) d.open = true;
       return;
     }
-    const x = rows.map((r, i) => (xKey ? r[xKey] : i));
-    const traces = keys.map((k) => ({
-      x, y: rows.map((r) => r[k]), name: k === "best" ? "best so far" : `${k} of population`, mode: "lines+markers",
-      line: { color: COLORS[k], width: k === "best" ? 3 : 2, dash: k === "worst" ? "dot" : "solid" }, marker: { size: 5 },
+    const x = rows.map((r, i) => (xKey in r ? r[xKey] : i));
+    const style = { best: ["solid", 3], generation_best: ["dot", 2], mean: ["dash", 2], worst: ["dot", 1.5] };
+    const traces = keys.map((k, i) => ({
+      x, y: rows.map((r) => r[k]), name: names[k], mode: "lines+markers",
+      line: { color: COLORS[k] || GM.PALETTE[(i + 2) % GM.PALETTE.length], width: (style[k] || ["solid", 2])[1],
+              dash: (style[k] || ["solid"])[0] }, marker: { size: 5 },
     }));
-    plot(div, traces, { xaxis: { title: { text: xKey || "row" }, gridcolor: "#e3e8ee", dtick: x.length <= 12 ? 1 : undefined },
-                        yaxis: { title: { text: "fitness F (higher is better)" }, gridcolor: "#e3e8ee" } });
+    const better = conv.better ? ` (${conv.better} is better)` : "";
+    plot(div, traces, { xaxis: { title: { text: conv.x_note ? `${xKey} (${conv.x_note})` : xKey }, gridcolor: "#e3e8ee",
+                                 dtick: x.length <= 12 ? 1 : undefined },
+                        yaxis: { title: { text: `${conv.y}${better}` }, gridcolor: "#e3e8ee" } });
+    div.setAttribute("aria-label", `${conv.y} per ${xKey}${better}`);
     if (firstPlot) { firstPlot = false; window.gmFirstPlotAt = performance.now(); div.dataset.rendered = "1"; }
   }
 
@@ -104,30 +109,6 @@
   }
 
   // ---------- results ----------
-  function headline(summary) {
-    const card = $("headline-card");
-    if (summary.kind !== "recovery" || !summary.best || !summary.baseline) { card.hidden = true; return; }
-    card.hidden = false;
-    const cols = [["x (cm)", (m) => m.x_f_m * 100, "absmin"], ["y (cm)", (m) => m.y_f_m * 100, "max"],
-                  ["yaw (°)", (m) => m.yaw_f_deg, "absmin"], ["roll amp. (°)", (m) => m.roll_amp_deg, "min"],
-                  ["pitch amp. (°)", (m) => m.pitch_amp_deg, "min"], ["fell", (m) => (m.fell ? "yes" : "no"), null]];
-    const rows = [["Baseline (tripod)", summary.baseline], ["Recovered (best)", summary.best]];
-    const better = (kind, a, b) => kind === "max" ? b > a : kind === "min" ? b < a : kind === "absmin" ? Math.abs(b) < Math.abs(a) : false;
-    const table = el("table", { class: "headline" },
-      el("caption", { class: "small muted", style: "text-align:left;caption-side:bottom;padding-top:.4rem",
-                      text: "Final position x (sideways drift) and y (forward, the walking direction), final yaw, roll and pitch amplitude, as in the paper's Table II; F is the fitness (Eq. 5), higher is better. Bold green: better than the baseline." }),
-      el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Gait" }), cols.map(([h]) => el("th", { scope: "col", text: h })),
-                         el("th", { scope: "col", text: "F" }))),
-      el("tbody", {}, rows.map(([name, r], i) => el("tr", {}, el("th", { scope: "row", text: name }),
-        cols.map(([, f, kind]) => {
-          const v = f(r.metrics);
-          const good = i === 1 && kind && better(kind, f(summary.baseline.metrics), v);
-          return el("td", { class: good ? "better" : null, text: typeof v === "number" ? v.toFixed(2) : v });
-        }),
-        el("td", { class: i === 1 && r.fitness > summary.baseline.fitness ? "better" : null, text: num(r.fitness, 4) })))));
-    $("headline").replaceChildren(table);
-  }
-
   function flatten(obj, prefix = "", out = [], depth = 0) {
     for (const [k, v] of Object.entries(obj || {})) {
       const key = prefix ? `${prefix}.${k}` : k;
@@ -150,138 +131,67 @@
   function summaryTable(summary) {
     const rows = flatten(summary);
     $("summary-card").hidden = !rows.length;
-    $("summary-details").open = summary.kind !== "recovery"; // recovery's numbers are in the headline
     $("summary").replaceChildren(el("table", {}, el("tbody", {}, rows.map(([k, v]) =>
       el("tr", {}, el("th", { scope: "row", class: "small", text: k }), el("td", { class: "small", text: v }))))));
   }
 
-  function gaitText(summary) {
-    const describe = (g) => g ? `${g.name} (σ = ${g.sigma}): ${(g.groups || []).map((grp) => `[${grp.join(" ")}]`).join(" → ")}` : "";
-    const parts = [];
-    if (summary.gait) parts.push(`Recovered: ${describe(summary.gait)}`);
-    if (summary.baseline && summary.baseline.gait) parts.push(`Baseline: ${describe(summary.baseline.gait)}`);
-    return parts.join(". ") + (parts.length ? ". Dark bars are swing (foot in the air), light bars support; double-click the plot for the whole walk." : "");
+  function headline(rows) {
+    $("headline-card").hidden = !rows.length;
+    if (rows.length) $("headline").replaceChildren(GMViews.headline(rows));
   }
 
-  function tracePlots(tr, summary) {
-    const names = Object.keys(tr);
-    if (!names.length) return;
-    const has = (k) => names.some((n) => k in tr[n].series);
-    // body angles and CoM: three stacked panels each, one legend entry per trajectory
-    const panels = (specs, div, unit) => {
-      const present = specs.filter(([k]) => has(k));
-      div.closest("section").hidden = !present.length;
-      if (!present.length) return false;
-      const n = present.length, gap = 0.06, h = (1 - gap * (n - 1)) / n;
-      const traces = [], layout = { hovermode: "x unified", height: 150 * n + 90, showlegend: true };
-      present.forEach(([k, title, scale], p) => {
-        const ax = p === 0 ? "" : String(p + 1);
-        names.forEach((name, i) => {
-          if (!(k in tr[name].series)) return;
-          traces.push({ x: tr[name].time_s, y: tr[name].series[k].map((v) => (v === null ? null : v * scale)), name: label(name),
-                        legendgroup: name, showlegend: p === 0, xaxis: `x${ax}`, yaxis: `y${ax}`, mode: "lines",
-                        line: { color: colorOf(name, i), width: 2 } });
-        });
-        layout[`yaxis${ax}`] = { title: { text: `${title} (${unit})` }, domain: [1 - (p + 1) * h - p * gap, 1 - p * (h + gap)],
-                                 gridcolor: "#e3e8ee", anchor: `x${ax}` };
-        layout[`xaxis${ax}`] = { matches: p ? "x" : undefined, anchor: `y${ax}`, showticklabels: p === n - 1,
-                                 title: p === n - 1 ? { text: "time (s)" } : undefined, gridcolor: "#e3e8ee" };
-      });
-      plot(div, traces, layout);
-      return true;
-    };
-    const ORIENT = [["roll_deg", "roll", 1], ["pitch_deg", "pitch", 1], ["yaw_deg", "yaw", 1]];
-    const COM = [["com_m_0", "CoM x", 100], ["com_m_1", "CoM y", 100], ["com_m_2", "CoM z", 100]];
-    const both = ORIENT.some(([k]) => has(k)) && COM.some(([k]) => has(k));
-    // Plotly sizes a graph by its container: lay the cards out before drawing
-    $("trace-plots").hidden = false;
-    $("trace-plots").style.gridTemplateColumns = both ? "" : "minmax(0, 1fr)";
-    const a = panels(ORIENT, $("plot-orientation"), "°");
-    const b = panels(COM, $("plot-com"), "cm");
-    $("trace-plots").hidden = !(a || b);
-
-    // gait diagram: swing (dark) and support (light) bars per leg and trajectory
-    const withLegs = names.filter((n) => Object.keys(tr[n].swing).length);
-    $("gait-card").hidden = !withLegs.length;
-    if (withLegs.length) {
-      const traces = [];
-      const cats = [];
-      withLegs.forEach((name, i) => {
-        const T = tr[name].duration_s;
-        const sw = { x: [], base: [], y: [], text: [] }, su = { x: [], base: [], y: [], text: [] };
-        for (const leg of tr[name].legs) {
-          const y = `${{ best: "recovered", baseline: "baseline" }[name] || name.replace(/_/g, " ")} · leg ${leg}`;
-          cats.push(y);
-          let t0 = 0;
-          for (const [s, e] of tr[name].swing[String(leg)] || []) {
-            if (s > t0) { su.base.push(t0); su.x.push(s - t0); su.y.push(y); su.text.push(`support ${t0.toFixed(2)}–${s.toFixed(2)} s`); }
-            sw.base.push(s); sw.x.push(e - s); sw.y.push(y); sw.text.push(`swing ${s.toFixed(2)}–${e.toFixed(2)} s`);
-            t0 = e;
-          }
-          if (t0 < T) { su.base.push(t0); su.x.push(T - t0); su.y.push(y); su.text.push(`support ${t0.toFixed(2)}–${T.toFixed(2)} s`); }
-        }
-        const c = colorOf(name, i);
-        traces.push(Object.assign({ type: "bar", orientation: "h", name: `${label(name)}: swing`, marker: { color: c }, textposition: "none",
-                                    hovertemplate: "%{y}: %{text}<extra></extra>", legendgroup: name }, sw));
-        traces.push(Object.assign({ type: "bar", orientation: "h", name: `${label(name)}: support`,
-                                    marker: { color: tint(c, 0.75) }, textposition: "none", hovertemplate: "%{y}: %{text}<extra></extra>",
-                                    legendgroup: name }, su));
-      });
-      const period = (summary.gait && summary.gait.period_s) || null;
-      const T = Math.max(...withLegs.map((n) => tr[n].duration_s));
-      plot($("plot-gait"), traces, {
-        barmode: "overlay", hovermode: "closest", height: 60 + 26 * cats.length, bargap: 0.25,
-        yaxis: { categoryorder: "array", categoryarray: [...cats].reverse(), automargin: true },
-        xaxis: { title: { text: "time (s)" }, range: period && T > 4 * period ? [0, 4 * period] : undefined, gridcolor: "#e3e8ee" },
-      });
-      $("gait-text").textContent = gaitText(summary);
-    }
-
-    // anything else recorded per step (other job kinds): one at a time
-    const used = new Set(["roll_deg", "pitch_deg", "yaw_deg", "com_m_0", "com_m_1", "com_m_2"]);
-    const others = [...new Set(names.flatMap((n) => Object.keys(tr[n].series)))].filter((k) => !used.has(k));
-    $("other-card").hidden = !others.length;
-    if (others.length) {
-      const sel = $("other-select");
-      sel.replaceChildren(...others.map((k) => el("option", { text: k })));
-      const draw = () => plot($("plot-other"), names.filter((n) => sel.value in tr[n].series).map((n, i) => ({
-        x: tr[n].time_s, y: tr[n].series[sel.value], name: label(n), mode: "lines", line: { color: colorOf(n, i), width: 2 } })),
-        { xaxis: { title: { text: "time (s)" } }, yaxis: { title: { text: sel.value } } });
-      sel.onchange = draw;
-      draw();
-    }
+  function sizeText(n) {
+    return n >= 1048576 ? `${(n / 1048576).toFixed(1)} MB` : n >= 1024 ? `${Math.round(n / 1024)} kB` : `${n} B`;
   }
 
-  async function replay() {
-    try {
-      const files = await api(`/api/jobs/${jobId}/files`);
-      if (!("replay.viser" in files)) return;
-      const link = await api(`/api/jobs/${jobId}/file-link?path=replay.viser`);
-      const src = `/viser/?playbackPath=${encodeURIComponent(link.url)}`;
-      $("replay-card").hidden = false;
-      if (job.kind !== "recovery") $("replay-what").textContent = "the job's recorded runs side by side";
-      $("replay").src = src;
-      $("replay-open").href = src;
-    } catch (e) {
-      $("replay-card").hidden = false;
-      $("replay-card").append(el("p", { class: "alert", text: `The 3D replay could not be loaded: ${e.message}` }));
-    }
+  function files(list) {
+    $("files-card").hidden = !list.length;
+    const zip = el("tr", {}, el("th", { scope: "row" }, el("a", { href: $("download").href, class: "dl-zip", text: "the whole bundle (.zip)",
+                                                     onclick: (e) => { e.preventDefault(); $("download").click(); } })),
+                   el("td", { text: "" }), el("td", { class: "small", text: "every file below in one zip" }));
+    $("files").replaceChildren(el("table", { class: "data files" },
+      el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "File" }), el("th", { scope: "col", class: "num", text: "Size" }),
+                         el("th", { scope: "col", text: "What it is" }))),
+      el("tbody", {}, zip, list.map((f) => el("tr", {},
+        el("th", { scope: "row" }, el("a", { href: f.url, download: f.path.split("/").pop(), class: "id", text: f.path })),
+        el("td", { class: "num small", text: sizeText(f.size) }), el("td", { class: "small", text: f.what || "" }))))));
+  }
+
+  function figures(list) {
+    $("figures-card").hidden = !list.length;
+    $("figures").replaceChildren(...list.map((f) => el("figure", { class: "bundle-figure" },
+      el("a", { href: f.svg || f.png, target: "_blank", rel: "noopener" },
+         el("img", { src: f.png, alt: `bundle figure ${f.name.replace(/_/g, " ")}` })),
+      el("figcaption", { class: "small" }, `${f.name.replace(/_/g, " ")} · `,
+         el("a", { href: f.png, download: `${f.name}.png`, text: "PNG" }),
+         f.svg ? " · " : null, f.svg ? el("a", { href: f.svg, download: `${f.name}.svg`, text: "SVG" }) : null))));
+  }
+
+  function replay(list) {
+    const f = list.find((x) => x.path === "replay.viser");
+    if (!f) return;
+    const src = `/viser/?playbackPath=${encodeURIComponent(f.url)}`;
+    $("replay-card").hidden = false;
+    $("replay").src = src;
+    $("replay-open").href = src;
   }
 
   async function results(j) {
     if (resultShown) return;
     resultShown = true;
-    const summary = j.summary || {};
-    headline(summary);
-    summaryTable(summary);
-    if (j.status !== "succeeded") return;
-    replay();
-    try {
-      tracePlots(await api(`/api/jobs/${jobId}/traces`), summary);
-    } catch (e) {
-      $("trace-plots").hidden = false;
-      empty($("plot-orientation"), `Trajectories could not be loaded: ${e.message}`);
+    summaryTable(j.summary || {});
+    try { meta = await api(`/api/jobs/${jobId}/views`); } catch (e) {
+      $("panels").replaceChildren(el("p", { class: "alert", text: `The result views could not be loaded: ${e.message}` }));
+      return;
     }
+    headline(meta.headline || []);
+    try { convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* kept as it was */ }
+    if (j.status !== "succeeded") return;
+    GMViews.panels($("panels"), meta.panels || []);
+    GMViews.panels($("evidence"), meta.evidence || []);
+    figures(meta.figures || []);
+    files(meta.files || []);
+    replay(meta.files || []);
   }
 
   // ---------- live updates ----------
@@ -319,6 +229,7 @@
       return;
     }
     header(job);
+    try { meta = await api(`/api/jobs/${jobId}/views`); } catch (e) { /* plain labels */ }
     try { convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* shown as waiting */ }
     if (FINAL.has(job.status)) results(job);
     else follow();

@@ -1,0 +1,137 @@
+"""Building blocks for a kind's dashboard views: plotly figure dicts and tables as plain
+JSON, so the page draws whatever a kind supplies without knowing the kind.
+
+A view is a panel: {"id", "title", "caption", and either "figure": {"data", "layout"} or
+"table": {"columns": [...], "rows": [[cell, ...]]}}. A cell is a number, a string, None,
+or {"value", "unit"?, "met"?: bool, "better"?: bool} when it carries a judgement (met a
+target / better than the control), which the page marks in colour AND in words.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+# Roles, not names: the method's answer and its control keep one colour everywhere
+# (plots, tables, replay) so "recovered" never swaps colour with "baseline".
+METHOD = "#0b5cad"
+CONTROL = "#c2410c"
+NEUTRAL = "#5b6472"
+TARGET = "#6b7280"
+PALETTE = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"]
+GRID = "#e3e8ee"
+MAX_POINTS = 1200
+
+
+def finite(x: Any) -> Any:
+    """JSON has no NaN or infinity: those become None (a gap in a line)."""
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def series(a: Any, step: int = 1, scale: float = 1.0, digits: int = 5) -> list:
+    """A 1-D array as a JSON list, every ``step``-th value, rounded, NaN as None."""
+    v = np.asarray(a, dtype=float)[::step] * scale
+    out = np.round(v, digits).tolist()
+    return [x if math.isfinite(x) else None for x in out]
+
+
+def stride(n: int, limit: int = MAX_POINTS) -> int:
+    return max(1, -(-n // limit))
+
+
+def line(x, y, name: str, color: str, **kw) -> dict:
+    t = {"type": "scatter", "mode": "lines", "x": x, "y": y, "name": name, "line": {"color": color, "width": 2}}
+    for k, v in kw.items():
+        if k == "dash":
+            t["line"]["dash"] = v
+        elif k == "width":
+            t["line"]["width"] = v
+        else:
+            t[k] = v
+    return t
+
+
+def hline(y: float, text: str, color: str = TARGET, yref: str = "y", dash: str = "dash") -> tuple[dict, dict]:
+    """A horizontal reference line across the plot (shape) and its label (annotation)."""
+    shape = {"type": "line", "xref": "paper", "x0": 0, "x1": 1, "yref": yref, "y0": y, "y1": y,
+             "line": {"color": color, "width": 2, "dash": dash}}
+    note = {"xref": "paper", "x": 1, "xanchor": "right", "yref": yref, "y": y, "yanchor": "bottom", "text": text,
+            "showarrow": False, "font": {"color": color, "size": 12}}
+    return shape, note
+
+
+def vline(x: float, text: str, color: str, dash: str = "dot", yref: str = "paper", row_top: float = 1.0) -> tuple[dict, dict]:
+    shape = {"type": "line", "xref": "x", "x0": x, "x1": x, "yref": "paper", "y0": 0, "y1": row_top,
+             "line": {"color": color, "width": 1.5, "dash": dash}}
+    note = {"xref": "x", "x": x, "yref": "paper", "y": row_top, "yanchor": "bottom", "text": text, "showarrow": False,
+            "font": {"color": color, "size": 11}, "textangle": 0}
+    return shape, note
+
+
+def axis(title: str, **kw) -> dict:
+    return {"title": {"text": title}, "gridcolor": GRID, "zerolinecolor": "#b9c2cf", **kw}
+
+
+def figure(data: list[dict], layout: dict) -> dict:
+    return {"data": data, "layout": layout}
+
+
+def panel(pid: str, title: str, caption: str = "", figure: dict | None = None, table: dict | None = None,
+          height: int | None = None) -> dict:
+    p: dict[str, Any] = {"id": pid, "title": title, "caption": caption}
+    if figure is not None:
+        if height:
+            figure["layout"]["height"] = height
+        p["figure"] = figure
+    if table is not None:
+        p["table"] = table
+    return p
+
+
+def cell(value: Any, unit: str | None = None, met: bool | None = None, better: bool | None = None,
+         text: str | None = None) -> dict:
+    c: dict[str, Any] = {"value": finite(value)}
+    if unit:
+        c["unit"] = unit
+    if met is not None:
+        c["met"] = bool(met)
+    if better is not None:
+        c["better"] = bool(better)
+    if text is not None:
+        c["text"] = text
+    return c
+
+
+def table(columns: list[str], rows: list[list[Any]]) -> dict:
+    return {"columns": columns, "rows": [[finite(c) if not isinstance(c, dict) else c for c in r] for r in rows]}
+
+
+def stacked(n: int, gap: float = 0.06) -> list[list[float]]:
+    """y-axis domains of n panels stacked top to bottom."""
+    h = (1 - gap * (n - 1)) / n
+    return [[1 - (i + 1) * h - i * gap, 1 - i * (h + gap)] for i in range(n)]
+
+
+def swing_intervals(t: np.ndarray, contact: np.ndarray) -> list[tuple[float, float]]:
+    """Swing phases (foot off the ground) of one leg as (start, end) times."""
+    c = np.asarray(contact).astype(bool)
+    t = np.asarray(t, dtype=float)
+    if not len(t):
+        return []
+    off = ~c
+    edges = np.diff(off.astype(int))
+    starts = list(np.where(edges == 1)[0] + 1)
+    ends = list(np.where(edges == -1)[0] + 1)
+    if off[0]:
+        starts.insert(0, 0)
+    if off[-1]:
+        ends.append(len(t) - 1)
+    return [(float(t[s]), float(t[e])) for s, e in zip(starts, ends)]

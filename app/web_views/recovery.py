@@ -1,0 +1,186 @@
+"""Dashboard views of the recovery kind (paper 000): Table II's before/after row with the
+walking target marked met or not and every value marked better or worse than the baseline;
+body roll, pitch, yaw and the CoM against time (Figs. 4-5); the gait diagram per leg."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from app.web_views import kit
+
+RUNS = {"baseline": ("baseline (tripod)", kit.CONTROL), "best": ("recovered (best)", kit.METHOD)}
+# The walking target the issue fixes: forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg.
+TARGET = {"forward_cm": 50.0, "lateral_cm": 5.0, "yaw_deg": 10.0}
+TARGET_TEXT = "forward ≥ 50 cm, |lateral| ≤ 5 cm, |yaw| ≤ 10°"
+
+
+def _order(traces: Mapping) -> list[str]:
+    return [n for n in ("baseline", "best") if n in traces] + [n for n in traces if n not in RUNS]
+
+
+def _style(name: str, i: int) -> tuple[str, str]:
+    return RUNS.get(name, (name.replace("_", " "), kit.PALETTE[(i + 2) % len(kit.PALETTE)]))
+
+
+def target_checks(m: dict) -> dict[str, bool]:
+    return {"forward": m["y_f_m"] * 100 >= TARGET["forward_cm"], "lateral": abs(m["x_f_m"] * 100) <= TARGET["lateral_cm"],
+            "yaw": abs(m["yaw_f_deg"]) <= TARGET["yaw_deg"], "upright": not m.get("fell", False)}
+
+
+def table_two(summary: dict) -> dict | None:
+    best, base = summary.get("best"), summary.get("baseline")
+    if not best or not base:
+        return None
+    cols = [("lateral x (cm)", lambda m: m["x_f_m"] * 100, "absmin", "lateral"),
+            ("forward y (cm)", lambda m: m["y_f_m"] * 100, "max", "forward"),
+            ("final yaw (°)", lambda m: m["yaw_f_deg"], "absmin", "yaw"),
+            ("roll amplitude (°)", lambda m: m["roll_amp_deg"], "min", None),
+            ("pitch amplitude (°)", lambda m: m["pitch_amp_deg"], "min", None)]
+
+    def better(kind, a, b):
+        if kind == "max":
+            return b > a
+        if kind == "min":
+            return b < a
+        return abs(b) < abs(a)
+
+    rows = []
+    for name, r in (("baseline", base), ("best", best)):
+        m = r["metrics"]
+        checks = target_checks(m)
+        row: list = [RUNS[name][0]]
+        for _, f, kind, tkey in cols:
+            v = f(m)
+            b = None if name == "baseline" or f(base["metrics"]) == v else better(kind, f(base["metrics"]), v)
+            row.append(kit.cell(round(v, 2), met=checks[tkey] if tkey else None, better=b))
+        row.append(kit.cell("yes" if m.get("fell") else "no", met=not m.get("fell")))
+        fb = None if name == "baseline" or r["fitness"] == base["fitness"] else r["fitness"] > base["fitness"]
+        row.append(kit.cell(r["fitness"], better=fb))
+        ok = all(checks.values())
+        row.append(kit.cell("met" if ok else "not met", met=ok))
+        rows.append(row)
+    cap = (f"As in the paper's Table II: final position (x sideways drift, y forward, the walking direction), final yaw, "
+           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {TARGET_TEXT}, without "
+           "falling — each target column says met or not met. Recovered values say better or worse than the baseline.")
+    return kit.panel("table2", "Before and after", cap,
+                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({TARGET_TEXT})"],
+                                     rows))
+
+
+def _stack_view(pid: str, title: str, traces: Mapping, specs: list[tuple], unit: str, caption: str) -> dict | None:
+    names = _order(traces)
+    present = [s for s in specs if any(s[0](traces[n]) is not None for n in names)]
+    if not present:
+        return None
+    doms = kit.stacked(len(present))
+    data, layout = [], {"hovermode": "x unified"}
+    for p, (get, label, scale) in enumerate(present):
+        ax = "" if p == 0 else str(p + 1)
+        for i, name in enumerate(names):
+            y = get(traces[name])
+            if y is None:
+                continue
+            t = np.asarray(traces[name]["time_s"], dtype=float)
+            step = kit.stride(len(t), 800)
+            nice, color = _style(name, i)
+            data.append(kit.line(kit.series(t, step, digits=3), kit.series(y, step, scale=scale, digits=3), nice, color,
+                                 legendgroup=name, showlegend=p == 0, xaxis=f"x{ax}", yaxis=f"y{ax}"))
+        layout[f"yaxis{ax}"] = kit.axis(f"{label} ({unit})", domain=doms[p], anchor=f"x{ax}")
+        layout[f"xaxis{ax}"] = kit.axis("time (s)" if p == len(present) - 1 else "", anchor=f"y{ax}",
+                                        matches="x" if p else None, showticklabels=p == len(present) - 1)
+    return kit.panel(pid, title, caption, kit.figure(data, layout), height=150 * len(present) + 90)
+
+
+def _col(key: str, i: int | None = None):
+    def get(tr):
+        if key not in tr:
+            return None
+        a = np.asarray(tr[key], dtype=float)
+        return a if i is None else a[:, i]
+    return get
+
+
+def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
+    names = [n for n in _order(traces) if "foot_contact" in traces[n]]
+    if not names:
+        return None
+    data, cats = [], []
+    for i, name in enumerate(names):
+        tr = traces[name]
+        t = np.asarray(tr["time_s"], dtype=float)
+        contact = np.asarray(tr["foot_contact"])
+        legs = [int(x) for x in tr["legs"]] if "legs" in tr else list(range(1, contact.shape[1] + 1))
+        nice, color = _style(name, i)
+        short = {"best": "recovered", "baseline": "baseline"}.get(name, nice)
+        sw = {"x": [], "base": [], "y": [], "text": []}
+        su = {"x": [], "base": [], "y": [], "text": []}
+        T = float(t[-1]) if len(t) else 0.0
+        for k, leg in enumerate(legs):
+            y = f"{short} · leg {leg}"
+            cats.append(y)
+            t0 = float(t[0]) if len(t) else 0.0
+            for s, e in kit.swing_intervals(t, contact[:, k]):
+                if s > t0:
+                    su["base"].append(t0); su["x"].append(s - t0); su["y"].append(y)
+                    su["text"].append(f"support {t0:.2f}–{s:.2f} s")
+                sw["base"].append(s); sw["x"].append(e - s); sw["y"].append(y); sw["text"].append(f"swing {s:.2f}–{e:.2f} s")
+                t0 = e
+            if t0 < T:
+                su["base"].append(t0); su["x"].append(T - t0); su["y"].append(y); su["text"].append(f"support {t0:.2f}–{T:.2f} s")
+        common = {"type": "bar", "orientation": "h", "textposition": "none", "hovertemplate": "%{y}: %{text}<extra></extra>",
+                  "legendgroup": name}
+        data.append(common | sw | {"name": f"{nice}: swing", "marker": {"color": color}})
+        data.append(common | su | {"name": f"{nice}: support", "marker": {"color": color, "opacity": 0.25}})
+    period = (summary.get("gait") or {}).get("period_s")
+    T = max(float(np.asarray(traces[n]["time_s"])[-1]) for n in names)
+    layout = {"barmode": "overlay", "hovermode": "closest", "bargap": 0.25,
+              # every leg's label, also on a phone (plotly thins crowded category ticks otherwise)
+              "yaxis": {"categoryorder": "array", "categoryarray": cats[::-1], "tickmode": "array", "tickvals": cats,
+                        "ticktext": cats, "automargin": True, "tickfont": {"size": 11}},
+              "xaxis": kit.axis("time (s)", range=[0, 4 * period] if period and T > 4 * period else [0, T])}
+
+    def describe(g):
+        return f"{g['name']} (σ = {g['sigma']}): " + " → ".join("[" + " ".join(map(str, grp)) + "]" for grp in g.get("groups", []))
+
+    parts = []
+    if summary.get("gait"):
+        parts.append("Recovered: " + describe(summary["gait"]))
+    if (summary.get("baseline") or {}).get("gait"):
+        parts.append("Baseline: " + describe(summary["baseline"]["gait"]))
+    cap = ". ".join(parts) + ". Dark bars: swing (foot in the air); light bars: support. Double-click the plot for the whole walk."
+    return kit.panel("gait", "Gait diagram", cap, kit.figure(data, layout), height=70 + 24 * len(cats))
+
+
+def views(summary: dict, traces: Mapping) -> list[dict]:
+    out = [table_two(summary)]
+    out.append(_stack_view("orientation", "Body roll, pitch, yaw", traces,
+                           [(_col("roll_deg"), "roll", 1.0), (_col("pitch_deg"), "pitch", 1.0), (_col("yaw_deg"), "yaw", 1.0)],
+                           "°", "Body orientation of the recovered gait and the baseline against time (Fig. 4)."))
+    out.append(_stack_view("com", "Centre of mass", traces,
+                           [(_col("com_m", 0), "CoM x", 100.0), (_col("com_m", 1), "CoM y", 100.0), (_col("com_m", 2), "CoM z", 100.0)],
+                           "cm", "Centre of mass against time (Fig. 5): y is the walking direction, x the sideways drift."))
+    out.append(gait_diagram(summary, traces))
+    return [v for v in out if v]
+
+
+def convergence(spec: dict) -> dict:
+    return {"x": "generation", "x_note": "generation 0 is the initial population", "y": "fitness F (Eq. 5)",
+            "better": "higher", "series": {"best": "best so far", "mean": "mean of population", "worst": "worst of population"}}
+
+
+def headline(summary: dict) -> list[dict]:
+    best, base = summary.get("best"), summary.get("baseline")
+    if not best or not base:
+        return []
+    b, a = best["metrics"], base["metrics"]
+    ok = target_checks(b)
+    return [{"label": "forward (y)", "value": b["y_f_m"] * 100, "baseline": a["y_f_m"] * 100, "unit": "cm",
+             "better": "higher", "target": "≥ 50 cm", "met": ok["forward"]},
+            {"label": "lateral drift (x)", "value": b["x_f_m"] * 100, "baseline": a["x_f_m"] * 100, "unit": "cm",
+             "better": "closer to 0", "target": "|x| ≤ 5 cm", "met": ok["lateral"]},
+            {"label": "final yaw", "value": b["yaw_f_deg"], "baseline": a["yaw_f_deg"], "unit": "°",
+             "better": "closer to 0", "target": "|yaw| ≤ 10°", "met": ok["yaw"]},
+            {"label": "fitness F (Eq. 5)", "value": best["fitness"], "baseline": base["fitness"], "unit": "",
+             "better": "higher"}]
