@@ -166,6 +166,28 @@ def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
                       "describe": {n: _describe(n, rows) for n in names if not n.endswith("/")}})
 
 
+def _budget(spec) -> dict[str, Any]:
+    """The evaluation budget as the spec states it: one formula for the form and the compare page."""
+    formula = getattr(spec, "budget_formula", None)
+    if callable(formula):
+        formula = formula()
+    return {"evaluations": int(spec.evaluations_budget), "formula": formula}
+
+
+@functools.lru_cache(maxsize=1)
+def _kinds() -> list[dict]:
+    from app.jobs.registry import KINDS
+    from app.web_views import for_kind
+
+    out = []
+    for name, kind in KINDS.items():
+        views = for_kind(name)
+        doc = (kind.Spec.__doc__ or getattr(kind, "__doc__", "") or "").strip().split("\n\n")[0]
+        out.append({"name": name, "description": " ".join(doc.split()), "schema": kind.Spec.model_json_schema(),
+                    "open": list(getattr(views, "FORM_OPEN", []))})
+    return out
+
+
 def render_page(path: Path, title: str, current: str | None) -> str:
     """A page template with the shared head and header (``templates/_header.html``) put in
     place of its first line's mark; the current page's nav link gets ``aria-current``."""
@@ -272,6 +294,29 @@ def install_dashboard(app: FastAPI) -> None:
                                                                           "application/octet-stream")
         return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
 
+    @app.get("/api/web/kinds", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def kinds() -> list[dict]:
+        """Every registered job kind with the JSON schema of its spec (the form is built
+        from it) and the groups of fields the kind wants opened first."""
+        return await run_in_threadpool(_kinds)
+
+    @app.post("/api/web/check", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def check(request: Request, who: Principal = Depends(principal)):
+        """Validate a spec without queuing it: its evaluation budget (the spec's own
+        formula, the number the compare page shows) or the API's field errors."""
+        from app.jobs.base import SpecError
+        from app.jobs.registry import parse_spec
+
+        try:
+            data = json.loads(await request.body())
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise ApiError(422, f"the body is not JSON: {e}", field="body") from None
+        try:
+            spec = parse_spec(data)
+        except SpecError as e:
+            raise ApiError(422, str(e), errors=e.errors) from None
+        return _budget(spec)
+
     @app.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
     async def views(job_id: JobId, who: Principal = Depends(principal)):
         """What the job page shows, supplied by the job's kind: what its history columns mean
@@ -284,7 +329,14 @@ def install_dashboard(app: FastAPI) -> None:
 
         mod = for_kind(job.kind)
         conv = mod.convergence(job.spec or {}) if mod is not None and hasattr(mod, "convergence") else None
-        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "headline": [],
+        budget = None
+        try:
+            from app.jobs.registry import parse_spec
+
+            budget = _budget(parse_spec(job.spec))
+        except Exception:  # a spec stored by an older version: no budget shown, the rest still is
+            pass
+        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "budget": budget, "headline": [],
                                "panels": [], "evidence": [], "files": [], "figures": []}
         if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
             bundle = job.bundle_path

@@ -222,3 +222,6 @@ def headline(summary: dict) -> list[dict]:
     rows = [main, {"label": "tree nodes", "value": r.get("tree_nodes"), "unit": "", "better": None},
             {"label": "gaits evolved", "value": summary.get("gaits"), "unit": "", "better": None}]
     return rows
+
+# form groups the dashboard opens first: shape (robot), stuck modules, map, cost, budget
+FORM_OPEN = ["damage", "search"]

@@ -184,3 +184,6 @@ def headline(summary: dict) -> list[dict]:
              "better": "closer to 0", "target": "|yaw| ≤ 10°", "met": ok["yaw"]},
             {"label": "fitness F (Eq. 5)", "value": best["fitness"], "baseline": base["fitness"], "unit": "",
              "better": "higher"}]
+
+# form groups the dashboard opens first (the damage is drawn on the robot)
+FORM_OPEN = ["damage", "search", "sim"]

@@ -221,3 +221,6 @@ def headline(summary: dict) -> list[dict]:
                   "better": "higher", "target": f"≥ {thr:g}° (threshold)",
                   "met": (summary.get("margin_after_landing_deg") or -1e9) >= thr}]
     return rows
+
+# form groups the dashboard opens first: what a user sets for a tipping run
+FORM_OPEN = ["scenario", "recovery.enabled", "sweep"]

@@ -1,5 +1,6 @@
-// The jobs page: new-scenario form (robot drawing, search budget, the API's validation
-// message inline) and the jobs table (filters, keyset pages, live refresh of the newest page).
+// The jobs page: the new-job form for every kind (fields generated from the kind's JSON
+// schema, the robot drawing where the kind takes lost legs, the spec's own budget, the API's
+// validation message inline) and the jobs table (filters, keyset pages, live refresh).
 "use strict";
 
 (() => {
@@ -9,42 +10,107 @@
   let robots = [];
   let picker = null;
 
-  // ---------- new scenario form ----------
-  const fields = ["population", "generations", "seed", "duration"];
+  // ---------- new job form (generated from each kind's JSON schema) ----------
+  let kinds = [];
+  let form = null; // SpecForm of the chosen kind
+  let drawDamage = false; // the robot drawing stands in for damage.lost_legs / locked_joints
 
-  function updateBudget() {
-    const p = Number($("population").value), g = Number($("generations").value);
-    $("budget").textContent = Number.isFinite(p) && Number.isFinite(g) && p > 0 && g >= 0
-      ? `Budget: ${p} × (${g} + 1) = ${p * (g + 1)} evaluations of a ${$("duration").value} s walk.` : "";
-  }
+  const kindOf = () => kinds.find((k) => k.name === $("kind").value) || kinds[0];
+  const props = (k) => (k && k.schema.properties) || {};
+  const damageSchema = (k) => (props(k).damage ? SpecForm.unwrap(props(k).damage, k.schema) : null);
 
   function describeDamage(d) {
     const parts = [];
-    if (d.lost_legs.length) parts.push(`lost legs ${d.lost_legs.join(", ")}`);
+    if (d.lost_legs.length) parts.push(`lost ${d.lost_legs.length === 1 ? "leg" : "legs"} ${d.lost_legs.join(", ")}`);
     for (const j of d.locked_joints) parts.push(`leg ${j.leg} ${j.joint} locked`);
     $("damage-summary").textContent = parts.length ? `Damage: ${parts.join("; ")}.` : "No damage.";
     const list = $("locked-list");
     const key = d.locked_joints.map((j) => `${j.leg}.${j.joint}`).join(",");
-    if (list.dataset.key === key) return; // same joints: keep the inputs (and focus) as they are
+    if (list.dataset.key === key) { checkSoon(); return; } // same joints: keep the inputs (and focus) as they are
     list.dataset.key = key;
     list.replaceChildren(...d.locked_joints.map((j) => {
       const id = `angle-${j.leg}-${j.joint}`;
       const input = el("input", { id, type: "number", step: "5", value: j.angle_deg, inputmode: "decimal",
                                   "data-field": "damage.locked_joints" });
-      input.addEventListener("input", () => picker.setAngle(j.leg, j.joint, Number(input.value)));
+      input.addEventListener("input", () => { picker.setAngle(j.leg, j.joint, Number(input.value)); checkSoon(); });
       return el("li", {},
         el("label", { for: id, style: "display:inline;font-weight:400", text: `Leg ${j.leg} ${j.joint} held at (°)` }), input,
         el("button", { type: "button", class: "secondary", "aria-label": `Unlock leg ${j.leg} ${j.joint}`,
                        onclick: () => picker.unlock(j.leg, j.joint) }, "Unlock"));
     }));
+    checkSoon();
+  }
+
+  // the robot field: fixed by the schema (const), its enum, or the catalog's robots for this kind
+  function robotChoices(k) {
+    const r = props(k).robot ? SpecForm.unwrap(props(k).robot, k.schema) : null;
+    if (!r) return null;
+    if (r.const !== undefined) return { names: [r.const], fixed: true, def: r.const };
+    if (r.enum) return { names: r.enum, def: r.default };
+    const tagged = robots.some((x) => Array.isArray(x.kinds));
+    let names = tagged ? robots.filter((x) => x.kinds.includes(k.name)).map((x) => x.name) : robots.map((x) => x.name);
+    if (r.default !== undefined && !names.includes(r.default)) names = [r.default];
+    return { names, def: r.default };
+  }
+
+  function selectKind() {
+    const k = kindOf();
+    if (!k) return;
+    $("kind-desc").textContent = k.description || "";
+    const rc = robotChoices(k);
+    $("robot-field").hidden = !rc;
+    if (rc) {
+      $("robot").replaceChildren(...rc.names.map((n) => el("option", { value: n, text: n, selected: n === rc.def ? true : null })));
+      $("robot").disabled = !!rc.fixed && rc.names.length === 1;
+    }
+    selectRobot();
   }
 
   function selectRobot() {
-    const r = robots.find((x) => x.name === $("robot").value) || robots[0];
-    if (!r) return;
-    $("robot-desc").textContent = r.description;
-    picker = RobotPicker.create($("robot-drawing"), r, describeDamage);
-    picker.setMode(document.querySelector("input[name=mode]:checked").value);
+    const k = kindOf();
+    const r = robots.find((x) => x.name === $("robot").value);
+    $("robot-desc").textContent = r ? r.description : "";
+    const dmg = damageSchema(k);
+    drawDamage = !!(r && r.hips_m && dmg && dmg.properties && dmg.properties.lost_legs);
+    $("damage-picker").hidden = !drawDamage;
+    if (drawDamage) {
+      picker = RobotPicker.create($("robot-drawing"), r, describeDamage);
+      picker.setMode(document.querySelector("input[name=mode]:checked").value);
+    } else picker = null;
+    const skip = ["robot"].concat(drawDamage ? ["damage.lost_legs", "damage.locked_joints"] : []);
+    form = SpecForm.build($("spec-fields"), k, { skip, onChange: checkSoon });
+    clearErrors();
+    checkSoon();
+  }
+
+  function specOf() {
+    const spec = form.read();
+    if (!$("robot-field").hidden && !$("robot").disabled) spec.robot = $("robot").value;
+    if (drawDamage && picker) {
+      const d = picker.damage();
+      spec.damage = Object.assign({}, spec.damage || {});
+      if (d.lost_legs.length) spec.damage.lost_legs = d.lost_legs;
+      if (d.locked_joints.length) spec.damage.locked_joints = d.locked_joints;
+      if (!Object.keys(spec.damage).length) delete spec.damage;
+    }
+    return spec;
+  }
+
+  // The budget as the spec states it (the server's formula, the one the compare page shows).
+  let checkTimer = null, checkSeq = 0;
+  function checkSoon() {
+    clearTimeout(checkTimer);
+    checkTimer = setTimeout(async () => {
+      if (!form) return;
+      const seq = ++checkSeq;
+      try {
+        const b = await api("/api/web/check", { method: "POST", json: specOf() });
+        if (seq !== checkSeq) return;
+        $("budget").textContent = `Budget: ${b.evaluations} evaluations${b.formula ? ` (${b.formula})` : ""}.`;
+      } catch (e) {
+        if (seq === checkSeq) $("budget").textContent = "Budget: – (the spec is not valid yet; submit to see why).";
+      }
+    }, 250);
   }
 
   function clearErrors() {
@@ -53,54 +119,63 @@
     for (const e of document.querySelectorAll("#new-job .field-error")) e.remove();
   }
 
+  // A field path from the API, e.g. "scenario.tilt.rate_deg_s" (pydantic names the union
+  // member) or "damage.lost_legs.0": the closest input that carries it.
+  function inputFor(f) {
+    const all = [...document.querySelectorAll("#new-job [data-field]")].filter((e) => !e.closest("[hidden]"));
+    const parts = f.split(".");
+    const candidates = [f];
+    for (let i = 1; i < parts.length; i++) candidates.push(parts.filter((_, k) => k !== i).join("."));
+    for (const c of candidates) {
+      const hit = all.find((e) => e.dataset.field === c);
+      if (hit) return hit;
+    }
+    for (const c of candidates) {
+      const hit = all.filter((e) => c.startsWith(`${e.dataset.field}.`)).sort((a, b) => b.dataset.field.length - a.dataset.field.length)[0];
+      if (hit) return hit;
+    }
+    return null;
+  }
+
   function showErrors(err) {
     $("form-error").textContent = err.message;
     $("form-error").hidden = false;
     let first = null;
     for (const fe of err.body.errors || []) {
-      const f = fe.field || "";
-      const input = document.querySelector(`#new-job [data-field="${CSS.escape(f)}"]`)
-        || [...document.querySelectorAll("#new-job [data-field]")].find((e) => f.startsWith(e.dataset.field + "."));
+      const input = inputFor(fe.field || "");
       if (!input) continue;
+      const group = input.closest("details");
+      if (group) group.open = true;
       input.setAttribute("aria-invalid", "true");
       const msg = el("div", { class: "field-error", id: `${input.id || "damage"}-err`, text: fe.message });
       input.setAttribute("aria-describedby", msg.id);
       input.after(msg);
       first = first || input;
     }
-    (first && first.focus ? first : $("form-error")).focus?.();
-  }
-
-  function numberOrRaw(v) {
-    const t = String(v).trim();
-    return t !== "" && Number.isFinite(Number(t)) ? Number(t) : t; // let the API name a bad value
+    // focus moves to the first bad field, or to the message itself (focusable: tabindex -1),
+    // so a mouse user whose button was disabled meanwhile does not lose their place
+    (first || $("form-error")).focus();
   }
 
   async function submit(e) {
     e.preventDefault();
     clearErrors();
     $("form-ok").hidden = true;
-    const spec = {
-      kind: "recovery",
-      robot: $("robot").value,
-      damage: picker ? picker.damage() : { lost_legs: [] },
-      search: { optimizer: $("optimizer").value, population: numberOrRaw($("population").value),
-                generations: numberOrRaw($("generations").value), seed: numberOrRaw($("seed").value) },
-      sim: { duration_s: numberOrRaw($("duration").value) },
-    };
+    const spec = specOf();
     $("submit").disabled = true;
     try {
       const job = await api("/api/jobs", { method: "POST", json: spec });
-      $("form-ok").replaceChildren("Queued job ", el("a", { href: `/jobs/${job.id}`, class: "id", text: job.id.slice(0, 8) }),
-                                   ". It appears in the list; open it to watch the search.");
+      $("form-ok").replaceChildren(`Queued ${job.kind} job `, el("a", { href: `/jobs/${job.id}`, class: "id", text: job.id.slice(0, 8) }),
+                                   ". It appears in the list; open it to watch it run.");
       $("form-ok").hidden = false;
       window.gmSubmittedAt = performance.now();
       await refresh(true);
       const row = rows.get(job.id);
       if (row) row.tr.classList.add("fresh");
     } catch (err) {
+      $("submit").disabled = false;
       if (err instanceof GM.ApiError) showErrors(err);
-      else { $("form-error").textContent = String(err); $("form-error").hidden = false; }
+      else { $("form-error").textContent = String(err); $("form-error").hidden = false; $("form-error").focus(); }
     } finally {
       $("submit").disabled = false;
     }
@@ -134,7 +209,7 @@
       el("td", { "data-label": "Damage", text: item.damage || "–" }),
       el("td", { "data-label": "Status" }, badge(item.status), " ",
          el("span", { class: "small muted", text: item.status === "running" ? progressText(item) : "" }), bar),
-      el("td", { class: "num", "data-label": "Best F", text: num(item.best_fitness, 4) }),
+      el("td", { class: "num", "data-label": "Best so far", text: num(item.best_fitness, 4) }),
       el("td", { "data-label": "Age", title: item.created_at, text: age(item.created_at) }),
     ];
   }
@@ -225,19 +300,11 @@
     b.textContent = picked.size ? `Compare selected (${picked.size})` : "Compare selected";
   }
 
-  async function kinds() {
-    try {
-      const s = await api("/openapi.json");
-      const spec = s.components.schemas.JobSpec;
-      const names = spec.discriminator ? Object.keys(spec.discriminator.mapping)
-        : [((spec.properties || {}).kind || {}).default || "recovery"];
-      $("f-kind").append(...names.map((k) => el("option", { text: k })));
-    } catch (e) { $("f-kind").append(el("option", { text: "recovery" })); }
-  }
-
   async function init() {
     $("new-job").addEventListener("submit", submit);
-    for (const id of fields) $(id).addEventListener("input", updateBudget);
+    $("new-job").addEventListener("input", (e) => { if (e.target.id !== "kind" && e.target.id !== "robot") checkSoon(); });
+    $("new-job").addEventListener("change", (e) => { if (e.target.type === "checkbox") checkSoon(); });
+    $("kind").addEventListener("change", selectKind);
     $("robot").addEventListener("change", selectRobot);
     for (const r of document.querySelectorAll("input[name=mode]")) {
       r.addEventListener("change", () => {
@@ -250,15 +317,16 @@
     $("filters").addEventListener("change", resetList);
     $("more").addEventListener("click", more);
     $("compare-btn").addEventListener("click", () => { location.href = `/compare?ids=${[...picked].join(",")}`; });
-    updateBudget();
-    kinds();
     try {
-      robots = await api("/api/robots");
-      $("robot").replaceChildren(...robots.map((r) => el("option", { value: r.name, text: r.name })));
+      [kinds, robots] = await Promise.all([api("/api/web/kinds"), api("/api/robots")]);
+      $("kind").replaceChildren(...kinds.map((k) => el("option", { value: k.name, text: k.name })));
+      $("f-kind").append(...kinds.map((k) => el("option", { text: k.name })));
       $("f-robot").append(...robots.map((r) => el("option", { text: r.name })));
-      selectRobot();
+      const want = new URLSearchParams(location.search).get("kind");
+      if (want && kinds.some((k) => k.name === want)) $("kind").value = want;
+      selectKind();
     } catch (e) {
-      $("form-error").textContent = `Could not load the robot catalog: ${e.message}`;
+      $("form-error").textContent = `Could not load the job kinds or the robot catalog: ${e.message}`;
       $("form-error").hidden = false;
     }
     await refresh(true);
