@@ -182,7 +182,7 @@ def _kinds() -> list[dict]:
     out = []
     for name, kind in KINDS.items():
         views = for_kind(name)
-        doc = (kind.Spec.__doc__ or getattr(kind, "__doc__", "") or "").strip().split("\n\n")[0]
+        doc = (kind.Spec.__doc__ or getattr(kind, "__doc__", "") or "").strip().split("\n\n")[0].replace("``", "")
         out.append({"name": name, "description": " ".join(doc.split()), "schema": kind.Spec.model_json_schema(),
                     "open": list(getattr(views, "FORM_OPEN", []))})
     return out

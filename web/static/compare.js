@@ -1,5 +1,8 @@
-// Two or more jobs side by side: best-so-far (and, on request, mean) per generation on one
-// plot, and a metrics table with one column per job. The ids live in ?ids=a,b,c.
+// Two or more jobs side by side. Jobs are grouped by what their numbers mean: the kind and
+// what its history's objective is (units and which way is better, from GET /views); each
+// group gets its own convergence plot and metrics table, so coverage in percent is never
+// drawn on the axis of a fitness, nor a distance (lower is better) beside a coverage. The
+// ids live in ?ids=a,b,c.
 "use strict";
 
 (() => {
@@ -7,7 +10,7 @@
   const $ = (id) => document.getElementById(id);
   const params = new URLSearchParams(location.search);
   let ids = [...new Set((params.get("ids") || "").split(",").map((s) => s.trim()).filter(Boolean))];
-  const cache = new Map(); // id -> {job, history}
+  const cache = new Map(); // id -> {job, history, views}
 
   function setUrl() {
     const q = ids.length ? `?ids=${ids.join(",")}` : "";
@@ -15,94 +18,125 @@
   }
 
   const short = (id) => id.slice(0, 8);
+  const colorOf = (id) => PALETTE[ids.indexOf(id) % PALETTE.length];
+  // A job as a person names it: its kind and damage, the id only to tell twins apart.
+  const nameOf = (c) => `${c.job.kind} · ${c.job.damage || damageText(c.job.spec)} · ${short(c.job.id)}`;
 
-  function rowsFor(job) {
-    const s = job.summary || {};
-    const spec = job.spec || {};
-    const search = spec.search || {};
-    const out = [
-      ["Status", job.status],
-      ["Kind", job.kind],
-      ["Robot", job.robot || "–"],
-      ["Damage", damageText(spec)],
-      ["Search", search.optimizer ? `${search.optimizer.toUpperCase()} ${search.population} × ${search.generations}, seed ${search.seed}` : "–"],
-      ["Walk (s)", spec.sim && spec.sim.duration_s],
-      ["Wall time (s)", job.wall_s === null || job.wall_s === undefined ? null : job.wall_s.toFixed(1)],
-    ];
-    if (s.kind === "recovery" && s.best) {
-      const b = s.best.metrics, a = s.baseline.metrics;
-      out.push(["Recovered gait", s.gait ? `${s.gait.name} (σ = ${s.gait.sigma})` : "–"],
-               ["F recovered", s.best.fitness], ["F baseline", s.baseline.fitness],
-               ["x recovered (cm)", b.x_f_m * 100], ["y recovered (cm)", b.y_f_m * 100], ["yaw recovered (°)", b.yaw_f_deg],
-               ["roll amp. recovered (°)", b.roll_amp_deg], ["pitch amp. recovered (°)", b.pitch_amp_deg],
-               ["fell (recovered)", b.fell ? "yes" : "no"],
-               ["x baseline (cm)", a.x_f_m * 100], ["y baseline (cm)", a.y_f_m * 100], ["yaw baseline (°)", a.yaw_f_deg],
-               ["roll amp. baseline (°)", a.roll_amp_deg], ["pitch amp. baseline (°)", a.pitch_amp_deg],
-               ["fell (baseline)", a.fell ? "yes" : "no"]);
-    } else {
-      // other kinds: their top-level numbers and the numbers one level down
-      for (const [k, v] of Object.entries(s)) {
-        if (["kind", "robot", "seed", "history", "timing"].includes(k)) continue;
-        if (typeof v === "number" || typeof v === "boolean") out.push([k, v]);
-        else if (v && typeof v === "object" && !Array.isArray(v)) {
-          for (const [k2, v2] of Object.entries(v)) if (typeof v2 === "number" || typeof v2 === "boolean") out.push([`${k}.${k2}`, v2]);
+  function groupKey(c) {
+    const conv = c.views && c.views.convergence;
+    return JSON.stringify([c.job.kind, conv ? [conv.x, conv.y, conv.better] : null]);
+  }
+
+  function groupTitle(c) {
+    const conv = c.views && c.views.convergence;
+    return conv ? `${c.job.kind} jobs: ${conv.y}${conv.better ? `, ${conv.better} is better` : ""}` : `${c.job.kind} jobs`;
+  }
+
+  function specText(job) {
+    const s = (job.spec || {}).search || {};
+    const size = s.population ?? s.particles;
+    return s.optimizer && size !== undefined ? `${s.optimizer.toUpperCase()} ${size} × ${s.generations}, seed ${s.seed}` : null;
+  }
+
+  function metricRows(list) {
+    const rows = [["Status", list.map((c) => badge(c.job.status))], ["Robot", list.map((c) => c.job.robot || "–")],
+                  ["Damage", list.map((c) => c.job.damage || damageText(c.job.spec))]];
+    if (list.some((c) => specText(c.job))) rows.push(["Search", list.map((c) => specText(c.job) || "–")]);
+    rows.push(["Budget (evaluations, the spec's formula)", list.map((c) => (c.views && c.views.budget ? c.views.budget.evaluations : "–"))]);
+    rows.push(["Wall time (s)", list.map((c) => (GM.FINAL.has(c.job.status) && typeof c.job.wall_s === "number" ? num(c.job.wall_s, 1) : "–"))]);
+    // the kind's headline rows, by label, with units and direction in the row name
+    const labels = [];
+    for (const c of list) for (const r of (c.views && c.views.headline) || []) {
+      const key = `${r.label}${r.unit ? ` (${r.unit})` : ""}${r.better ? `, ${r.better} is better` : ""}`;
+      if (!labels.some((l) => l[0] === key)) labels.push([key, r.label]);
+    }
+    for (const [key, label] of labels) {
+      rows.push([key, list.map((c) => {
+        const r = ((c.views && c.views.headline) || []).find((x) => x.label === label);
+        if (!r) return "–";
+        const v = typeof r.value === "number" ? num(r.value, 3) : r.value === null || r.value === undefined ? "–" : String(r.value);
+        return r.met === true ? el("span", {}, v, el("span", { class: "mark met", text: "✓ met" }))
+          : r.met === false ? el("span", {}, v, el("span", { class: "mark unmet", text: "✗ not met" })) : v;
+      })]);
+    }
+    return rows;
+  }
+
+  function groupCard(key, list, n) {
+    const hid = `grp-${n}-h`;
+    const card = el("section", { class: "card", "aria-labelledby": hid, "data-group": key }, el("h2", { id: hid, text: groupTitle(list[0]) }));
+    const conv = list[0].views && list[0].views.convergence;
+    const div = el("div", { class: "plot plot-empty", id: `plot-compare-${n}`, role: "figure",
+                            "aria-label": conv ? `${conv.y} per ${conv.x} of each job` : "no per-generation objective" });
+    card.append(div);
+    const rows = metricRows(list);
+    card.append(el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": `metrics of ${groupTitle(list[0])}` },
+      el("table", { class: "data headline metrics" },
+        el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Metric" }),
+          list.map((c) => el("th", { scope: "col" }, el("span", { class: "swatch", style: `background:${colorOf(c.job.id)}` }),
+                                el("a", { href: `/jobs/${c.job.id}`, text: nameOf(c) }))))),
+        el("tbody", {}, rows.map(([name, vals]) => el("tr", {}, el("th", { scope: "row", text: name }),
+          vals.map((v) => el("td", {}, v))))))));
+    card._draw = () => {
+      const traces = [];
+      if (conv) {
+        const series = conv.series || { best: "best so far" };
+        const secondary = Object.keys(series).find((k) => k === "mean");
+        for (const c of list) {
+          const hist = c.history.filter((r) => typeof r.best === "number");
+          if (!hist.length) continue;
+          const x = hist.map((r, k) => (conv.x in r ? r[conv.x] : k));
+          const color = colorOf(c.job.id);
+          traces.push({ x, y: hist.map((r) => r.best), name: `${nameOf(c)}: ${series.best || "best"}`, mode: "lines+markers",
+                        line: { color, width: 3 }, legendgroup: c.job.id });
+          if (secondary && hist.some((r) => typeof r[secondary] === "number")) {
+            traces.push({ x, y: hist.map((r) => r[secondary]), name: `${nameOf(c)}: ${series[secondary]}`, mode: "lines",
+                          visible: "legendonly", line: { color, width: 1.5, dash: "dot" }, legendgroup: c.job.id });
+          }
         }
       }
-    }
-    if (s.timing && typeof s.timing.evaluations === "number") out.push(["Evaluations", s.timing.evaluations]);
-    return out;
+      if (traces.length) {
+        const maxX = Math.max(...traces.map((t) => t.x.length));
+        plot(div, traces, { xaxis: { title: { text: conv.x_note ? `${conv.x} (${conv.x_note})` : conv.x }, dtick: maxX <= 12 ? 1 : undefined },
+                            yaxis: { title: { text: `${conv.y}${conv.better ? ` (${conv.better} is better)` : ""}` } },
+                            legend: { orientation: "h", y: -0.25 } });
+        div.dataset.rendered = "1";
+      } else empty(div, conv ? "No history yet." : "These jobs report no objective per generation; their numbers are in the table.");
+    };
+    return card;
   }
 
   function render() {
-    const loaded = ids.filter((id) => cache.has(id));
-    $("picked").replaceChildren(...ids.map((id, i) => {
+    $("picked").replaceChildren(...ids.map((id) => {
       const c = cache.get(id);
-      return el("li", {}, el("span", { style: `display:inline-block;width:1rem;height:.6rem;background:${PALETTE[i % PALETTE.length]}` }),
-        el("a", { class: "id", href: `/jobs/${id}`, text: short(id) }), c ? badge(c.job.status) : "loading…",
-        c ? el("span", { class: "small muted", text: `${c.job.kind} · ${damageText(c.job.spec)}` }) : null,
-        el("button", { type: "button", class: "secondary", "aria-label": `Remove job ${short(id)}`,
+      return el("li", {}, el("span", { class: "swatch", style: `background:${colorOf(id)}` }),
+        el("a", { href: `/jobs/${id}`, text: c ? nameOf(c) : short(id) }), c ? badge(c.job.status) : "loading…",
+        el("button", { type: "button", class: "secondary", "aria-label": `Remove ${c ? nameOf(c) : short(id)}`,
                        onclick: () => { ids = ids.filter((x) => x !== id); setUrl(); render(); } }, "Remove"));
     }));
-    const div = $("plot-compare");
-    const traces = [];
-    loaded.forEach((id) => {
-      const { history } = cache.get(id);
-      const i = ids.indexOf(id);
-      const color = PALETTE[i % PALETTE.length];
-      const rows = history.filter((r) => typeof r.best === "number");
-      if (!rows.length) return;
-      const x = rows.map((r, k) => ("generation" in r ? r.generation : k));
-      traces.push({ x, y: rows.map((r) => r.best), name: `${short(id)} best`, mode: "lines+markers", line: { color, width: 3 },
-                    legendgroup: id });
-      if (rows.some((r) => typeof r.mean === "number")) {
-        traces.push({ x, y: rows.map((r) => r.mean), name: `${short(id)} mean`, mode: "lines", visible: "legendonly",
-                      line: { color, width: 1.5, dash: "dot" }, legendgroup: id });
-      }
-    });
-    if (traces.length) {
-      const maxX = Math.max(...traces.map((t) => t.x.length));
-      plot(div, traces, { xaxis: { title: { text: "generation" }, dtick: maxX <= 12 ? 1 : undefined }, yaxis: { title: { text: "best fitness F so far" } } });
-      div.dataset.rendered = "1";
-    } else empty(div, ids.length < 2 ? "Add two or more jobs." : "None of these jobs has a fitness history yet.");
-
-    const cols = loaded;
-    if (!cols.length) { $("metrics").replaceChildren(); return; }
-    const perJob = cols.map((id) => new Map(rowsFor(cache.get(id).job)));
-    const names = [...new Set(perJob.flatMap((m) => [...m.keys()]))];
-    $("metrics").replaceChildren(el("table", { class: "headline" },
-      el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Metric" }),
-        cols.map((id) => el("th", { scope: "col" }, el("a", { class: "id", href: `/jobs/${id}`, text: short(id) }))))),
-      el("tbody", {}, names.map((n) => el("tr", {}, el("th", { scope: "row", text: n }),
-        perJob.map((m) => {
-          const v = m.get(n);
-          return el("td", { text: typeof v === "number" ? num(v, 3) : v === undefined || v === null ? "–" : String(v) });
-        }))))));
+    const groups = new Map();
+    for (const id of ids) {
+      const c = cache.get(id);
+      if (!c) continue;
+      const k = groupKey(c);
+      if (!groups.has(k)) groups.set(k, []);
+      groups.get(k).push(c);
+    }
+    const cards = [...groups.entries()].map(([k, list], n) => groupCard(k, list, n));
+    if (groups.size > 1) {
+      cards.unshift(el("p", { class: "notice", role: "note", id: "separated",
+        text: `These jobs fall into ${groups.size} groups whose numbers mean different things; each group has its own plot and table.` }));
+    }
+    if (!cards.length) cards.push(el("p", { class: "small muted", text: "Add two or more jobs." }));
+    $("groups").replaceChildren(...cards);
+    for (const c of cards) if (c._draw) c._draw();
   }
 
   async function fetchJob(id) {
-    const [job, history] = await Promise.all([api(`/api/jobs/${encodeURIComponent(id)}`),
-                                              api(`/api/jobs/${encodeURIComponent(id)}/history`)]);
-    cache.set(id, { job, history });
+    const enc = encodeURIComponent(id);
+    const [job, history, views] = await Promise.all([api(`/api/jobs/${enc}`), api(`/api/jobs/${enc}/history`),
+                                                     api(`/api/jobs/${enc}/views`).catch(() => null)]);
+    cache.set(id, { job, history, views });
   }
 
   async function loadAll() {
