@@ -38,27 +38,30 @@ def non_background_share(png: bytes) -> float:
 def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     before = job_ids(server)
     page.goto(server.url + "/")
-    expect(page.locator("#robot option")).to_have_count(1)
+    expect(page.locator("#kind option")).not_to_have_count(0)
+    page.select_option("#kind", "recovery")
     # lock leg 2's femur at 20 degrees on the drawing; the request carries it
     page.check("input[name=mode][value=lock]")
     page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')
     expect(page.locator("#damage-summary")).to_have_text("Damage: leg 2 femur locked.")
     page.fill("#angle-2-femur", "20")
-    page.fill("#population", "2")
+    page.fill("#f-search-population", "2")
     with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
         page.click("#submit")
     sent = req.value.post_data_json
-    assert sent["damage"] == {"lost_legs": [], "locked_joints": [{"leg": 2, "joint": "femur", "angle_deg": 20}]}
+    assert sent["damage"] == {"locked_joints": [{"leg": 2, "joint": "femur", "angle_deg": 20}]}  # no lost leg: left out
     assert sent["search"]["population"] == 2
     err = page.locator("#form-error")
     expect(err).to_be_visible()
     expect(err).to_contain_text("search.population")
     expect(err).to_contain_text("greater than or equal to 4")
-    expect(page.locator("#population")).to_have_attribute("aria-invalid", "true")
-    expect(page.locator("#population-err")).to_contain_text("greater than or equal to 4")
+    expect(page.locator("#f-search-population")).to_have_attribute("aria-invalid", "true")
+    expect(page.locator("#f-search-population-err")).to_contain_text("greater than or equal to 4")
+    # a mouse submit disables the button meanwhile: focus lands on the bad field, not on <body>
+    assert page.evaluate("document.activeElement.id") == "f-search-population"
 
     # an infeasible damage picked on the drawing: the API's morphology message, inline
-    page.fill("#population", "6")
+    page.fill("#f-search-population", "6")
     page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')  # unlock again
     page.check("input[name=mode][value=lost]")
     page.click('.leg[data-leg="1"]')
@@ -66,6 +69,8 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     expect(page.locator('.leg[data-leg="3"]')).to_have_attribute("aria-pressed", "true")
     page.click("#submit")
     expect(err).to_contain_text("infeasible morphology")
+    # no input names the damage field: the message itself takes the focus
+    assert page.evaluate("document.activeElement.id") in ("form-error", "robot-drawing")
     expect(page.locator("#form-ok")).to_be_hidden()
     page.wait_for_timeout(2500)  # one live refresh of the list later: still no new row
     assert job_ids(server) == before
@@ -74,19 +79,24 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
 
 def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     page.goto(server.url + "/")
-    expect(page.locator("#robot option")).to_have_count(1)
+    page.select_option("#kind", "recovery")
+    expect(page.locator("#damage-picker")).to_be_visible()
     page.screenshot(path=shots / "jobs-empty-1280.png")
     # legs 2 and 5 lost, by keyboard on one and mouse on the other
     page.focus('.leg[data-leg="2"]')
     page.keyboard.press("Enter")
     page.click('.leg[data-leg="5"]')
     expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 2, 5.")
-    page.select_option("#optimizer", "de")
-    page.fill("#population", "6")
-    page.fill("#generations", "3")
-    page.fill("#seed", "2")
-    page.fill("#duration", "2")
-    expect(page.locator("#budget")).to_contain_text("= 24 evaluations")
+    page.select_option("#f-search-optimizer", "de")
+    page.fill("#f-search-population", "6")
+    page.fill("#f-search-generations", "3")
+    page.fill("#f-search-seed", "2")
+    page.fill("#f-sim-duration-s", "2")
+    # the budget is the spec's own formula, computed by the server (the compare page shows the same)
+    with server.client() as c:
+        want = c.post("/api/web/check", json={"kind": "recovery", "damage": {"lost_legs": [2, 5]},
+                      "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 2.0}}).json()
+    expect(page.locator("#budget")).to_contain_text(f"Budget: {want['evaluations']} evaluations")
 
     t_submit = time.monotonic()
     page.click("#submit")
@@ -119,18 +129,21 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
 
     # the job page saw the end of the stream and shows everything
     expect(jp.locator("#status-line .badge")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
-    headline = jp.locator("#headline table tbody tr")
-    expect(headline).to_have_count(2)
-    expect(headline.nth(1)).to_contain_text("Recovered")
+    # Table II before/after: the recovered row says better or worse than the baseline in
+    # words, and the walking target met or not
+    table2 = jp.locator("#panel-table2 table tbody tr")
+    expect(table2).to_have_count(2)
+    expect(table2.nth(1)).to_contain_text("recovered")
     with server.client() as c:
         summary = c.get(f"/api/jobs/{job_id}").json()["summary"]
+        n_files = len(c.get(f"/api/jobs/{job_id}/files").json())
     y_best, y_base = (summary[k]["metrics"]["y_f_m"] * 100 for k in ("best", "baseline"))
-    y_cell = headline.nth(1).locator("td").nth(1)  # y: forward progress, in cm
-    expect(y_cell).to_have_text(f"{y_best:.2f}")
-    if y_best > y_base:
-        expect(y_cell).to_have_class("better")
-    else:
-        expect(y_cell).not_to_have_class("better")
+    y_cell = table2.nth(1).locator("td").nth(1)  # y: forward progress, in cm
+    expect(y_cell).to_contain_text(f"{y_best:.2f}")
+    expect(y_cell).to_contain_text("▲ better" if y_best > y_base else "▼ worse")
+    expect(y_cell).to_contain_text("✓ met" if y_best >= 50 else "✗ not met")
+    forward = jp.locator("#headline tbody tr").filter(has_text="forward").first
+    expect(forward).to_have_attribute("data-met", "true" if y_best >= 50 else "false")
     for plot_id, min_traces in (("plot-convergence", 3), ("plot-orientation", 6), ("plot-com", 6), ("plot-gait", 4)):
         div = jp.locator(f"#{plot_id}")
         expect(div.locator(".main-svg").first).to_be_visible(timeout=30_000)
@@ -138,6 +151,8 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
         assert n >= min_traces, (plot_id, n)
     points = jp.evaluate("document.getElementById('plot-convergence').data[0].x.length")
     assert points == 4  # generations 0..3
+    ylab = jp.evaluate("document.getElementById('plot-convergence').layout.yaxis.title.text")
+    assert "higher is better" in ylab, ylab
     # the plots are interactive: dragging across the convergence plot zooms into it
     jp.locator("#plot-convergence").scroll_into_view_if_needed()
     box = jp.locator("#plot-convergence .nsewdrag").first.bounding_box()
@@ -153,11 +168,23 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
                          " return r[0] <= 0 && r[1] >= 3; }", timeout=10_000)
 
     # the 3D replay: viser's client fetched replay.viser through a signed link and drew it
+    jp.locator("#replay").scroll_into_view_if_needed()  # the frame loads lazily, once near the screen
     frame = jp.frame_locator("#replay")
     canvas = frame.locator("canvas").first
     expect(canvas).to_be_visible(timeout=60_000)
     src = jp.locator("#replay").get_attribute("src")
     assert src.startswith("/viser/?playbackPath=") and "sig%3D" in src
+    # every bundle member downloads on its own, next to the zip (signed links: no header needed)
+    names_shown = jp.locator("#files tbody th a.id").all_inner_texts()
+    assert len(names_shown) == n_files
+    assert {"robot.xml", "history.csv", "trajectories/best.csv", "plots/convergence.svg", "plots/convergence.png"} <= set(names_shown)
+    with jp.expect_download() as one:
+        jp.locator("#files a.id", has_text="robot.xml").click()
+    assert one.value.suggested_filename == "robot.xml"
+    assert open(one.value.path(), "rb").read().lstrip().startswith(b"<mujoco")
+    jp.locator("#figures").scroll_into_view_if_needed()
+    expect(jp.locator("#figures img").first).to_be_visible()
+    assert jp.evaluate("document.querySelector('#figures img').naturalWidth") > 100
     jp.locator("#replay").scroll_into_view_if_needed()
     share = 0.0
     for _ in range(20):  # the scene arrives over a few frames in software GL
@@ -193,6 +220,9 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
     assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
     pg.goto(f"{server.url}/jobs/{job_id}")
     expect(pg.locator("#plot-gait .main-svg").first).to_be_visible(timeout=30_000)
+    # every leg of the gait diagram keeps its label on a phone (issue 16)
+    cats = pg.evaluate("document.getElementById('plot-gait').layout.yaxis.tickvals.length")
+    assert pg.locator("#plot-gait .ytick text").count() == cats
     pg.locator("#replay").scroll_into_view_if_needed()  # the frame loads lazily, once near the screen
     expect(pg.frame_locator("#replay").locator("canvas").first).to_be_visible(timeout=60_000)
     pg.wait_for_timeout(1500)
@@ -206,15 +236,23 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
 def test_compare_two_jobs(page, server, shots, second_job):
     first = STATE.get("job_id") or pytest.fail("needs the job of the main flow")
     page.goto(f"{server.url}/compare?ids={first},{second_job}")
-    expect(page.locator('#plot-compare[data-rendered="1"]')).to_be_attached(timeout=30_000)
+    expect(page.locator('#plot-compare-0[data-rendered="1"]')).to_be_attached(timeout=30_000)
     expect(page.locator("#picked .badge")).to_have_text(["succeeded", "succeeded"])
-    assert page.evaluate("document.getElementById('plot-compare').data.length") == 4  # best and mean of each
-    header = page.locator("#metrics thead th")
+    expect(page.locator("#groups section[data-group]")).to_have_count(1)  # one kind, one meaning: one plot
+    assert page.evaluate("document.getElementById('plot-compare-0').data.length") == 4  # best and mean of each
+    header = page.locator("#groups table thead th")
     expect(header).to_have_count(3)
-    table = page.locator("#metrics")
-    expect(table).to_contain_text("F recovered")
+    expect(header.nth(1)).to_contain_text("recovery · lost 2,5")
+    table = page.locator("#groups table")
+    expect(table).to_contain_text("fitness F (Eq. 5)")
     expect(table).to_contain_text("CMAES 6 × 2")
     expect(table).to_contain_text("DE 6 × 3")
+    # the budget row is the spec's formula, the number the form showed before submitting
+    with server.client() as c:
+        spec = c.get(f"/api/jobs/{first}").json()["spec"]
+        want = c.post("/api/web/check", json=spec).json()["evaluations"]
+    budget = page.locator("#groups tr").filter(has_text="Budget (evaluations")
+    expect(budget.locator("td").first).to_have_text(str(want))
     page.screenshot(path=shots / "compare-1280.png", full_page=True)
 
 

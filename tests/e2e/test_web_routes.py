@@ -24,16 +24,17 @@ def test_bundle_members_links_and_traces(server, second_job):
         assert c.get(f"/api/jobs/{jid}/files/..%2Fmanifest.json").status_code in (404, 422)
         link = c.get(f"/api/jobs/{jid}/file-link", params={"path": "replay.viser"}).json()
 
-        tr = c.get(f"/api/jobs/{jid}/traces").json()
-        assert set(tr) == {"best", "baseline"}
-        best = tr["best"]
-        assert best["legs"] == [2, 3, 4, 5] and set(best["swing"]) == {"2", "3", "4", "5"}
-        assert {"roll_deg", "pitch_deg", "yaw_deg", "com_m_0"} <= set(best["series"])
-        assert not any(k.startswith("qpos_") for k in best["series"])
-        assert len(best["time_s"]) <= 800 and len(best["series"]["roll_deg"]) == len(best["time_s"])
-        for s, e in best["swing"]["2"]:
-            assert 0 <= s < e <= best["duration_s"] + 1e-9
-
+        v = c.get(f"/api/jobs/{jid}/views").json()
+        assert v["kind"] == "recovery" and v["convergence"]["better"] == "higher"
+        assert v["budget"]["evaluations"] > 0 and v["headline"]
+        figs = {p["id"]: p for p in v["panels"] if "figure" in p}
+        assert {"orientation", "com", "gait"} <= set(figs)
+        gait = figs["gait"]["figure"]
+        # legs as the robot numbers them (1 and 6 lost), every label shown
+        assert set(gait["layout"]["yaxis"]["tickvals"]) == {
+            f"{who} · leg {leg}" for who in ("recovered", "baseline") for leg in (2, 3, 4, 5)}
+        assert sorted(f["path"] for f in v["files"]) == sorted(files)
+        assert all("sig=" in f["url"] for f in v["files"])
     raw = httpx.get(server.url + link["url"])  # no Authorization header: the signature admits it
     assert raw.status_code == 200 and raw.content[:1] and len(raw.content) == files["replay.viser"]
     bad = link["url"].replace("sig=", "sig=0")
@@ -44,7 +45,7 @@ def test_bundle_members_links_and_traces(server, second_job):
     with server.client("bob") as c:  # someone else's job is not found, and bob gets no link to it
         assert c.get(f"/api/jobs/{jid}/files/result.json").status_code == 404
         assert c.get(f"/api/jobs/{jid}/file-link", params={"path": "result.json"}).status_code == 404
-        assert c.get(f"/api/jobs/{jid}/traces").status_code == 404
+        assert c.get(f"/api/jobs/{jid}/views").status_code == 404
 
 
 def test_static_assets_come_from_installed_packages(server):
