@@ -136,6 +136,7 @@ def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
     period = (summary.get("gait") or {}).get("period_s")
     T = max(float(np.asarray(traces[n]["time_s"])[-1]) for n in names)
     layout = {"barmode": "overlay", "hovermode": "closest", "bargap": 0.25,
+              "legend": {"orientation": "h", "y": 1.02, "yanchor": "bottom", "x": 0},
               # every leg's label, also on a phone (plotly thins crowded category ticks otherwise)
               "yaxis": {"categoryorder": "array", "categoryarray": cats[::-1], "tickmode": "array", "tickvals": cats,
                         "ticktext": cats, "automargin": True, "tickfont": {"size": 11}},
@@ -150,7 +151,7 @@ def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
     if (summary.get("baseline") or {}).get("gait"):
         parts.append("Baseline: " + describe(summary["baseline"]["gait"]))
     cap = ". ".join(parts) + ". Dark bars: swing (foot in the air); light bars: support. Double-click the plot for the whole walk."
-    return kit.panel("gait", "Gait diagram", cap, kit.figure(data, layout), height=70 + 24 * len(cats))
+    return kit.panel("gait", "Gait diagram", cap, kit.figure(data, layout), height=130 + 26 * len(cats))
 
 
 def views(summary: dict, traces: Mapping) -> list[dict]:

@@ -85,6 +85,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     # legs 2 and 5 lost, by keyboard on one and mouse on the other
     page.focus('.leg[data-leg="2"]')
     page.keyboard.press("Enter")
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost leg 2.")  # one leg: singular
     page.click('.leg[data-leg="5"]')
     expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 2, 5.")
     page.select_option("#f-search-optimizer", "de")
@@ -277,8 +278,10 @@ def test_cancel_and_retry_from_the_job_page(page, server):
     page.goto(f"{server.url}/jobs/{jid}")
     expect(page.locator("#status-line .badge")).to_have_text("running", timeout=JOB_TIMEOUT_MS)
     expect(page.locator("#download")).to_be_hidden()
+    expect(page.locator("#facts")).not_to_contain_text("Wall time")  # a moving number, not a result
     page.click("#cancel")
     expect(page.locator("#status-line .badge")).to_have_text("cancelled", timeout=60_000)
+    expect(page.locator("#facts")).to_contain_text("Wall time")
     expect(page.locator("#cancel")).to_be_hidden()
     page.click("#retry")
     expect(page.locator("#status-line .badge")).not_to_have_text("cancelled")

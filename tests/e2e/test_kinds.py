@@ -5,7 +5,11 @@ multigait page's map with the tree and the plan. Then the compare page across ki
 
 from __future__ import annotations
 
+import io
+
+import numpy as np
 import pytest
+from PIL import Image
 from playwright.sync_api import expect
 
 JOB_TIMEOUT_MS = 180_000
@@ -30,6 +34,27 @@ def submit(page) -> str:
     ok = page.locator("#form-ok")
     expect(ok).to_be_visible(timeout=30_000)
     return ok.locator("a").get_attribute("href").rsplit("/", 1)[1]
+
+
+def replay_drawn(jp, shots, name) -> float:
+    """Scroll to the 3D replay, wait until its canvas shows the scene (not just the
+    background), screenshot the card; returns the share of non-background pixels."""
+    jp.locator("#replay").scroll_into_view_if_needed()
+    canvas = jp.frame_locator("#replay").locator("canvas").first
+    expect(canvas).to_be_visible(timeout=60_000)
+    share = 0.0
+    for _ in range(25):
+        jp.wait_for_timeout(1000)
+        bb = canvas.bounding_box()
+        png = jp.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
+                                  "width": bb["width"] * 0.6, "height": bb["height"] * 0.7})
+        a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
+        colors, counts = np.unique(a, axis=0, return_counts=True)
+        share = float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
+        if share > 0.05:
+            break
+    jp.locator("#replay-card").screenshot(path=shots / f"{name}-replay-1280.png")
+    return share
 
 
 def wait_done(server, page, job_id):
@@ -110,6 +135,7 @@ def test_tipping_through_the_form(page, new_page, server, shots):
     jp.locator("#panel-margin").scroll_into_view_if_needed()
     jp.locator("#panel-margin").screenshot(path=shots / "tipping-margin-1280.png")
     jp.screenshot(path=shots / "tipping-job-1280.png", full_page=True)
+    assert replay_drawn(jp, shots, "tipping") > 0.05
     DONE["tipping"] = job_id
 
 
@@ -168,6 +194,7 @@ def test_multigait_through_the_form(page, new_page, server, shots):
     jp.locator("#panel-map").scroll_into_view_if_needed()
     jp.locator("#panel-map").screenshot(path=shots / "multigait-map-1280.png")
     jp.screenshot(path=shots / "multigait-job-1280.png", full_page=True)
+    assert replay_drawn(jp, shots, "multigait") > 0.05
     DONE["multigait"] = job_id
 
 

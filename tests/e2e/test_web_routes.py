@@ -65,6 +65,10 @@ def test_static_assets_come_from_installed_packages(server):
         marked = [a for a in ('href="/"', 'href="/compare"') if f'<a {a} aria-current="page">' in r.text]
         assert marked == ([f'href="{current}"'] if current else [])
     assert httpx.get(server.url + "/static/jobs.js").status_code == 200
+    # every page has one h1; the summary box scrolls by keyboard (focusable region)
+    for page in ("/", "/compare", "/jobs/whatever"):
+        assert httpx.get(server.url + page).text.count("<h1") == 1, page
+    assert 'id="summary" tabindex="0"' in httpx.get(server.url + "/jobs/whatever").text
 
 
 def test_jobs_list_stays_fast_with_thousands_of_jobs(new_page, server):

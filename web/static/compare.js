@@ -97,7 +97,7 @@
       }
       if (traces.length) {
         const maxX = Math.max(...traces.map((t) => t.x.length));
-        plot(div, traces, { xaxis: { title: { text: conv.x_note ? `${conv.x} (${conv.x_note})` : conv.x }, dtick: maxX <= 12 ? 1 : undefined },
+        plot(div, traces, { xaxis: { title: { text: conv.x }, dtick: maxX <= 12 ? 1 : undefined },
                             yaxis: { title: { text: `${conv.y}${conv.better ? ` (${conv.better} is better)` : ""}` } },
                             legend: { orientation: "h", y: -0.25 } });
         div.dataset.rendered = "1";

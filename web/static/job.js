@@ -81,7 +81,9 @@
               dash: (style[k] || ["solid"])[0] }, marker: { size: 5 },
     }));
     const better = conv.better ? ` (${conv.better} is better)` : "";
-    plot(div, traces, { xaxis: { title: { text: conv.x_note ? `${xKey} (${conv.x_note})` : xKey }, gridcolor: "#e3e8ee",
+    $("conv-note").textContent = [conv.x_note && `${xKey[0].toUpperCase()}${xKey.slice(1)} ${conv.x_note.replace(/^generation /, "")}.`,
+                                  conv.better && `${conv.y}: ${conv.better} is better.`].filter(Boolean).join(" ");
+    plot(div, traces, { xaxis: { title: { text: xKey }, gridcolor: "#e3e8ee",
                                  dtick: x.length <= 12 ? 1 : undefined },
                         yaxis: { title: { text: `${conv.y}${better}` }, gridcolor: "#e3e8ee" } });
     div.setAttribute("aria-label", `${conv.y} per ${xKey}${better}`);
