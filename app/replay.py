@@ -140,8 +140,7 @@ class _Scene:
         size = _robot_size(model, root, *next(iter(poses.values())))
         spacing = 3.2 * size
         start = next(iter(poses.values()))[0][0, root]
-        server.initial_camera.position = tuple(start + size * np.array([3.6, -3.6, 2.8]))
-        server.initial_camera.look_at = tuple(start + np.array([-spacing * (len(traces) - 1) / 2, 1.2 * size, 0.0]))
+        self._frame_camera(server, poses, root, size, spacing)
         scene.add_grid("/ground", width=16 * size, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
                        position=(start[0], start[1] + 4 * size, 0.0))
         self.robots = {}
@@ -157,13 +156,32 @@ class _Scene:
             pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
             pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
             scene.add_line_segments(f"/{name}/path", points=pts, colors=color, thickness=0.015 * size)
-            scene.add_label(f"/{name}/label", track.label, position=tuple(start + np.array([0.0, -size, size])))
+            # the label rides above the robot (show() moves it), named as the page names the trace
+            label = scene.add_label(f"/{name}/label", track.label, position=tuple(xpos[0, root] + np.array([0.0, 0.0, 1.3 * size])))
             feet = self._feet(tr, idx[name])
             contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
                                              point_size=0.1 * size, point_shape="circle")
             self.robots[name] = {"root": node, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
-                                 "contacts": contacts, "lift": 0.01 * size}
+                                 "contacts": contacts, "lift": 0.01 * size, "label": label, "root_body": root,
+                                 "label_up": 1.3 * size}
         self.show(0)
+
+    @staticmethod
+    def _frame_camera(server, poses, root: int, size: float, spacing: float) -> None:
+        """Point the camera at the box the robots' bases sweep in the first tenth of the
+        replay (robots side by side, spaced along -x), from a distance at which that box, plus
+        a robot's size around it, fills the view: the robots are what one sees, not the grid.
+        (A plan that walks far would shrink everything if its whole path were framed.)"""
+        pts = np.concatenate([xpos[: max(1, len(xpos) // 10), root] + np.array([-spacing * k, 0.0, 0.0])
+                              for k, (xpos, _) in enumerate(poses.values())])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        centre = 0.5 * (lo + hi)
+        radius = 0.5 * float(np.linalg.norm((hi - lo)[:2])) + 1.2 * size
+        fov = 75.0 * np.pi / 180.0  # viser's default vertical field of view
+        dist = radius / np.tan(fov / 2) * 1.05
+        view = np.array([0.55, -0.65, 0.52])
+        server.initial_camera.look_at = tuple(centre)
+        server.initial_camera.position = tuple(centre + dist * view / np.linalg.norm(view))
 
     @staticmethod
     def _feet(tr, idx):
@@ -173,6 +191,7 @@ class _Scene:
 
     def show(self, i: int) -> None:
         for r in self.robots.values():
+            r["label"].position = tuple(r["xpos"][i, r["root_body"]] + np.array([0.0, 0.0, r["label_up"]]))
             for b, h in r["frames"].items():
                 h.position = r["xpos"][i, b]
                 h.wxyz = r["xquat"][i, b]

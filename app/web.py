@@ -8,7 +8,6 @@ token holder sees exactly the jobs the REST API shows them.
 
 from __future__ import annotations
 
-import fnmatch
 import functools
 import hashlib
 import hmac
@@ -122,21 +121,41 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
-def _readme_rows(text: str) -> list[tuple[str, str]]:
-    """(file or pattern, what it is) from the bundle README's file table."""
-    out = []
-    for line in text.splitlines():
-        parts = [p.strip() for p in line.strip().strip("|").split("|")]
-        if len(parts) >= 2 and parts[0].startswith("`") and parts[0].endswith("`"):
-            out.append((parts[0].strip("`"), parts[1]))
-    return out
+def _kind(name: str | None):
+    from app.jobs.registry import KINDS
+
+    return KINDS.get(name) if isinstance(name, str) else None
 
 
-def _describe(name: str, rows: list[tuple[str, str]]) -> str:
-    for pattern, what in rows:
-        if name == pattern or fnmatch.fnmatch(name, pattern) or (pattern.endswith("/") and name.startswith(pattern)):
-            return what
-    return ""
+def history_axis(kind, spec: dict) -> dict | None:
+    """What the history's columns mean for this job: x column, the objective with its
+    units and direction, and the series to draw. The kind says it (``history_axis``) or it
+    is read from ``history_columns``; None when the history has no objective."""
+    if kind is None:
+        return None
+    fn = getattr(kind, "history_axis", None)
+    if callable(fn):
+        return fn(spec)
+    cols = getattr(kind, "history_columns", {}) or {}
+    if "best" not in cols:
+        return None
+    series = {k: cols[k] for k in ("best", "generation_best", "mean", "worst") if k in cols}
+    return {"x": kind.history_x, "x_note": cols.get(kind.history_x), "y": cols["best"], "better": None, "series": series}
+
+
+def _panels_of_tables(tables: list[dict]) -> list[dict]:
+    return [{"id": f"table-{i}", "title": t.get("title", ""), "caption": " ".join(t.get("notes") or []),
+             "table": {"columns": list(t.get("columns", [])), "rows": [list(r) for r in t.get("rows", [])]}}
+            for i, t in enumerate(tables)]
+
+
+def _as_panel(item: dict, i: int) -> dict:
+    """A kind's view: a panel already, or a bare plotly figure dict ({"data", "layout"})."""
+    if "figure" in item or "table" in item:
+        return item
+    title = ((item.get("layout") or {}).get("title") or {})
+    title = title.get("text", "") if isinstance(title, dict) else str(title)
+    return {"id": f"view-{i}", "title": title or f"Figure {i + 1}", "caption": "", "figure": item}
 
 
 @functools.lru_cache(maxsize=16)
@@ -145,25 +164,28 @@ def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
     shared evidence tables, computed once per bundle from result.json and the trajectories."""
     import numpy as np
 
-    from app.web_views import for_kind
-    from app.web_views.evidence import controls_panel, robustness_panel
+    from app.jobs.viewkit import controls_panel, robustness_panel
 
     with zipfile.ZipFile(bundle) as z:
-        names = z.namelist()
+        names = [n for n in z.namelist() if not n.endswith("/")]
         summary = json.loads(z.read("result.json"))
-        kind = json.loads(z.read("manifest.json")).get("kind") or summary.get("kind")
+        kind_name = json.loads(z.read("manifest.json")).get("kind") or summary.get("kind")
         traces = {}
         for n in names:
             if n.startswith("trajectories/") and n.endswith(".npz"):
                 traces[n.removeprefix("trajectories/").removesuffix(".npz")] = np.load(io.BytesIO(z.read(n)))
-        readme = z.read("README.md").decode() if "README.md" in names else ""
-    mod = for_kind(kind)
-    panels = list(mod.views(summary, traces)) if mod is not None and hasattr(mod, "views") else []
-    headline = list(mod.headline(summary)) if mod is not None and hasattr(mod, "headline") else []
-    evidence = [p for p in (controls_panel(summary), robustness_panel(summary)) if p]
-    rows = _readme_rows(readme)
-    return _jsonable({"kind": kind, "headline": headline, "panels": panels, "evidence": evidence,
-                      "describe": {n: _describe(n, rows) for n in names if not n.endswith("/")}})
+    kind = _kind(kind_name)
+    out: dict[str, Any] = {"kind": kind_name, "headline": [], "panels": [], "evidence": [], "describe": {}, "replay": []}
+    if kind is not None:
+        out["headline"] = list(kind.headline(summary))
+        out["panels"] = [_as_panel(v, i) for i, v in enumerate(kind.views(summary, traces))]
+        out["panels"] += _panels_of_tables(list(kind.summary_tables(summary)))
+        out["describe"] = dict(kind.bundle_rows(names))
+        replayable = [n for n, tr in traces.items() if "qpos" in tr.files]
+        out["replay"] = [{"name": t.name, "label": t.label, "color": t.color}
+                         for t in sorted(kind.replay_style(replayable), key=lambda t: t.order) if t.name in replayable]
+    out["evidence"] = [p for p in (controls_panel(summary), robustness_panel(summary)) if p]
+    return _jsonable(out)
 
 
 def _budget(spec) -> dict[str, Any]:
@@ -177,15 +199,10 @@ def _budget(spec) -> dict[str, Any]:
 @functools.lru_cache(maxsize=1)
 def _kinds() -> list[dict]:
     from app.jobs.registry import KINDS
-    from app.web_views import for_kind
 
-    out = []
-    for name, kind in KINDS.items():
-        views = for_kind(name)
-        doc = (kind.Spec.__doc__ or getattr(kind, "__doc__", "") or "").strip().split("\n\n")[0].replace("``", "")
-        out.append({"name": name, "description": " ".join(doc.split()), "schema": kind.Spec.model_json_schema(),
-                    "open": list(getattr(views, "FORM_OPEN", []))})
-    return out
+    return [{"name": name, "title": kind.title, "paper": getattr(kind, "paper", ""),
+             "description": kind.title, "schema": kind.Spec.model_json_schema(),
+             "open": list(getattr(kind, "form_open", []) or [])} for name, kind in KINDS.items()]
 
 
 def render_page(path: Path, title: str, current: str | None) -> str:
@@ -325,10 +342,8 @@ def install_dashboard(app: FastAPI) -> None:
         short-lived download link and what it is."""
         owner = who.owner_filter if who is not None else None
         job = await db(lambda s: repo.get_job(s, job_id, owner))
-        from app.web_views import for_kind
-
-        mod = for_kind(job.kind)
-        conv = mod.convergence(job.spec or {}) if mod is not None and hasattr(mod, "convergence") else None
+        kind = _kind(job.kind)
+        conv = history_axis(kind, job.spec or {})
         budget = None
         try:
             from app.jobs.registry import parse_spec
@@ -336,8 +351,8 @@ def install_dashboard(app: FastAPI) -> None:
             budget = _budget(parse_spec(job.spec))
         except Exception:  # a spec stored by an older version: no budget shown, the rest still is
             pass
-        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "budget": budget, "headline": [],
-                               "panels": [], "evidence": [], "files": [], "figures": []}
+        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "budget": budget,
+                               "headline": [], "panels": [], "evidence": [], "files": [], "figures": [], "replay": []}
         if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
             bundle = job.bundle_path
             mtime = os.stat(bundle).st_mtime_ns
@@ -349,9 +364,12 @@ def install_dashboard(app: FastAPI) -> None:
             for f in files:
                 p = Path(f["path"])
                 if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
-                    figs.setdefault(p.stem, {"name": p.stem})[p.suffix[1:]] = f["url"]
-            out.update({k: v[k] for k in ("headline", "panels", "evidence")}, files=files,
+                    figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
+            out.update({k: v[k] for k in ("headline", "panels", "evidence", "replay")}, files=files,
                        figures=[f for f in figs.values() if "png" in f])
-        elif job.summary:
-            out["headline"] = _jsonable(mod.headline(job.summary)) if mod is not None and hasattr(mod, "headline") else []
+        elif job.summary and kind is not None:
+            try:
+                out["headline"] = _jsonable(list(kind.headline(job.summary)))
+            except Exception:  # a failed job's partial summary: no headline
+                pass
         return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})

@@ -32,7 +32,7 @@ def test_bundle_members_links_and_traces(server, second_job):
         gait = figs["gait"]["figure"]
         # legs as the robot numbers them (1 and 6 lost), every label shown
         assert set(gait["layout"]["yaxis"]["tickvals"]) == {
-            f"{who} · leg {leg}" for who in ("recovered", "baseline") for leg in (2, 3, 4, 5)}
+            f"{who} · leg {leg}" for who in ("recovered", "tripod") for leg in (2, 3, 4, 5)}
         assert sorted(f["path"] for f in v["files"]) == sorted(files)
         assert all("sig=" in f["url"] for f in v["files"])
     raw = httpx.get(server.url + link["url"])  # no Authorization header: the signature admits it

@@ -169,9 +169,13 @@
          f.svg ? " · " : null, f.svg ? el("a", { href: f.svg, download: `${f.name}.svg`, text: "SVG" }) : null))));
   }
 
-  function replay(list) {
+  function replay(list, tracks) {
     const f = list.find((x) => x.path === "replay.viser");
     if (!f) return;
+    if (tracks && tracks.length) { // named and coloured as the plots name and colour them
+      $("replay-what").replaceChildren(...tracks.flatMap((t, i) => [i ? (i === tracks.length - 1 ? " and " : ", ") : "",
+        el("span", { class: "swatch", style: `background:${t.color}` }), el("strong", { text: t.label })]), " side by side");
+    }
     const src = `/viser/?playbackPath=${encodeURIComponent(f.url)}`;
     $("replay-card").hidden = false;
     $("replay").src = src;
@@ -193,7 +197,7 @@
     GMViews.panels($("evidence"), meta.evidence || []);
     figures(meta.figures || []);
     files(meta.files || []);
-    replay(meta.files || []);
+    replay(meta.files || [], meta.replay || []);
   }
 
   // ---------- live updates ----------

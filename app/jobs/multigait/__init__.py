@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from app.jobs.base import Kind
 from app.jobs.multigait import present
+from app.jobs.multigait.views import FORM_OPEN
 from app.jobs.multigait.spec import MultigaitSpec
 from app.robots.modular import SHAPES
 
@@ -18,6 +19,7 @@ class MultigaitKind(Kind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
+    form_open = FORM_OPEN  # form groups the dashboard opens first
 
     def run(self, spec, ctx):
         from app.jobs.multigait.run import run
@@ -38,6 +40,16 @@ class MultigaitKind(Kind):
 
     def figures(self, result, out_dir):
         return present.figures(result, out_dir)
+
+    def views(self, summary, traces):
+        from app.jobs.multigait.views import views
+
+        return views(summary, traces)
+
+    def history_axis(self, spec):
+        from app.jobs.multigait.views import history_axis
+
+        return history_axis(spec)
 
     def replay_style(self, trace_names):
         return present.replay_style(trace_names)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from app.jobs.base import Kind
 from app.jobs.recovery import present
+from app.jobs.recovery.views import FORM_OPEN
 from app.jobs.recovery.spec import RecoverySpec
 from app.robots.catalog import ROBOTS
 
@@ -19,6 +20,7 @@ class RecoveryKind(Kind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
+    form_open = FORM_OPEN  # form groups the dashboard opens first
 
     def run(self, spec, ctx):
         from app.jobs.recovery.run import run
@@ -39,6 +41,16 @@ class RecoveryKind(Kind):
 
     def figures(self, result, out_dir):
         return present.figures(result, out_dir)
+
+    def views(self, summary, traces):
+        from app.jobs.recovery.views import views
+
+        return views(summary, traces)
+
+    def history_axis(self, spec):
+        from app.jobs.recovery.views import history_axis
+
+        return history_axis(spec)
 
     def replay_style(self, trace_names):
         return present.replay_style(trace_names)

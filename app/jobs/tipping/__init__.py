@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from app.jobs.base import Kind
 from app.jobs.tipping import present
+from app.jobs.tipping.views import FORM_OPEN
 from app.jobs.tipping.spec import TippingSpec
 
 
@@ -20,6 +21,7 @@ class TippingKind(Kind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
+    form_open = FORM_OPEN  # form groups the dashboard opens first
 
     def run(self, spec, ctx):
         from app.jobs.tipping.run import run
@@ -39,6 +41,16 @@ class TippingKind(Kind):
 
     def figures(self, result, out_dir):
         return present.figures(result, out_dir)
+
+    def views(self, summary, traces):
+        from app.jobs.tipping.views import views
+
+        return views(summary, traces)
+
+    def history_axis(self, spec):
+        from app.jobs.tipping.views import history_axis
+
+        return history_axis(spec)
 
     def replay_style(self, trace_names):
         return present.replay_style(trace_names)

@@ -9,7 +9,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from app.web_views import kit
+from app.jobs import viewkit as kit
 
 
 def gait_color(j: int) -> str:
@@ -203,25 +203,17 @@ def views(summary: dict, traces: Mapping) -> list[dict]:
     return out
 
 
-def convergence(spec: dict) -> dict:
+def history_axis(spec: dict) -> dict:
     if spec.get("cost", "coverage") == "coverage":
         y, better = "coverage (% of map cells)", "higher"
     else:
         y, better = "distance to goal (mu)", "lower"
-    return {"x": "generation", "y": y, "better": better,
+    from app.jobs.multigait.present import HISTORY_COLUMNS
+
+    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": y, "better": better,
             "series": {"best": "best so far", "generation_best": "best of generation", "mean": "mean of generation",
                        "worst": "worst of generation"}}
 
-
-def headline(summary: dict) -> list[dict]:
-    r = summary.get("result", {})
-    cov = summary.get("cost") == "coverage"
-    main = {"label": "coverage" if cov else "distance to goal", "value": r.get("final_best"),
-            "unit": "%" if cov else "mu", "better": "higher" if cov else "lower", "baseline": r.get("initial_best"),
-            "baseline_label": "best of the first generation"}
-    rows = [main, {"label": "tree nodes", "value": r.get("tree_nodes"), "unit": "", "better": None},
-            {"label": "gaits evolved", "value": summary.get("gaits"), "unit": "", "better": None}]
-    return rows
 
 # form groups the dashboard opens first: shape (robot), stuck modules, map, cost, budget
 FORM_OPEN = ["damage", "search"]

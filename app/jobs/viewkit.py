@@ -1,5 +1,6 @@
-"""Building blocks for a kind's dashboard views: plotly figure dicts and tables as plain
-JSON, so the page draws whatever a kind supplies without knowing the kind.
+"""Building blocks for a kind's dashboard views (``Kind.views``): plotly figure dicts and
+tables as plain JSON, so the page draws whatever a kind supplies without knowing the kind;
+and the shared evidence tables (controls, robustness) every kind's summary carries.
 
 A view is a panel: {"id", "title", "caption", and either "figure": {"data", "layout"} or
 "table": {"columns": [...], "rows": [[cell, ...]]}}. A cell is a number, a string, None,
@@ -14,13 +15,14 @@ from typing import Any
 
 import numpy as np
 
-# Roles, not names: the method's answer and its control keep one colour everywhere
-# (plots, tables, replay) so "recovered" never swaps colour with "baseline".
-METHOD = "#0b5cad"
-CONTROL = "#c2410c"
-NEUTRAL = "#5b6472"
-TARGET = "#6b7280"
-PALETTE = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"]
+from app.colors import PALETTE, ROLES
+
+# Roles from the one colour table: the method's answer and its control keep one colour
+# everywhere (plots, tables, replay), so "recovered" never swaps colour with "baseline".
+METHOD = ROLES["method"]
+CONTROL = ROLES["baseline"]
+NEUTRAL = ROLES["mean"]
+TARGET = ROLES["threshold"]
 GRID = "#e3e8ee"
 MAX_POINTS = 1200
 
@@ -135,3 +137,69 @@ def swing_intervals(t: np.ndarray, contact: np.ndarray) -> list[tuple[float, flo
     if off[-1]:
         ends.append(len(t) - 1)
     return [(float(t[s]), float(t[e])) for s, e in zip(starts, ends)]
+
+
+# -- the shared evidence: controls and robustness, as every kind's summary carries them --------
+
+def _metric_cols(items: list[dict]) -> list[str]:
+    cols: list[str] = []
+    for it in items:
+        for k in (it.get("metrics") or {}):
+            if k not in cols:
+                cols.append(k)
+    return cols
+
+
+def _nice(key: str) -> str:
+    return key.replace("_", " ")
+
+
+def _met_cell(v: Any) -> Any:
+    if v is None:
+        return cell("no target", text="–")
+    return cell("met" if v else "not met", met=bool(v))
+
+
+def _metric_cell(v: Any) -> Any:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    return finite(v)
+
+
+def controls_panel(summary: dict) -> dict | None:
+    items = summary.get("controls")
+    if not isinstance(items, list) or not items:
+        return None
+    cols = _metric_cols(items)
+    rows = [[it.get("label") or _nice(str(it.get("name", ""))), it.get("evaluations")]
+            + [_metric_cell((it.get("metrics") or {}).get(c)) for c in cols]
+            + [_met_cell(it.get("target_met")), it.get("note") or ""] for it in items]
+    cap = ("Controls at the same evaluation budget as the method unless the note says otherwise: the baseline, a random "
+           "search over the same space, and the method with each part switched off. They measure how much of the result "
+           "the method earns.")
+    return panel("controls", "Controls", cap,
+                     table=table(["control", "evaluations"] + [_nice(c) for c in cols] + ["target", "note"], rows))
+
+
+def robustness_panel(summary: dict) -> dict | None:
+    rob = summary.get("robustness")
+    if not isinstance(rob, dict) or not rob.get("cases"):
+        return None
+    cases = rob["cases"]
+    cols = _metric_cols(cases)
+    rows = [[c.get("label") or _nice(str(c.get("name", "")))] + [_metric_cell((c.get("metrics") or {}).get(k)) for k in cols]
+            + [_met_cell(c.get("target_met"))] for c in cases]
+    met, total = rob.get("met"), rob.get("total")
+    head = f"{met} of {total} cases meet the target" if met is not None and total is not None else ""
+    cap = (f"The final answer re-simulated under changed conditions (finer timestep, perturbed friction and masses, ...). "
+           f"Target checked: {rob.get('target') or '–'}." + (f" {head}." if head else ""))
+    p = panel("robustness", "Robustness", cap,
+                  table=table(["case"] + [_nice(c) for c in cols] + ["target"], rows))
+    spread = rob.get("spread")
+    if isinstance(spread, dict) and spread:
+        p["table"]["foot"] = [[_nice(k), finite(v.get("nominal")), finite(v.get("min")), finite(v.get("max"))]
+                              for k, v in spread.items() if isinstance(v, dict)]
+        p["table"]["foot_columns"] = ["metric", "nominal", "min", "max"]
+    if met is not None and total:
+        p["summary"] = {"met": met, "total": total}
+    return p

@@ -8,12 +8,16 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from app.web_views import kit
+from app.jobs import viewkit as kit
+from app.jobs.recovery.present import HISTORY_COLUMNS, TARGET as _TARGET, replay_style
 
-RUNS = {"baseline": ("baseline (tripod)", kit.CONTROL), "best": ("recovered (best)", kit.METHOD)}
-# The walking target the issue fixes: forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg.
-TARGET = {"forward_cm": 50.0, "lateral_cm": 5.0, "yaw_deg": 10.0}
-TARGET_TEXT = "forward ≥ 50 cm, |lateral| ≤ 5 cm, |yaw| ≤ 10°"
+# labels and colours as the replay shows them (present.replay_style, app/colors.py roles)
+RUNS = {t.name: (t.label, t.color) for t in replay_style(["best", "baseline"])}
+# The walking target (present.TARGET): forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg.
+TARGET = {"forward_cm": 100 * _TARGET["y_min_m"], "lateral_cm": 100 * _TARGET["x_abs_max_m"],
+          "yaw_deg": _TARGET["yaw_abs_max_deg"]}
+TARGET_TEXT = (f"forward ≥ {TARGET['forward_cm']:g} cm, |lateral| ≤ {TARGET['lateral_cm']:g} cm, "
+               f"|yaw| ≤ {TARGET['yaw_deg']:g}°")
 
 
 def _order(traces: Mapping) -> list[str]:
@@ -113,7 +117,7 @@ def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
         contact = np.asarray(tr["foot_contact"])
         legs = [int(x) for x in tr["legs"]] if "legs" in tr else list(range(1, contact.shape[1] + 1))
         nice, color = _style(name, i)
-        short = {"best": "recovered", "baseline": "baseline"}.get(name, nice)
+        short = {"best": "recovered", "baseline": "tripod"}.get(name, nice)
         sw = {"x": [], "base": [], "y": [], "text": []}
         su = {"x": [], "base": [], "y": [], "text": []}
         T = float(t[-1]) if len(t) else 0.0
@@ -166,25 +170,10 @@ def views(summary: dict, traces: Mapping) -> list[dict]:
     return [v for v in out if v]
 
 
-def convergence(spec: dict) -> dict:
-    return {"x": "generation", "x_note": "generation 0 is the initial population", "y": "fitness F (Eq. 5)",
+def history_axis(spec: dict) -> dict:
+    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": "fitness F (Eq. 5)",
             "better": "higher", "series": {"best": "best so far", "mean": "mean of population", "worst": "worst of population"}}
 
-
-def headline(summary: dict) -> list[dict]:
-    best, base = summary.get("best"), summary.get("baseline")
-    if not best or not base:
-        return []
-    b, a = best["metrics"], base["metrics"]
-    ok = target_checks(b)
-    return [{"label": "forward (y)", "value": b["y_f_m"] * 100, "baseline": a["y_f_m"] * 100, "unit": "cm",
-             "better": "higher", "target": "≥ 50 cm", "met": ok["forward"]},
-            {"label": "lateral drift (x)", "value": b["x_f_m"] * 100, "baseline": a["x_f_m"] * 100, "unit": "cm",
-             "better": "closer to 0", "target": "|x| ≤ 5 cm", "met": ok["lateral"]},
-            {"label": "final yaw", "value": b["yaw_f_deg"], "baseline": a["yaw_f_deg"], "unit": "°",
-             "better": "closer to 0", "target": "|yaw| ≤ 10°", "met": ok["yaw"]},
-            {"label": "fitness F (Eq. 5)", "value": best["fitness"], "baseline": base["fitness"], "unit": "",
-             "better": "higher"}]
 
 # form groups the dashboard opens first (the damage is drawn on the robot)
 FORM_OPEN = ["damage", "search", "sim"]

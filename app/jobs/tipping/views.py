@@ -10,9 +10,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from app.web_views import kit
+from app.jobs import viewkit as kit
+from app.jobs.tipping.present import replay_style
 
-RUNS = {"no_recovery": ("without recovery", kit.CONTROL), "recovery": ("with recovery", kit.METHOD)}
+# labels and colours as the replay shows them (present.replay_style, app/colors.py roles)
+RUNS = {t.name: (t.label, t.color) for t in sorted(replay_style(["no_recovery", "recovery"]), key=lambda t: -t.order)}
 CLIP = (-45.0, 90.0)  # once the robot has gone over, the margin is meaningless (-180 deg)
 
 
@@ -195,32 +197,9 @@ def views(summary: dict, traces: Mapping) -> list[dict]:
     return out
 
 
-def convergence(spec: dict) -> dict | None:
+def history_axis(spec: dict) -> dict | None:
     return None  # runs, not generations: the history is a table of runs
 
-
-def headline(summary: dict) -> list[dict]:
-    thr = summary.get("threshold_deg", 20.0)
-    runs = summary.get("runs", {})
-    rows = []
-    for name, (label, _) in RUNS.items():
-        if name in runs:
-            up = not runs[name].get("tipped")
-            rows.append({"label": f"outcome {label}", "value": "upright" if up else "tipped over", "unit": "",
-                         "better": None, "target": "stays upright" if name == "recovery" else None,
-                         "met": up if name == "recovery" else None})
-    if summary.get("adjustment_leg") is not None:
-        fh = summary.get("foothold_body_m") or []
-        rows += [{"label": "adjustment leg", "value": summary["adjustment_leg"], "unit": "", "better": None},
-                 {"label": "foothold (body frame)", "value": ", ".join(f"{v:.2f}" for v in fh), "unit": "m", "better": None},
-                 {"label": "detected at", "value": summary.get("detection_time_s"), "unit": "s", "better": None},
-                 {"label": "time to tip (Eq. 15)", "value": summary.get("time_to_tip_s"), "unit": "s", "better": None},
-                 {"label": "margin before landing", "value": summary.get("margin_before_landing_deg"), "unit": "°",
-                  "better": "higher"},
-                 {"label": "margin after landing", "value": summary.get("margin_after_landing_deg"), "unit": "°",
-                  "better": "higher", "target": f"≥ {thr:g}° (threshold)",
-                  "met": (summary.get("margin_after_landing_deg") or -1e9) >= thr}]
-    return rows
 
 # form groups the dashboard opens first: what a user sets for a tipping run
 FORM_OPEN = ["scenario", "recovery.enabled", "sweep"]
