@@ -99,8 +99,10 @@ def panel(pid: str, title: str, caption: str = "", figure: dict | None = None, t
 
 
 def cell(value: Any, unit: str | None = None, met: bool | None = None, better: bool | None = None,
-         text: str | None = None) -> dict:
+         text: str | None = None, note: str | None = None) -> dict:
     c: dict[str, Any] = {"value": finite(value)}
+    if note:
+        c["note"] = note
     if unit:
         c["unit"] = unit
     if met is not None:
@@ -171,14 +173,14 @@ def controls_panel(summary: dict) -> dict | None:
     if not isinstance(items, list) or not items:
         return None
     cols = _metric_cols(items)
-    rows = [[it.get("label") or _nice(str(it.get("name", ""))), it.get("evaluations")]
+    rows = [[cell(it.get("label") or _nice(str(it.get("name", ""))), note=it.get("note")), it.get("evaluations")]
             + [_metric_cell((it.get("metrics") or {}).get(c)) for c in cols]
-            + [_met_cell(it.get("target_met")), it.get("note") or ""] for it in items]
+            + [_met_cell(it.get("target_met"))] for it in items]
     cap = ("Controls at the same evaluation budget as the method unless the note says otherwise: the baseline, a random "
            "search over the same space, and the method with each part switched off. They measure how much of the result "
            "the method earns.")
     return panel("controls", "Controls", cap,
-                     table=table(["control", "evaluations"] + [_nice(c) for c in cols] + ["target", "note"], rows))
+                     table=table(["control (and how it was run)", "evaluations"] + [_nice(c) for c in cols] + ["target"], rows))
 
 
 def robustness_panel(summary: dict) -> dict | None:

@@ -43,7 +43,8 @@
     if (s.optimizer && s.population !== undefined) {
       facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
     } else if (Object.keys(s).length) {
-      facts.push(["Search", Object.entries(s).map(([k, v]) => `${k} ${typeof v === "string" ? v.toUpperCase() : v}`).join(", ")]);
+      facts.push(["Search", Object.entries(s).filter(([, v]) => v !== null && typeof v !== "object")
+        .map(([k, v]) => `${k.replace(/_/g, " ")} ${k === "optimizer" ? String(v).toUpperCase() : v}`).join(", ")]);
     }
     if (spec.sim && spec.sim.duration_s) facts.push(["Walk", `${spec.sim.duration_s} s`]);
     facts.push(["Created", new Date(j.created_at).toLocaleString()]);
@@ -80,13 +81,13 @@
       line: { color: COLORS[k] || GM.PALETTE[(i + 2) % GM.PALETTE.length], width: (style[k] || ["solid", 2])[1],
               dash: (style[k] || ["solid"])[0] }, marker: { size: 5 },
     }));
-    const better = conv.better ? ` (${conv.better} is better)` : "";
+    const better = conv.better ? `, ${conv.better} better` : "";
     $("conv-note").textContent = [conv.x_note && `${xKey[0].toUpperCase()}${xKey.slice(1)} ${conv.x_note.replace(/^generation /, "")}.`,
                                   conv.better && `${conv.y}: ${conv.better} is better.`].filter(Boolean).join(" ");
     plot(div, traces, { xaxis: { title: { text: xKey }, gridcolor: "#e3e8ee",
                                  dtick: x.length <= 12 ? 1 : undefined },
                         yaxis: { title: { text: `${conv.y}${better}` }, gridcolor: "#e3e8ee" } });
-    div.setAttribute("aria-label", `${conv.y} per ${xKey}${better}`);
+    div.setAttribute("aria-label", `${conv.y} per ${xKey}${conv.better ? `; ${conv.better} is better` : ""}`);
     if (firstPlot) { firstPlot = false; window.gmFirstPlotAt = performance.now(); div.dataset.rendered = "1"; }
   }
 

@@ -23,6 +23,7 @@ const GMViews = (() => {
     if (c.better === false) { parts.push(el("span", { class: "mark worse", text: "▼ worse" })); classes.push("is-worse"); }
     if (c.met === true && !verdict) parts.push(el("span", { class: "mark met", text: "✓ met" }));
     if (c.met === false && !verdict) parts.push(el("span", { class: "mark unmet", text: "✗ not met" }));
+    if (c.note) parts.push(el("div", { class: "cell-note", text: c.note }));
     if (c.met === true) classes.push("is-met");
     if (c.met === false) classes.push("is-unmet");
     return el(tag, { class: classes.filter(Boolean).join(" ") || null }, parts);
@@ -46,7 +47,9 @@ const GMViews = (() => {
     const hasTarget = rows.some((r) => r.target);
     const cols = ["Quantity", "Value", "Better when"].concat(hasBase ? ["Control", "Against the control"] : [],
                                                              hasTarget ? ["Target", "Met"] : []);
-    const fmt = (v, unit) => (typeof v === "number" ? `${num(v, 2)}${unit ? ` ${unit}` : ""}` : v === null || v === undefined ? "–" : `${v}${unit ? ` ${unit}` : ""}`);
+    const show = (v) => (typeof v === "number" ? num(v, 2) : typeof v === "boolean" ? (v ? "yes" : "no")
+      : Array.isArray(v) ? v.map(show).join(", ") : v === null || v === undefined ? "–" : String(v));
+    const fmt = (v, unit) => (v === null || v === undefined ? "–" : `${show(v)}${unit ? ` ${unit}` : ""}`);
     const cmp = (r) => {
       if (typeof r.value !== "number" || typeof r.baseline !== "number" || r.value === r.baseline) return null;
       if (r.better === "higher") return r.value > r.baseline;
