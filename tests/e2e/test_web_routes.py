@@ -105,3 +105,23 @@ def test_jobs_list_stays_fast_with_thousands_of_jobs(new_page, server):
     expect(pg.locator("#jobs-count")).to_contain_text("No jobs match")
     pg.select_option("#f-status", "cancelled")
     expect(pg.locator("#jobs-body tr")).to_have_count(50)
+
+
+def test_kinds_and_check_for_the_form(server):
+    """The form is built from every registered kind's schema; a check gives the spec's own
+    budget, or the API's field errors, and queues nothing."""
+    from app.jobs.registry import KINDS
+
+    with server.client("alice") as c:
+        kinds = c.get("/api/web/kinds").json()
+        assert [k["name"] for k in kinds] == list(KINDS)
+        for k in kinds:
+            assert k["schema"]["properties"]["kind"]["const"] == k["name"] and k["title"]
+        before = c.get("/api/jobs", params={"limit": 500}).json()["items"]
+        ok = c.post("/api/web/check", json=SPEC).json()
+        assert ok["evaluations"] == KINDS["recovery"].Spec.parse(SPEC).evaluations_budget
+        bad = c.post("/api/web/check", json=SPEC | {"search": {"population": 2}})
+        assert bad.status_code == 422 and bad.json()["errors"][0]["field"] == "search.population"
+        assert c.post("/api/web/check", json={"kind": "nope"}).json()["errors"][0]["field"] == "kind"
+        assert c.get("/api/jobs", params={"limit": 500}).json()["items"] == before
+    assert httpx.post(server.url + "/api/web/check", json=SPEC).status_code == 401  # tokens on
