@@ -29,10 +29,11 @@ from fastapi.staticfiles import StaticFiles
 from app.api.auth import LOCAL_OWNER, Principal, principal
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
+from app.assets import asset_dir
 from app.store import repo
 from app.store.db import session_scope
 
-WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR", Path(__file__).resolve().parent.parent / "web"))
+WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
 # page name -> (template, title, the nav link marked as the current page)
 PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
          "compare": ("compare.html", "compare", "/compare")}

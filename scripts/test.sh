@@ -23,6 +23,9 @@ if command -v pg_isready >/dev/null && ! pg_isready -h 127.0.0.1 -q 2>/dev/null;
   pg_ctlcluster --skip-systemctl-redirect "$(ls /etc/postgresql | head -1)" main start 2>/dev/null || true
 fi
 
+# The suite writes nothing into the checkout (tests/conftest.py fails the run if it does);
+# bytecode caches go to a temporary folder too.
+export PYTHONPYCACHEPREFIX="${TMPDIR:-/tmp}/gaitmend-pycache"
 set +e
 python -m pytest "$@"
 rc=$?

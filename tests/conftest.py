@@ -5,10 +5,20 @@ and Redis key prefix, so runs in parallel do not collide."""
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 import uuid
+from pathlib import Path
 
 import pytest
+from hypothesis import settings as hypothesis_settings
+
+# Hypothesis keeps its example database in ./.hypothesis by default: the suite must not
+# write into the checkout (issue 16.11), and every property test here is derandomised.
+hypothesis_settings.register_profile("gaitmend", database=None)
+hypothesis_settings.load_profile("gaitmend")
+
+ROOT = Path(__file__).resolve().parent.parent
 
 sys.path.insert(0, os.path.dirname(__file__))  # tests/service_support.py
 
@@ -49,3 +59,31 @@ def redis_url():
     keys = list(r.scan_iter(f"{prefix}*"))
     if keys:
         r.delete(*keys)
+
+
+# -- the suite writes nothing into the checkout (issue 16.11) ----------------------------------
+
+def _untracked() -> set[str] | None:
+    """Untracked and ignored paths of the checkout (a folder counts once), or None outside git."""
+    try:
+        out = subprocess.run(["git", "ls-files", "--others", "--directory", "--no-empty-directory", "-z"],
+                             cwd=ROOT, capture_output=True, timeout=60, check=True).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return {p for p in out.decode(errors="replace").split("\0") if p and "__pycache__" not in p}
+
+
+def pytest_sessionstart(session):
+    session.config._gaitmend_untracked = _untracked()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    before = getattr(session.config, "_gaitmend_untracked", None)
+    after = _untracked()
+    if before is None or after is None:
+        return
+    new = sorted(after - before)
+    if new:
+        session.config.get_terminal_writer().line(
+            f"the tests wrote into the checkout {ROOT}: {new} (write under tmp_path instead)", red=True)
+        session.exitstatus = 1

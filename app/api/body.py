@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 
 MAX_DEPTH = 32
 MAX_INT_DIGITS = 20  # beyond int64; every integer a spec takes is far smaller
@@ -71,6 +72,8 @@ def _float(s: str):
     v = float(s)
     if not math.isfinite(v):
         return _Bad(f"{s} is out of range (a finite number is required)")
+    if v != 0.0 and abs(v) < sys.float_info.min:  # subnormal: no physical quantity in a spec is this small
+        return _Bad(f"{s} is too small to be a physical quantity (write 0, or at least {sys.float_info.min:.1e})")
     return v
 
 

@@ -1,17 +1,17 @@
-"""Apply and inspect the Alembic migrations in migrations/ (next to the app package)."""
+"""Apply and inspect the Alembic migrations in migrations/ (next to the app package, or
+inside it in a wheel: app/assets.py)."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 from alembic import command
 from alembic.config import Config
 from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 
+from app.assets import asset_dir
 from app.store.db import get_engine
 
-MIGRATIONS = Path(__file__).resolve().parents[2] / "migrations"
+MIGRATIONS = asset_dir("migrations")
 
 
 def alembic_config(url: str) -> Config:

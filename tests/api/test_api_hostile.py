@@ -51,6 +51,14 @@ def small_text(**top) -> str:
     ('\ufeff{"kind":"recovery"}', "body", "byte-order mark"),
     ('{"kind": []}', "kind", "must be a string"),
     ('{"kind": {}}', "kind", "must be a string"),
+    ('{"kind":"recovery","sim":{"duration_s":1e-320}}', "sim.duration_s", "too small"),
+    ('{"kind":"recovery","sim":{"duration_s":1e-300}}', "sim.duration_s", "greater than or equal to 0.5"),
+    ('{"kind":"recovery","search":{"population":"30"}}', "search.population", "valid integer"),
+    ('{"kind":"recovery","search":{"population":30.0}}', "search.population", "valid integer"),
+    ('{"kind":"recovery","damage":{"lost_legs":[true]}}', "damage.lost_legs.0", "valid integer"),
+    ('{"kind":"recovery","damage":{"lost_legs":["1"]}}', "damage.lost_legs.0", "valid integer"),
+    ('{"kind":"recovery","objective":{"weights":[1,1,10,100,1e308]}}', "objective.weights.4", "less than"),
+    ('{"kind":"recovery","bounds":{"x0_m":[0, 1e308]}}', "bounds.x0_m.1", "less than"),
 ])
 def test_bodies_that_used_to_escape_the_parser(client, settings, raw, field, words):
     r = client.post("/api/jobs", content=raw.encode("utf-8", "surrogatepass"), headers=JSON)

@@ -7,7 +7,7 @@ whose total exceeds ``MAX_BUDGET`` units is refused with the formula in the mess
 
 from __future__ import annotations
 
-from typing import ClassVar, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -21,7 +21,7 @@ MAX_BUDGET = 2_000_000
 
 
 class Damage(StrictModel):
-    stuck_modules: list[int] = Field(default_factory=list)
+    stuck_modules: list[Annotated[int, Field(ge=0, le=63)]] = Field(default_factory=list, max_length=64)
 
     @field_validator("stuck_modules")
     @classmethod
@@ -98,18 +98,18 @@ class Robustness(StrictModel):
 
 class MultigaitSpec(SpecBase):
     kind: Literal["multigait"] = "multigait"
-    robot: str = "lizard"
+    robot: str = Field("lizard", max_length=64, json_schema_extra={"enum": sorted(SHAPES)})
     damage: Damage = Field(default_factory=Damage)
     gaits: int | None = Field(None, ge=1, le=6)  # paper: 3 (2 on the staircase)
     cost: Literal["coverage", "distance"] = "coverage"
-    map: str = "empty"
+    map: str = Field("empty", max_length=64, json_schema_extra={"enum": sorted(MAPS)})
     search: Search = Field(default_factory=Search)
     planner: Planner = Field(default_factory=Planner)
     reuse: Reuse = Field(default_factory=Reuse)
     verify: Verify = Field(default_factory=Verify)
     controls: Controls = Field(default_factory=Controls)
     robustness: Robustness = Field(default_factory=Robustness)
-    gait_duration_s: float = Field(30.0, gt=0.0, le=120.0)  # tau^p
+    gait_duration_s: float = Field(30.0, ge=1.0, le=120.0)  # tau^p; under 1 s a CPG gait moves nothing
     settle_s: float = Field(1.0, ge=0.0, le=10.0)
 
     @field_validator("robot")

@@ -16,7 +16,10 @@ from app.sim.robust import AGGREGATES
 
 Leg = Annotated[int, Field(ge=1, le=6)]
 JointName = Literal["coxa", "femur", "tibia"]
-Range = tuple[float, float]
+# Search-space bounds are positions and lengths at the foot: within a metre of the hip
+# (a JetHexa leg reaches about 0.2 m), so a typo cannot ask for a gait in kilometres.
+Metres = Annotated[float, Field(ge=-1.0, le=1.0)]
+Range = tuple[Metres, Metres]
 
 
 class LockedJointIn(StrictModel):
@@ -32,9 +35,9 @@ class WeakJointIn(StrictModel):
 
 
 class Damage(StrictModel):
-    lost_legs: list[Leg] = Field(default_factory=list)
-    locked_joints: list[LockedJointIn] = Field(default_factory=list)
-    weak_joints: list[WeakJointIn] = Field(default_factory=list)
+    lost_legs: list[Leg] = Field(default_factory=list, max_length=6)
+    locked_joints: list[LockedJointIn] = Field(default_factory=list, max_length=18)  # 6 legs x 3 joints
+    weak_joints: list[WeakJointIn] = Field(default_factory=list, max_length=18)
 
     @field_validator("lost_legs")
     @classmethod
@@ -70,7 +73,7 @@ class Search(StrictModel):
 
 
 class Objective(StrictModel):
-    weights: list[Annotated[float, Field(ge=0.0)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
+    weights: list[Annotated[float, Field(ge=0.0, le=1e6)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
                                                            min_length=5, max_length=5)
     # Eq. 5 gives no units; Table II reports cm and degrees, and in those units the
     # weights do what the paper says they are for (see README, "Choices").
@@ -78,7 +81,7 @@ class Objective(StrictModel):
 
 
 class Sim(StrictModel):
-    duration_s: float = Field(10.0, gt=0.0, le=120.0)
+    duration_s: float = Field(10.0, ge=0.5, le=120.0)  # shorter than a few steps measures nothing
     settle_s: float = Field(0.5, ge=0.0, le=5.0)
     # The default passes the convergence rule (README, "Timestep"); coarser steps are allowed
     # for quick looks, and the robustness block shows what they cost.
@@ -152,7 +155,7 @@ class Bounds(StrictModel):
 
 class RecoverySpec(SpecBase):
     kind: Literal["recovery"] = "recovery"
-    robot: str = "jethexa"
+    robot: str = Field("jethexa", max_length=64, json_schema_extra={"enum": sorted(ROBOTS)})
     damage: Damage = Field(default_factory=Damage)
     search: Search = Field(default_factory=Search)
     objective: Objective = Field(default_factory=Objective)

@@ -13,7 +13,7 @@ from app.robots.heavy_hexapod import HEAVY, TRIPODS
 from app.stability.evidence import ROBUSTNESS_CASES, EvidencePlan
 from app.stability.scenario import CliffScenario, ControllerConfig, TiltScenario, paper_direction
 
-Tripod = list[Annotated[int, Field(ge=1, le=6)]]
+Tripod = Annotated[list[Annotated[int, Field(ge=1, le=6)]], Field(max_length=6)]
 
 
 def _check_tripod(v: list[int]) -> list[int]:
