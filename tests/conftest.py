@@ -7,14 +7,17 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 import uuid
 from pathlib import Path
 
 import pytest
 from hypothesis import settings as hypothesis_settings
+from hypothesis.configuration import set_hypothesis_home_dir
 
-# Hypothesis keeps its example database in ./.hypothesis by default: the suite must not
-# write into the checkout (issue 16.11), and every property test here is derandomised.
+# Hypothesis keeps its example database and caches in ./.hypothesis by default: the suite
+# must not write into the checkout (issue 16.11), and every property test is derandomised.
+set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "gaitmend-hypothesis"))
 hypothesis_settings.register_profile("gaitmend", database=None)
 hypothesis_settings.load_profile("gaitmend")
 

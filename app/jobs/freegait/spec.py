@@ -81,7 +81,8 @@ class ForbiddenIn(StrictModel):
 class PlannerIn(StrictModel):
     sm_min_m: float = Field(0.05, ge=0.0, le=0.3, description="SM_min (Def. 2)")
     k_ev: float = Field(0.04, ge=0.0, le=20.0, description="weight of SM_t in Ev = K + k_ev SM_t (Eq. 24)")
-    candidates_per_leg: int = Field(15, description=f"N, 2 or more; all N^3 tripods are checked, N^3 <= {MAX_TRIPODS}")
+    candidates_per_leg: int = Field(15, json_schema_extra={"minimum": 2, "maximum": int(MAX_TRIPODS ** (1 / 3) + 1e-9)},
+                                    description=f"N, 2 or more; all N^3 tripods are checked, N^3 <= {MAX_TRIPODS}")
     h1_m: float = Field(0.13, gt=0.0, le=0.3)
     h2_m: float = Field(0.11, ge=0.0, le=0.3)
     h3_m: float = Field(0.20, gt=0.0, le=0.3)
