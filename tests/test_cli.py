@@ -52,7 +52,7 @@ def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp
     ({"damage": {"lost_legs": [2, 4]}}, "damage.lost_legs: infeasible morphology"),
     ({"bounds": {"step_length_m": [0.05, 0.02]}}, "step_length_m: lower bound 0.05 exceeds upper bound 0.02"),
     ({"search": {"population": 2}}, "search.population: Input should be greater than or equal to 4"),
-    ({"sim": {"duration_s": -1}}, "sim.duration_s: Input should be greater than 0"),
+    ({"sim": {"duration_s": -1}}, "sim.duration_s: Input should be greater than or equal to 0.5"),
     ({"gravity": 3}, "gravity: unknown field"),
 ])
 def test_bad_specs_exit_2_name_the_field_and_write_nothing(tmp_path, patch, needle):
