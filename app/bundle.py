@@ -33,7 +33,9 @@ def versions() -> dict[str, str]:
 
     import viser
 
-    return {"gaitmend": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+    from app.provenance import source_commit
+
+    return {"gaitmend": __version__, "commit": source_commit(), "mujoco": mujoco.__version__, "numpy": np.__version__,
             "scipy": scipy.__version__, "cma": cma.__version__, "viser": viser.__version__,
             "python": platform.python_version()}
 
@@ -101,14 +103,28 @@ Job `{job_id}` ({kind}: {title}, robot `{robot}`), made by gaitmend {version}.
 {rows}
 ## Reproduce
 
+{install}
 ```
-pip install "gaitmend=={version}"   # or: pip install -e . in a checkout
+gaitmend verify manifest.json       # re-runs the job and compares every number with result.json
 gaitmend run manifest.json --out reproduced/
 ```
 
 The same spec and seed give the same numbers (the search and the simulation are
 deterministic; checked with MuJoCo {mujoco}).
 """
+
+
+def install_text(commit: str | None) -> str:
+    """How to install exactly the source that made the bundle (gaitmend is not on PyPI)."""
+    if not commit:
+        return (f"This bundle records no source commit: install gaitmend {__version__} from its source "
+                "(`pip install .` in a checkout of that version).\n")
+    sha = commit.removesuffix("+dirty")
+    note = ("\nThe checkout had uncommitted changes when it ran, so that commit may differ from what ran.\n"
+            if commit.endswith("+dirty") else "")
+    return (f"Made from commit `{sha}`. Install exactly that source, in a fresh venv:\n\n"
+            f"```\ngit clone <the gaitmend repository> gaitmend && cd gaitmend && git checkout {sha}\n"
+            f"python3 -m venv .venv && . .venv/bin/activate && pip install .\n```\n{note}")
 
 
 def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_files: dict[str, bytes] | None = None) -> Path:
@@ -143,7 +159,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
         rows = kind.bundle_rows(list(members) + ["README.md"])
         members["README.md"] = README.format(
             job_id=job_id, kind=spec.kind, title=kind.title, robot=getattr(spec, "robot", ""), version=__version__,
-            mujoco=man["versions"]["mujoco"], rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))
+            mujoco=man["versions"]["mujoco"], install=install_text(man["versions"].get("commit")), rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))
         fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")
         os.close(fd)
         try:

@@ -258,6 +258,8 @@ def install_dashboard(app: FastAPI) -> None:
             return await run_in_threadpool(call)
         except repo.NotFound as e:
             raise ApiError(404, f"no job {str(e)!r}", field="id") from None
+        except repo.Conflict as e:  # an id prefix shared by several jobs
+            raise ApiError(409, str(e), field=e.field) from None
 
     async def _link_principal(token_id: int | None) -> Principal | None:
         if token_id is None:

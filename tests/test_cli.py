@@ -39,12 +39,26 @@ def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp
     assert set(manifest["versions"]) >= {"gaitmend", "mujoco", "numpy", "python"}
     assert manifest["evaluations"] == summary["timing"]["evaluations"]
 
-    again = gaitmend("run", str(out / "manifest.json"), "--out", str(tmp_path / "again"), "--json", "--quiet")
+    folder = out / summary["job_id"]  # unpacked beside the zip, in a folder of its own
+    assert json.loads((folder / "manifest.json").read_text()) == manifest
+    again = gaitmend("run", str(folder / "manifest.json"), "--out", str(out), "--json", "--quiet")
     assert again.returncode == 0, again.stderr
     rerun = json.loads(again.stdout.strip().splitlines()[-1])
     for key in ("baseline", "best", "gait", "history"):
         assert rerun[key] == summary[key]
-    assert json.loads((tmp_path / "again" / "manifest.json").read_text())["model_sha256"] == manifest["model_sha256"]
+    assert rerun["job_id"] != summary["job_id"]  # the same --out: a second folder, the first one untouched
+    assert json.loads((folder / "manifest.json").read_text()) == manifest
+    assert json.loads((out / rerun["job_id"] / "manifest.json").read_text())["model_sha256"] == manifest["model_sha256"]
+    readme = (folder / "README.md").read_text()
+    assert "gaitmend verify manifest.json" in readme and "pip install \"gaitmend==" not in readme
+
+    same = gaitmend("verify", str(folder), "--quiet")  # re-runs and compares every number
+    assert same.returncode == 0 and "same numbers" in same.stdout, same.stdout + same.stderr
+    result = json.loads((folder / "result.json").read_text())
+    result["best"]["fitness"] += 1e-9
+    (folder / "result.json").write_text(json.dumps(result))
+    differ = gaitmend("verify", str(folder / "manifest.json"), "--quiet")
+    assert differ.returncode == 1 and "DIFFERENT: best.fitness" in differ.stdout, differ.stdout + differ.stderr
 
 
 @pytest.mark.parametrize("patch,needle", [
@@ -84,3 +98,12 @@ def test_multigait_run_prints_its_coverage_table(tmp_path):
     assert "first generation" in text and "final best" in text
     assert "re-planned cost matches the search: True" in text
     assert "reuse column_opposite: distance" in text
+
+
+def test_version_and_replay_of_a_missing_path(tmp_path):
+    from app import __version__
+
+    v = gaitmend("--version")
+    assert v.returncode == 0 and v.stdout.strip() == f"gaitmend {__version__}"
+    r = gaitmend("replay", str(tmp_path / "nonexistent"))
+    assert r.returncode == 2 and "no such bundle file or folder" in r.stderr and "Connection" not in r.stderr

@@ -85,6 +85,8 @@ class JobOut(BaseModel):
     error: str | None
     damage: str = Field(description="the spec's damage in words, e.g. 'lost 1,6; locked 2.femur'")
     best_fitness: float | None = Field(None, description="best objective so far (final once succeeded)")
+    headline: list[dict[str, Any]] | None = Field(
+        None, description="the kind's headline rows once the job succeeded: label, value, unit, better, target, met")
     summary: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     links: dict[str, str]
@@ -103,10 +105,20 @@ class JobOut(BaseModel):
             created_at=job.created_at, started_at=job.started_at, finished_at=job.finished_at,
             updated_at=job.updated_at,
             wall_s=(end - job.started_at).total_seconds() if job.started_at else None,
-            error=job.error, damage=damage_text(job.spec), best_fitness=best_fitness(job),
+            error=job.error, damage=damage_text(job.spec), best_fitness=best_fitness(job), headline=_headline(job),
             summary=job.summary if detail else None, spec=job.spec if detail else None,
             links={"self": base, "history": f"{base}/history", "events": f"{base}/events",
                    "bundle": f"{base}/bundle"})
+
+
+def _headline(job: Job) -> list[dict[str, Any]] | None:
+    kind = KINDS.get(job.kind)
+    if kind is None or job.status != "succeeded" or not job.summary:
+        return None
+    try:
+        return [dict(r) for r in kind.headline(job.summary)]
+    except (KeyError, TypeError, ValueError, IndexError):  # a summary from an older version of the kind
+        return None
 
 
 class JobList(BaseModel):

@@ -10,7 +10,7 @@ from typing import Optional
 
 import typer
 
-from app.cli.common import cli, err, fail, load_spec, settings_or_exit
+from app.cli.common import cli, err, fail, load_spec, out_console, settings_or_exit
 
 FINAL = ("succeeded", "failed", "cancelled")
 
@@ -95,49 +95,106 @@ def submit(spec_path: Path = typer.Argument(..., metavar="SPEC", help="spec JSON
         job = _call(c, "POST", "/api/jobs", content=spec.model_dump_json(), headers=headers
                     | {"Content-Type": "application/json"}).json()
         if not as_json:
+            # The id goes out at once (stdout, flushed), so a script can cancel the job while it runs.
+            print(job["id"], flush=True)
             err.print(f"job {job['id']} {job['status']}")
         if wait:
             job = _wait(c, job["id"], quiet=as_json)
     if as_json:
         print(json.dumps(job))
-    else:
-        print(job["id"])
-        if job["status"] in ("failed", "cancelled"):
-            err.print(f"{job['status']}: {job.get('error') or ''}")
+    elif wait:
+        _say_outcome(job)
     if wait and job["status"] != "succeeded":
         raise typer.Exit(1)
 
 
+def _say_outcome(job: dict) -> None:
+    if job["status"] == "succeeded":
+        err.print(f"succeeded in {job['wall_s'] or 0:.1f} s" + (f"; {_headline_text(job)}" if job.get("headline") else ""),
+                  highlight=False)
+    elif job["status"] == "cancelled":
+        why = job.get("error") or ("cancelled on request" if job.get("cancel_requested") else "cancelled")
+        err.print(f"cancelled: {why}", highlight=False)
+    else:
+        err.print(f"{job['status']}: {job.get('error') or 'no reason recorded'}", highlight=False)
+
+
+def _headline_text(job: dict, first: int | None = None) -> str:
+    rows = (job.get("headline") or [])[:first]
+    out = []
+    for r in rows:
+        v = r["value"]
+        v = f"{v:.4g}" if isinstance(v, float) else ("-" if v is None else str(v))
+        out.append(f"{r['label']} {v}{(' ' + r['unit']) if r.get('unit') else ''}")
+    return "; ".join(out)
+
+
+SHORT_ID = 8  # ids are shown this long; any unique prefix (6 or more hex digits) is accepted
+
+
 @cli.command()
-def jobs(job_id: Optional[str] = typer.Argument(None, help="show one job"),
+def jobs(job_id: Optional[str] = typer.Argument(None, help="show one job (its id or a unique prefix of it)"),
          status: Optional[str] = typer.Option(None, help="queued, running, succeeded, failed or cancelled"),
          kind: Optional[str] = typer.Option(None), robot: Optional[str] = typer.Option(None),
          limit: int = typer.Option(20, min=1, max=500),
          server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
-    """List jobs (newest first), or show one."""
+    """List jobs (newest first) with their damage and headline value, or show one job."""
     if status is not None and status not in ("queued", "running", "succeeded", "failed", "cancelled"):
         fail(f"--status: one of queued, running, succeeded, failed, cancelled; got {status!r}")
     with _client(server, token) as c:
         if job_id:
             job = _call(c, "GET", f"/api/jobs/{job_id}").json()
-            print(json.dumps(job, indent=None if as_json else 2))
+            if as_json:
+                print(json.dumps(job))
+            else:
+                _show_job(job)
             return
         params = {k: v for k, v in {"status": status, "kind": kind, "robot": robot, "limit": limit}.items() if v}
         page = _call(c, "GET", "/api/jobs", params=params).json()
     if as_json:
         print(json.dumps(page))
         return
-    from rich.console import Console
     from rich.table import Table
 
     t = Table()
-    for col in ("id", "kind", "robot", "status", "progress", "attempt", "created"):
-        t.add_column(col)
+    for col in ("id", "kind", "robot", "damage", "status", "progress", "headline", "created"):
+        t.add_column(col, overflow="fold")
     for j in page["items"]:
         p = j["progress"]
-        t.add_row(j["id"], j["kind"], j["robot"] or "", j["status"], f"{p['done']}/{p['total']}", str(j["attempt"]),
-                  j["created_at"][:19])
-    Console().print(t)
+        t.add_row(j["id"][:SHORT_ID], j["kind"], j["robot"] or "", j["damage"], j["status"],
+                  f"{p['done']}/{p['total']}", _headline_text(j, first=1) or "-", j["created_at"][:19])
+    out_console().print(t)
+    if page.get("next_cursor"):
+        err.print(f"(newest {len(page['items'])} shown; --limit N for more)")
+
+
+def _show_job(job: dict) -> None:
+    """One job for a person: status, timings, error, the kind's headline and tables."""
+    from app.cli.common import print_tables
+    from app.jobs.registry import KINDS
+
+    con = out_console()
+    p = job["progress"]
+    lines = [f"job {job['id']}  {job['kind']}  robot {job['robot'] or '-'}  owner {job['owner']}",
+             f"status {job['status']}" + (" (cancel requested)" if job["cancel_requested"] and job["status"] == "running"
+                                          else "") + f"  progress {p['done']}/{p['total']}  attempt {job['attempt']}",
+             f"damage {job['damage']}",
+             f"created {job['created_at'][:19]}  started {(job['started_at'] or '-')[:19]}  "
+             f"finished {(job['finished_at'] or '-')[:19]}" + (f"  wall {job['wall_s']:.1f} s" if job["wall_s"] else "")]
+    if job.get("error"):
+        lines.append(f"error: {job['error']}")
+    for line in lines:
+        con.print(line, highlight=False)
+    kind = KINDS.get(job["kind"])
+    if job.get("summary") and kind is not None:
+        try:
+            print_tables(kind.summary_tables(job["summary"]), con)
+        except (KeyError, TypeError, ValueError, IndexError):  # a summary of another version
+            con.print(_headline_text(job), highlight=False)
+    elif job.get("headline"):
+        con.print(_headline_text(job), highlight=False)
+    con.print(f"(full JSON: gaitmend jobs {job['id'][:SHORT_ID]} --json; bundle: gaitmend fetch {job['id'][:SHORT_ID]})",
+              highlight=False)
 
 
 @cli.command()
@@ -145,6 +202,7 @@ def fetch(job_id: str = typer.Argument(...), out: Path = typer.Option(Path("."),
           server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
     """Download a finished job's result bundle (zip)."""
     with _client(server, token) as c:
+        job_id = _call(c, "GET", f"/api/jobs/{job_id}").json()["id"]  # a prefix resolves to the full id
         r = _call(c, "GET", f"/api/jobs/{job_id}/bundle")
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"gaitmend-{job_id}.zip"
@@ -167,6 +225,24 @@ def cancel(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] 
 
 
 @cli.command()
+def retry(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
+    """Run a failed or cancelled job again; it resumes from its last checkpoint."""
+    with _client(server, token) as c:
+        job = _call(c, "POST", f"/api/jobs/{job_id}/retry").json()
+    print(json.dumps(job) if as_json else f"{job['id']} {job['status']}")
+
+
+@cli.command()
+def delete(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt,
+           as_json: bool = JsonOpt):
+    """Delete a job that is not running, with its history, checkpoint and bundle."""
+    with _client(server, token) as c:
+        job = _call(c, "GET", f"/api/jobs/{job_id}").json()  # a prefix resolves to the full id first
+        _call(c, "DELETE", f"/api/jobs/{job['id']}")
+    print(json.dumps({"id": job["id"], "deleted": True}) if as_json else f"{job['id']} deleted")
+
+
+@cli.command()
 def replay(
     target: str = typer.Argument(..., help="a bundle (.zip or unpacked folder) or a job id on --server"),
     host: str = typer.Option("127.0.0.1", help="address the viser server binds"),
@@ -184,6 +260,8 @@ def replay(
     from app.replay import replay_tracks, serve_live
 
     path = Path(target)
+    if not path.exists() and (path.suffix == ".zip" or "/" in target or "\\" in target or target.startswith(".")):
+        fail(f"no such bundle file or folder: {target} (a job id has no '/' or '.zip')")
     try:
         if path.is_dir():
             files = {p.relative_to(path).as_posix(): p.read_bytes() for p in path.rglob("*") if p.is_file()}

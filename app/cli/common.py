@@ -19,6 +19,26 @@ cli = typer.Typer(add_completion=False, no_args_is_help=True, help="Gait recover
 err = Console(stderr=True)
 
 
+def out_console() -> Console:
+    """stdout. In a terminal, rich fits its width (tables wrap cells, never cut them); in a
+    pipe or a log there is no width to fit, so lines are as long as their content."""
+    return Console() if sys.stdout.isatty() else Console(width=100_000, soft_wrap=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from app import __version__
+
+        print(f"gaitmend {__version__}")
+        raise typer.Exit()
+
+
+@cli.callback()
+def _root(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                       help="print the version and exit")):
+    """Gait recovery for damaged legged robots."""
+
+
 def fail(msg: str, code: int = 2) -> None:
     err.print(f"[bold red]error:[/] {msg}", highlight=False)
     raise typer.Exit(code)
@@ -58,11 +78,11 @@ def print_tables(tables, console: Console | None = None) -> None:
     """A kind's summary tables (app/jobs/base.py ``Table``), as rich tables and notes."""
     from rich.table import Table
 
-    con = console or Console()
+    con = console or out_console()
     for t in tables:
         rt = Table(title=t["title"])
         for c in t["columns"]:
-            rt.add_column(str(c))
+            rt.add_column(str(c), overflow="fold")
         for row in t["rows"]:
             rt.add_row(*("-" if v is None else str(v) for v in row))
         con.print(rt)

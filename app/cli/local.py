@@ -15,7 +15,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from app.cli.common import cli, err, load_spec, print_tables
+from app.cli.common import cli, err, fail, load_spec, out_console, print_tables
 from app.jobs.base import MemoryContext, dumps
 from app.jobs.registry import KINDS, get_kind
 
@@ -43,7 +43,9 @@ def local_job_id(spec) -> str:
 def run(
     spec_path: Optional[Path] = typer.Argument(None, metavar="[SPEC]",
                                                help="spec JSON, a bundle's manifest.json or bundle zip; default: the embedded paper scenario (legs 1 and 6 lost)"),
-    out: Path = typer.Option(Path("results"), "--out", help="folder for the result bundle"),
+    out: Path = typer.Option(Path("results"), "--out",
+                             help="folder for results: the bundle goes to OUT/<job-id>.zip and is unpacked into "
+                                  "OUT/<job-id>/ (never over another run)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as one JSON object on the last stdout line"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
@@ -60,13 +62,14 @@ def run(
         task = progress.add_task(spec.kind, total=None, info="") if progress else None
         result = kind.run(spec, LocalContext(out, progress, task, kind))
     bundle = write_bundle(out / f"{job_id}.zip", job_id, spec, result)
+    folder = out / job_id
     with zipfile.ZipFile(bundle) as z:
-        z.extractall(out)
+        z.extractall(folder)
     s = result.summary
     if as_json:
-        print(dumps(s | {"job_id": job_id, "bundle": str(bundle)}))
+        print(dumps(s | {"job_id": job_id, "bundle": str(bundle), "folder": str(folder)}))
         return
-    con = Console()
+    con = out_console()
     print_tables(kind.summary_tables(s), con)
     tm = s["timing"]
     parts = [f"{tm['wall_s']:.1f} s"]
@@ -74,7 +77,83 @@ def run(
         parts.insert(0, f"{tm['evaluations']} evaluations in")
     if tm.get("sim_steps_per_s"):
         parts.append(f"({tm['sim_steps_per_s'] / 1e3:.1f}k sim steps/s)")
-    con.print(" ".join(parts) + f"; bundle: {bundle}")
+    con.print(" ".join(parts) + f"; bundle: {bundle}, unpacked in {folder}/")
+
+
+# -- gaitmend verify BUNDLE ----------------------------------------------------------------------
+
+# Wall-clock figures differ from run to run (any *_s or *_per_s under "timing", and these
+# keys anywhere); every other number must be identical.
+_CLOCK_KEYS = ("wall_s", "_per_s", "elapsed_s", "created_at")
+
+
+def _is_clock(key: str) -> bool:
+    return key.endswith(_CLOCK_KEYS)
+
+
+def first_difference(a: Any, b: Any, path: str = "") -> str | None:
+    """The first place where two results differ (wall-clock figures excepted), or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if _is_clock(str(k)):
+                continue
+            where = f"{path}.{k}" if path else str(k)
+            if k not in a or k not in b:
+                return f"{where}: only in the {'bundle' if k in a else 'new run'}"
+            x, y = a[k], b[k]
+            if k == "timing" and isinstance(x, dict) and isinstance(y, dict):  # clock times; counts must agree
+                x = {n: v for n, v in x.items() if isinstance(v, int)}
+                y = {n: v for n, v in y.items() if isinstance(v, int)}
+            if (d := first_difference(x, y, where)) is not None:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return f"{path}: {len(a)} items in the bundle, {len(b)} in the new run"
+        for i, (x, y) in enumerate(zip(a, b)):
+            if (d := first_difference(x, y, f"{path}.{i}")) is not None:
+                return d
+        return None
+    if a != b and not (isinstance(a, float) and isinstance(b, float) and a != a and b != b):
+        return f"{path}: bundle {a!r}, new run {b!r}"
+    return None
+
+
+def _bundle_files(path: Path) -> tuple[dict, dict]:
+    """(manifest, result) of a bundle zip, an unpacked bundle folder, or its manifest.json."""
+    if path.suffix == ".zip":
+        with zipfile.ZipFile(path) as z:
+            return json.loads(z.read("manifest.json")), json.loads(z.read("result.json"))
+    folder = path if path.is_dir() else path.parent
+    return json.loads((folder / "manifest.json").read_text()), json.loads((folder / "result.json").read_text())
+
+
+@cli.command()
+def verify(bundle: Path = typer.Argument(..., help="a result bundle: .zip, unpacked folder, or its manifest.json"),
+           quiet: bool = typer.Option(False, "--quiet", help="no progress bar")):
+    """Re-run a bundle's job here and compare every number of its result with the bundle's
+    (wall-clock times excepted). Exit 0 when they are the same, 1 at the first difference."""
+    try:
+        man, saved = _bundle_files(bundle)
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as e:
+        fail(f"cannot read bundle {bundle}: {e}")
+    spec = load_spec(bundle / "manifest.json" if bundle.is_dir() else bundle)
+    kind = get_kind(spec.kind)
+    progress = None if quiet else Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=err, transient=False)
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp, (progress or contextlib.nullcontext()):
+        task = progress.add_task(f"verify {man.get('job_id', '')}", total=None, info="") if progress else None
+        result = kind.run(spec, LocalContext(Path(tmp), progress, task, kind))
+    fresh = json.loads(dumps(result.summary))
+    diff = first_difference(saved, fresh)
+    if diff is None:
+        print(f"same numbers: {bundle} reproduces (every number of result.json, wall-clock times excepted)")
+        return
+    print(f"DIFFERENT: {diff}")
+    raise typer.Exit(1)
 
 
 @cli.command()

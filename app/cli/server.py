@@ -9,6 +9,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Optional
 
 import typer
@@ -30,6 +31,30 @@ def _upgrade(settings: Settings) -> None:
 
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.db_url)
+
+
+def _safe_url(url: str) -> str:
+    """A URL to print: the password hidden."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        return make_url(url).render_as_string(hide_password=True) if "://" in url else url
+    except Exception:  # noqa: BLE001  (not an SQLAlchemy URL, e.g. redis://): drop the credentials
+        return url.split("@")[-1] if "@" in url else url
+
+
+def _database_exists(settings: Settings) -> bool:
+    """A database with gaitmend's tables (an SQLite file that exists, or a migrated server)."""
+    from app.store.backup import sqlite_path
+    from app.store.migrate import current
+
+    path = sqlite_path(settings.db_url)
+    if path is not None and not path.is_file():
+        return False
+    try:
+        return current(settings.db_url) is not None
+    except Exception:  # noqa: BLE001  (unreachable server: not a database to write a token into)
+        return False
 
 
 # -- server side ----------------------------------------------------------------------------
@@ -87,6 +112,7 @@ def serve(host: str = typer.Option("127.0.0.1", help="address to bind; any non-l
     from app.api.auth import auth_required
 
     settings = settings_or_exit()
+    _port_free_or_exit(host, port)
     _upgrade(settings)
     if auth_required(settings.auth, host):
         from app.store import repo
@@ -110,6 +136,23 @@ def serve(host: str = typer.Option("127.0.0.1", help="address to bind; any non-l
             embedded.stop()
 
 
+def _port_free_or_exit(host: str, port: int) -> None:
+    """Fail before printing a URL or starting a worker when the port is taken."""
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as e:
+        fail(f"--host {host}: {e}")
+    family, _, _, _, addr = infos[0]
+    with socket.socket(family, socket.SOCK_STREAM) as sock:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+        try:
+            sock.bind(addr)
+        except OSError as e:
+            fail(f"cannot listen on {host}:{port}: {e.strerror} (another server there? choose --port)", code=1)
+
+
 @cli.command()
 def worker(concurrency: Optional[int] = typer.Option(None, min=1, max=64,
                                                      help="task slots (processes); default GAITMEND_WORKER_CONCURRENCY"),
@@ -124,6 +167,11 @@ def worker(concurrency: Optional[int] = typer.Option(None, min=1, max=64,
         fail(f"cannot reach the database {settings.db_url.split('@')[-1]}: {e}", code=1)
     if not ok:
         fail("the database schema is not up to date: run `gaitmend db upgrade` (or `gaitmend serve`)", code=1)
+    from app.dispatch import broker_ok
+
+    reachable, why = broker_ok(settings)
+    if not reachable:
+        fail(f"cannot reach the broker {_safe_url(settings.broker_url)}: {why} (GAITMEND_BROKER_URL)", code=1)
     _watch_parent()
     from workers.celery_app import celery_app
 
@@ -160,6 +208,21 @@ def db_upgrade(revision: str = typer.Argument("head")):
     print(current(settings.db_url))
 
 
+@db_app.command("backup")
+def db_backup(path: Path = typer.Argument(..., help="file to write the copy to"),
+              force: bool = typer.Option(False, "--force", help="replace PATH if it exists")):
+    """Copy the SQLite database consistently while the server runs (copying gaitmend.db alone
+    misses what is still in its write-ahead log). PostgreSQL: use pg_dump, as it says."""
+    from app.store.backup import BackupError, backup
+
+    settings = settings_or_exit()
+    try:
+        info = backup(settings.db_url, path, overwrite=force)
+    except BackupError as e:
+        fail(str(e))
+    print(f"{info['dest']}: {info['bytes']} bytes, {info['jobs']} jobs (from {info['source']})")
+
+
 @db_app.command("current")
 def db_current():
     """Print the schema revision of the database."""
@@ -171,7 +234,8 @@ def db_current():
 
 
 @token_app.command("create")
-def token_create(name: str = typer.Argument(..., help="owner name of the token's jobs (letters, digits, -_.)")):
+def token_create(name: str = typer.Argument(..., help="owner name of the token's jobs (letters, digits, -_.)"),
+                 init: bool = typer.Option(False, "--init", help="create the database if there is none yet")):
     """Create a token; it is printed once and only its hash is stored."""
     import re
 
@@ -181,13 +245,19 @@ def token_create(name: str = typer.Argument(..., help="owner name of the token's
     if not re.fullmatch(r"[A-Za-z0-9_.-]{1,64}", name):
         fail(f"NAME: 1-64 letters, digits, '-', '_' or '.', got {name!r}")
     settings = settings_or_exit()
-    _upgrade(settings)
+    where = _safe_url(settings.db_url)
+    if not _database_exists(settings):
+        if not init:
+            fail(f"no gaitmend database at {where} (GAITMEND_DATA_DIR / GAITMEND_DATABASE_URL: run this where the "
+                 "server runs, or pass --init to create a new database here)")
+        _upgrade(settings)
     try:
         with session_scope(settings.db_url) as s:
             token = repo.create_token(s, name)
     except repo.Conflict as e:
         fail(str(e))
     print(token)
+    err.print(f"token {name!r} stored in {where}; it is shown only this once", highlight=False)
 
 
 @token_app.command("list")

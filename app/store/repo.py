@@ -100,12 +100,26 @@ def mark_dispatched(s: Session, job_ids: list[str], now: dt.datetime | None = No
 
 # -- reads ---------------------------------------------------------------------------------------
 
+MIN_PREFIX = 6
+_HEX_PREFIX = re.compile(r"[0-9a-f]{%d,31}" % MIN_PREFIX)
+
+
 def get_job(s: Session, job_id: str, owner: str | None = None) -> Job:
-    """A job by id; owner None means any owner. Someone else's job is NotFound, like a missing one."""
+    """A job by id, or by a unique prefix of its id (at least MIN_PREFIX hex digits, as
+    `gaitmend jobs` prints them); owner None means any owner. Someone else's job is
+    NotFound, like a missing one; a prefix shared by several jobs is a Conflict."""
     q = select(Job).where(Job.id == job_id)
     if owner is not None:
         q = q.where(Job.owner == owner)
     job = s.scalar(q)
+    if job is None and _HEX_PREFIX.fullmatch(job_id):
+        q = select(Job).where(Job.id >= job_id, Job.id < job_id + "g")  # an index range scan, no LIKE escaping
+        if owner is not None:
+            q = q.where(Job.owner == owner)
+        found = list(s.scalars(q.limit(2)))
+        if len(found) > 1:
+            raise Conflict(f"{job_id!r} is the start of several job ids; give more of it", field="id")
+        job = found[0] if found else None
     if job is None:
         raise NotFound(job_id)
     return job

@@ -11,7 +11,7 @@ import zipfile
 
 import httpx
 import pytest
-from service_support import SMALL, Proc, deployment, free_port, job_row, settings_of, spec, wait_for
+from service_support import SMALL, Proc, deployment, free_port, job_row, proc_env, settings_of, spec, wait_for
 
 
 def gaitmend(env, *args):
@@ -58,7 +58,7 @@ def test_serve_submit_wait_fetch_and_reproduce(tmp_path, served):
     r = gaitmend(env_c, "submit", str(tmp_path / "spec.json"), "--wait", "--json")
     assert r.returncode == 0, r.stderr
     job = json.loads(r.stdout)
-    assert job["status"] == "succeeded" and job["progress"]["done"] == 4
+    assert job["status"] == "succeeded" and job["progress"]["done"] == job["progress"]["total"] > 0
     listed = json.loads(gaitmend(env_c, "jobs", "--json").stdout)
     assert [j["id"] for j in listed["items"]] == [job["id"]]
     r = gaitmend(env_c, "fetch", job["id"], "--out", str(tmp_path / "got"), "--json")
@@ -98,8 +98,12 @@ def test_serve_restarts_its_embedded_worker_after_kill9_and_the_job_resumes(tmp_
 
 def test_public_bind_needs_a_token(tmp_path, served):
     env = deployment(tmp_path)
-    r = gaitmend(env, "token", "create", "alice")
+    r = gaitmend(env, "token", "create", "alice")  # no database here yet: refused, saying where it looked
+    assert r.returncode == 2 and "no gaitmend database at sqlite:///" in r.stderr and "--init" in r.stderr
+    assert not (tmp_path / "data" / "gaitmend.db").exists()
+    r = gaitmend(env, "token", "create", "alice", "--init")
     assert r.returncode == 0, r.stderr
+    assert f"stored in sqlite:///{(tmp_path / 'data' / 'gaitmend.db').resolve()}" in " ".join(r.stderr.split())
     token = r.stdout.strip()
     assert token.startswith("gm_")
     assert gaitmend(env, "token", "create", "alice").returncode == 2  # names are unique
@@ -130,3 +134,78 @@ def test_bad_settings_and_db_commands(tmp_path):
     r = gaitmend(env, "db", "upgrade")
     assert r.returncode == 0 and r.stdout.strip() == "0001"
     assert "0001 (head: 0001)" in gaitmend(env, "db", "current").stdout
+
+
+def test_jobs_table_prefixes_readable_job_retry_delete(tmp_path, served):
+    import subprocess
+    import sys
+
+    env = deployment(tmp_path)
+    base, server = served(env)
+    env_c = env | {"GAITMEND_SERVER": base}
+    jid = httpx.post(f"{base}/api/jobs", json=SMALL).json()["id"]
+    wait_for(lambda: httpx.get(f"{base}/api/jobs/{jid}").json()["status"] == "succeeded", 120, "the job", proc=server)
+    # a pipe at 80 columns: nothing cut, damage and the headline value shown
+    p = subprocess.run([sys.executable, "-m", "app", "jobs"], capture_output=True, text=True, timeout=120,
+                       env=proc_env(env_c) | {"COLUMNS": "80"})
+    assert p.returncode == 0, p.stderr
+    assert "\u2026" not in p.stdout and "..." not in p.stdout, p.stdout
+    row = next(line for line in p.stdout.splitlines() if jid[:8] in line)
+    headline = httpx.get(f"{base}/api/jobs/{jid}").json()["headline"][0]["label"]
+    assert "lost 1,6" in row and "succeeded" in row and headline in row, p.stdout
+    r = gaitmend(env_c, "jobs", jid[:8])  # the prefix the table shows is accepted everywhere
+    assert r.returncode == 0 and f"job {jid}" in r.stdout and len(r.stdout.splitlines()) < 80, r.stdout
+    assert "before" in r.stdout.lower() or "F" in r.stdout  # the kind's summary table, not raw JSON
+    assert not r.stdout.lstrip().startswith("{")
+    r = gaitmend(env_c, "retry", jid[:8])
+    assert r.returncode == 2 and "status" in r.stderr and "succeeded" in r.stderr
+    r = gaitmend(env_c, "delete", jid[:7])
+    assert r.returncode == 0 and f"{jid} deleted" in r.stdout
+    assert httpx.get(f"{base}/api/jobs/{jid}").status_code == 404
+
+
+def test_submit_wait_prints_the_id_at_once_and_the_reason_at_the_end(tmp_path, served):
+    import subprocess
+    import sys
+
+    env = deployment(tmp_path)
+    base, server = served(env)
+    (tmp_path / "long.json").write_text(json.dumps(spec(generations=200, population=8, seed=5)))
+    p = subprocess.Popen([sys.executable, "-m", "app", "submit", str(tmp_path / "long.json"), "--wait"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=proc_env(env | {"GAITMEND_SERVER": base}))
+    try:
+        jid = p.stdout.readline().strip()  # before the job ends: a script can act on it
+        assert len(jid) == 32, jid
+        wait_for(lambda: httpx.get(f"{base}/api/jobs/{jid}").json()["status"] == "running", 60, "running",
+                 proc=server)
+        assert p.poll() is None
+        assert httpx.post(f"{base}/api/jobs/{jid}/cancel").status_code == 202
+        out, errtext = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 1
+    assert "cancelled: cancelled on request" in errtext.splitlines()[-1], errtext
+
+
+def test_serve_on_a_busy_port_worker_with_a_wrong_broker_and_db_backup(tmp_path):
+    import socket
+    import time
+
+    env = deployment(tmp_path)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        r = gaitmend(env, "serve", "--port", str(port))
+    assert r.returncode == 1 and "cannot listen on 127.0.0.1" in r.stderr and "http://" not in r.stdout + r.stderr
+    assert gaitmend(env, "db", "upgrade").returncode == 0
+    t = time.monotonic()
+    r = gaitmend(env | {"GAITMEND_BROKER_URL": "redis://127.0.0.1:1/0"}, "worker")
+    assert r.returncode == 1 and "cannot reach the broker redis://127.0.0.1:1/0" in r.stderr, r.stderr
+    assert time.monotonic() - t < 15
+    r = gaitmend(env, "db", "backup", str(tmp_path / "copy.db"))
+    assert r.returncode == 0 and "0 jobs" in r.stdout, r.stderr
+    r = gaitmend(env, "db", "backup", str(tmp_path / "copy.db"))
+    assert r.returncode == 2 and "--force" in r.stderr

@@ -156,7 +156,9 @@ class Bounds(StrictModel):
 class RecoverySpec(SpecBase):
     kind: Literal["recovery"] = "recovery"
     robot: str = Field("jethexa", max_length=64, json_schema_extra={"enum": sorted(ROBOTS)})
-    damage: Damage = Field(default_factory=Damage)
+    # One default for the API, the CLI and the dashboard: the paper's first case (Table II,
+    # legs 1 and 6 lost). `"damage": {}` is the intact robot.
+    damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
     search: Search = Field(default_factory=Search)
     objective: Objective = Field(default_factory=Objective)
     sim: Sim = Field(default_factory=Sim)
