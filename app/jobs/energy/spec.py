@@ -14,7 +14,8 @@ from app.jobs.base import SpecBase, SpecError
 TABLE1_LINKS = (0.06, 0.33, 0.33)
 TABLE1_TOUCHDOWN = (0.0, 0.23, 0.23, 0.0)  # FR, HR, FL, HL (s)
 LINK_NAMES = ("hip", "thigh", "calf")
-Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+# Bounds of the search space: periods (s), duty factors and link lengths (m) all lie in [0, 2].
+Pair = Annotated[list[Annotated[float, Field(ge=0.0, le=2.0)]], Field(min_length=2, max_length=2)]
 
 
 class Task(BaseModel):
@@ -35,8 +36,8 @@ class GaitIn(BaseModel):
     model_config = Strict
     family: Literal["trot", "free"] = "trot"
     period_s: float = Field(0.46, ge=0.2, le=1.5)
-    touchdown_s: list[float] = Field(default_factory=lambda: list(TABLE1_TOUCHDOWN), min_length=4, max_length=4)
-    duty: list[float] = Field(default_factory=lambda: [0.5] * 4, min_length=4, max_length=4)
+    touchdown_s: list[Annotated[float, Field(ge=0.0, le=1.5)]] = Field(default_factory=lambda: list(TABLE1_TOUCHDOWN), min_length=4, max_length=4)
+    duty: list[Annotated[float, Field(ge=0.0, le=1.0)]] = Field(default_factory=lambda: [0.5] * 4, min_length=4, max_length=4)
     period_bounds_s: Pair = Field(default_factory=lambda: [0.3, 0.8])
     duty_bounds: Pair = Field(default_factory=lambda: [0.35, 0.85])
 
@@ -82,7 +83,7 @@ class GaitIn(BaseModel):
 class Design(BaseModel):
     model_config = Strict
     optimise_links: bool = True
-    links_m: list[float] = Field(default_factory=lambda: list(TABLE1_LINKS), min_length=3, max_length=3)
+    links_m: list[Annotated[float, Field(ge=0.0, le=1.0)]] = Field(default_factory=lambda: list(TABLE1_LINKS), min_length=3, max_length=3)
     link_bounds_m: list[Pair] = Field(
         default_factory=lambda: [[0.04, 0.10], [0.25, 0.45], [0.25, 0.45]], min_length=3, max_length=3)
     inertia: Literal["table1", "rod"] = "table1"
