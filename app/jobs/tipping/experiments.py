@@ -5,6 +5,7 @@ docs/tipping.md."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -12,7 +13,8 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
-from app.stability.evidence import EvidencePlan, Setup, outcome, run_evidence, simulate
+from app.robots.heavy_hexapod import HEAVY
+from app.stability.evidence import CONVERGENCE_TOL, EvidencePlan, Setup, convergence_row, outcome, run_evidence, simulate
 from app.stability.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
@@ -108,8 +110,106 @@ def cases(p: CasesParams, log: Callable[[str], None]) -> str:
     return md
 
 
+# -- the checks behind issue 12's findings ------------------------------------------------------
+
+CHECK_DIRECTIONS = ((180.0, "climbing (y ccw)"), (0.0, "descending (y cw)"), (90.0, "lateral (x ccw)"))
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",") if v.strip()]
+
+
+def _row_md(cells) -> str:
+    return "| " + " | ".join(cells) + " |"
+
+
+class ConvergenceParams(BaseModel):
+    steps_ms: str = Field("2,1", description="physics steps (ms) to check, comma-separated; each against its half")
+    directions: str = Field("180,0,90,270,30,150", description="downhill directions (deg), stance 1-3-5")
+    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
+
+
+def convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
+    """The convergence rule on recovered answers: tipped or not, margin after landing and
+    detection time at a step and at its half."""
+    md = ["| step (ms) vs half | downhill (deg) | tipped | margin after landing (deg) | detection (s) "
+          "| Eq. 15 t_s (s) | within tolerance |", "|---|---|---|---|---|---|---|"]
+    for ms in _floats(p.steps_ms):
+        for psi in _floats(p.directions):
+            s = Setup(TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg), ControllerConfig())
+            a = outcome(simulate(s.with_(geom=dataclasses.replace(HEAVY, timestep=ms / 1e3))))
+            b = outcome(simulate(s.with_(geom=dataclasses.replace(HEAVY, timestep=ms / 2e3))))
+            row = convergence_row(a, b)
+            md.append(_row_md([f"{ms:g} vs {ms / 2:g}", f"{psi:g}", f"{a['tipped']} / {b['tipped']}",
+                               f"{_n(a['margin_after_landing_deg'], '{:.2f}')} / {_n(b['margin_after_landing_deg'], '{:.2f}')}",
+                               f"{_n(a['detection_time_s'], '{:.2f}')} / {_n(b['detection_time_s'], '{:.2f}')}",
+                               f"{_n(a['time_to_tip_s'], '{:.2f}')} / {_n(b['time_to_tip_s'], '{:.2f}')}",
+                               "yes" if row["ok"] else "no"]))
+            log(md[-1])
+    return "\n".join(md) + f"\n\ntolerance: {CONVERGENCE_TOL}, tipped must agree"
+
+
+class FrictionParams(BaseModel):
+    frictions: str = Field("1.5,1.0,0.9", description="foot-ground friction coefficients, comma-separated")
+    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
+
+
+def friction(p: FrictionParams, log: Callable[[str], None]) -> str:
+    """Does the QP force distribution matter on low friction? Recovery with force-controlled
+    stance legs (the QP's forces), with position-servoed ones, and without the QP."""
+    modes = (("QP, force-controlled stance", {}), ("QP as feed-forward, position servos", {"stance_control": "position"}),
+             ("no QP", {"qp": False}))
+    md = ["| friction | case | stance control | tipped | foot slip (m) | friction demand | margin after landing (deg) |",
+          "|---|---|---|---|---|---|---|"]
+    for mu in _floats(p.frictions):
+        for psi, name in CHECK_DIRECTIONS:
+            for label, kw in modes:
+                s = Setup(TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg), ControllerConfig(**kw), friction=mu)
+                o = outcome(simulate(s))
+                md.append(_row_md([f"{mu:g}", name, label, "yes" if o["tipped"] else "no", f"{o['max_slip_m']:.3f}",
+                                   _n(o["friction_demand"], "{:.2f}"), _n(o["margin_after_landing_deg"], "{:.1f}")]))
+                log(md[-1])
+    return "\n".join(md)
+
+
+class TimingParams(BaseModel):
+    rates_deg_s: str = Field("3,10,20", description="platform rates (deg/s), comma-separated")
+    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
+
+
+def timing(p: TimingParams, log: Callable[[str], None]) -> str:
+    """Eq. 15 against the simulated fall, and the swing it sets against a fixed 1.5 s swing."""
+    md = ["| rate (deg/s) | case | Eq. 15 t_s (s) | t_s / kappa (s) | margin reached 0 after (s, no recovery) "
+          "| swing Eq. 15 / fixed (s) | upright Eq. 15 / fixed | margin after landing Eq. 15 / fixed (deg) |",
+          "|---|---|---|---|---|---|---|---|"]
+    for rate in _floats(p.rates_deg_s):
+        for psi, name in CHECK_DIRECTIONS:
+            sc = TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg, rate_deg_s=rate)
+            cfg = ControllerConfig()
+            eq, fixed = (outcome(simulate(Setup(sc, c))) for c in (cfg, dataclasses.replace(cfg, swing_timing="fixed")))
+            tr = simulate(Setup(sc, ControllerConfig(recovery=False)))["trace"]
+            fall = None
+            if eq["detection_time_s"] is not None:
+                after = (tr["time_s"] > eq["detection_time_s"]) & (tr["fasm_deg"] <= 0.0)
+                fall = float(tr["time_s"][after.argmax()] - eq["detection_time_s"]) if after.any() else None
+            ts = eq["time_to_tip_s"]
+            md.append(_row_md([f"{rate:g}", name, _n(ts, "{:.2f}"), _n(None if ts is None else ts / cfg.kappa, "{:.2f}"),
+                               _n(fall, "{:.2f}"), f"{_n(eq['swing_s'], '{:.2f}')} / {_n(fixed['swing_s'], '{:.2f}')}",
+                               f"{'yes' if not eq['tipped'] else 'no'} / {'yes' if not fixed['tipped'] else 'no'}",
+                               f"{_n(eq['margin_after_landing_deg'], '{:.1f}')} / "
+                               f"{_n(fixed['margin_after_landing_deg'], '{:.1f}')}"]))
+            log(md[-1])
+    return "\n".join(md)
+
+
 EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec. 5.2, Fig. 6), each without and "
-                                   "with recovery, with the controls and the survivable tilt band", CasesParams, cases)]
+                                   "with recovery, with the controls and the survivable tilt band", CasesParams, cases),
+               Experiment("convergence", "Recovered answers at a physics step and at its half (the convergence rule)",
+                          ConvergenceParams, convergence),
+               Experiment("friction", "Low friction: QP with force-controlled stance vs position servos vs no QP",
+                          FrictionParams, friction),
+               Experiment("timing", "Eq. 15 time-to-tip against the simulated fall; Eq. 15 swing vs a fixed 1.5 s swing",
+                          TimingParams, timing)]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
