@@ -8,6 +8,8 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Callable
+
+import numpy as np
 from pathlib import Path
 
 from pydantic import BaseModel, Field
@@ -149,6 +151,21 @@ def convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
     return "\n".join(md) + f"\n\ntolerance: {CONVERGENCE_TOL}, tipped must agree"
 
 
+def qp_force_error(r: dict) -> float | None:
+    """Largest |mean measured - mean QP force| over the stance feet from 1 s after the
+    caught leg lands to the end, in % of the robot's weight (None: no landing, or tipped)."""
+    first = first_catch(r["adjustments"])
+    if r["tipped"] or not first or first.get("land_time_s") is None:
+        return None
+    tr = r["trace"]
+    late = tr["time_s"] > first["land_time_s"] + 1.0
+    if not late.any():
+        return None
+    stance = tr["stance"][late][-1]
+    err = np.abs(tr["foot_f_n"][late][:, stance].mean(axis=0) - tr["qp_f_n"][late][:, stance].mean(axis=0))
+    return float(100.0 * err.max() / (r["mass_kg"] * 9.81))
+
+
 class FrictionParams(BaseModel):
     frictions: str = Field("1.5,1.0,0.9", description="foot-ground friction coefficients, comma-separated")
     max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
@@ -159,15 +176,17 @@ def friction(p: FrictionParams, log: Callable[[str], None]) -> str:
     stance legs (the QP's forces), with position-servoed ones, and without the QP."""
     modes = (("QP, force-controlled stance", {}), ("QP as feed-forward, position servos", {"stance_control": "position"}),
              ("no QP", {"qp": False}))
-    md = ["| friction | case | stance control | tipped | foot slip (m) | friction demand | margin after landing (deg) |",
-          "|---|---|---|---|---|---|---|"]
+    md = ["| friction | case | stance control | tipped | foot slip (m) | friction demand | margin after landing (deg) "
+          "| measured - QP force, worst stance foot (% of weight) |", "|---|---|---|---|---|---|---|---|"]
     for mu in _floats(p.frictions):
         for psi, name in CHECK_DIRECTIONS:
             for label, kw in modes:
                 s = Setup(TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg), ControllerConfig(**kw), friction=mu)
-                o = outcome(simulate(s))
+                r = simulate(s)
+                o = outcome(r)
                 md.append(_row_md([f"{mu:g}", name, label, "yes" if o["tipped"] else "no", f"{o['max_slip_m']:.3f}",
-                                   _n(o["friction_demand"], "{:.2f}"), _n(o["margin_after_landing_deg"], "{:.1f}")]))
+                                   _n(o["friction_demand"], "{:.2f}"), _n(o["margin_after_landing_deg"], "{:.1f}"),
+                                   _n(qp_force_error(r), "{:.1f}")]))
                 log(md[-1])
     return "\n".join(md)
 
