@@ -162,6 +162,8 @@ def qp_force_error(r: dict) -> float | None:
     if not late.any():
         return None
     stance = tr["stance"][late][-1]
+    if not np.any(tr["qp_f_n"][late]):
+        return None  # the QP was off
     err = np.abs(tr["foot_f_n"][late][:, stance].mean(axis=0) - tr["qp_f_n"][late][:, stance].mean(axis=0))
     return float(100.0 * err.max() / (r["mass_kg"] * 9.81))
 
