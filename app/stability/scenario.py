@@ -16,7 +16,6 @@ from app.stability.fast import distribute_fast, hull_ccw, margins, plane_normal
 from app.stability.fasm import TipDetector
 from app.stability.foothold import SwingPlan, leg_ik, optimal_foothold, reachable_space, select_adjustment_leg
 from app.stability.polygon import ccw_order, fit_plane
-from app.stability.qp import skew
 
 
 @dataclasses.dataclass(frozen=True)
