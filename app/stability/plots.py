@@ -55,8 +55,12 @@ def foot_forces(traces: dict, out: Path) -> list[Path]:
     fig, axes = plt.subplots(len(traces), 1, figsize=(7, 2.8 * len(traces)), sharex=True, squeeze=False)
     for ax, (name, tr) in zip(axes[:, 0], traces.items()):
         for leg in range(6):
-            ax.plot(tr["time_s"], tr["foot_fz_n"][:, leg] / 1e3, lw=1, label=f"leg {leg + 1}")
-        ax.set_ylabel("foot F_z (kN)")
+            line, = ax.plot(tr["time_s"], tr["foot_fz_n"][:, leg] / 1e3, lw=1, label=f"leg {leg + 1}")
+            if "qp_fz_n" in tr and np.any(tr["qp_fz_n"][:, leg]):
+                # the QP's force for this foot while it runs: force-controlled legs follow it
+                qp = np.where(tr["qp_fz_n"][:, leg] != 0, tr["qp_fz_n"][:, leg] / 1e3, np.nan)
+                ax.plot(tr["time_s"], qp, lw=1, ls="--", color=line.get_color())
+        ax.set_ylabel("foot F_z (kN); dashed: QP")
         ax.set_title(STYLE.get(name, ("k", name))[1])
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=7, ncol=6)
