@@ -60,6 +60,14 @@ def test_force_controlled_stance_feet_carry_the_qp_forces(climb):
     assert errs["position"] > 0.1, errs  # the check can fail: the old stance control misses the QP
 
 
+def test_qp_spreads_the_friction_need_evenly(climb):
+    """What the QP measurably changes on the platform: with its forces every stance foot
+    leans at about tan(40 deg); stiff position servos leave one foot needing far more."""
+    force, position = outcome(climb["force"]), outcome(climb["position"])
+    assert force["friction_demand"] == pytest.approx(math.tan(math.radians(CLIMB.max_tilt_deg)), abs=0.06)
+    assert position["friction_demand"] > 1.1
+
+
 def test_eq15_predicts_the_simulated_fall_on_the_paper_time_scale(climb):
     """Eq. 15 at detection (margin rate from a least-squares fit) against the time the
     margin actually took to reach zero without recovery; it sets the swing time."""
