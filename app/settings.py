@@ -26,6 +26,10 @@ class Settings(BaseSettings):
     # "embedded": Celery's filesystem transport under data_dir/broker (no server);
     # or redis://host:port/db.
     broker_url: str = EMBEDDED
+    # Passwords given apart from the URLs (docker-compose.yml does): any characters, '@' and
+    # '/' included; they are percent-encoded into the URLs here, never pasted raw.
+    database_password: str = Field("", repr=False)
+    broker_password: str = Field("", repr=False)
     queue: str = Field("gaitmend", pattern=r"^[A-Za-z0-9_.-]{1,64}$")
     # Prefix for every Redis key Celery writes, so several deployments can share one Redis.
     redis_key_prefix: str = Field("gaitmend:", max_length=64)
@@ -82,7 +86,23 @@ class Settings(BaseSettings):
         url = self.database_url or f"sqlite:///{(self.data_dir / 'gaitmend.db').resolve()}"
         if url.startswith("postgresql://"):
             url = "postgresql+psycopg://" + url[len("postgresql://"):]
+        if self.database_password and url.startswith("postgresql"):
+            from sqlalchemy.engine import make_url
+
+            url = make_url(url).set(password=self.database_password).render_as_string(hide_password=False)
         return url
+
+    @property
+    def broker_connection_url(self) -> str:
+        """The broker URL with GAITMEND_BROKER_PASSWORD percent-encoded into it."""
+        if not self.broker_password or self.embedded_broker:
+            return self.broker_url
+        from urllib.parse import quote, urlsplit, urlunsplit
+
+        parts = urlsplit(self.broker_url)
+        host = parts.netloc.rsplit("@", 1)[-1]
+        user = parts.netloc.rsplit("@", 1)[0].split(":")[0] if "@" in parts.netloc else ""
+        return urlunsplit(parts._replace(netloc=f"{user}:{quote(self.broker_password, safe='')}@{host}"))
 
     @property
     def bundle_dir(self) -> Path:

@@ -107,3 +107,10 @@ def test_version_and_replay_of_a_missing_path(tmp_path):
     assert v.returncode == 0 and v.stdout.strip() == f"gaitmend {__version__}"
     r = gaitmend("replay", str(tmp_path / "nonexistent"))
     assert r.returncode == 2 and "no such bundle file or folder" in r.stderr and "Connection" not in r.stderr
+
+
+def test_reproduce_writes_beside_docs_unless_asked(tmp_path):
+    r = gaitmend("reproduce", "recovery-baselines", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "reproduced" / "recovery_baselines.md").is_file() and not (tmp_path / "docs").exists()
+    assert "--write-docs" in r.stderr

@@ -42,7 +42,7 @@ def broker_options(settings: Settings, sender: bool = False) -> tuple[str, dict]
                                  "control_folder": str(folder / "control"),
                                  "polling_interval": settings.poll_interval_s}
     options = {"visibility_timeout": settings.visibility_timeout_s, "global_keyprefix": settings.redis_key_prefix}
-    return settings.broker_url, options | (SENDER_OPTIONS if sender else {})
+    return settings.broker_connection_url, options | (SENDER_OPTIONS if sender else {})
 
 
 def make_celery(settings: Settings | None = None, sender: bool = False) -> Celery:

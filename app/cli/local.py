@@ -191,8 +191,15 @@ reproduce_app = typer.Typer(no_args_is_help=True, help="Reproduce a paper's expe
 cli.add_typer(reproduce_app, name="reproduce")
 
 
+DOCS = Path("docs")
+REPRODUCED = Path("reproduced")
+
+
 def _experiment_command(experiment):
-    """A Typer command whose options are the experiment's ``Params`` fields."""
+    """A Typer command whose options are the experiment's ``Params`` fields, plus
+    --write-docs: by default a file the experiment would write under docs/ goes to
+    reproduced/ instead, so reproducing never overwrites the published results it is to be
+    compared with (and never reuses their cached rows)."""
     fields = experiment.Params.model_fields
     params, annotations = [], {}
     for name, f in fields.items():
@@ -201,16 +208,31 @@ def _experiment_command(experiment):
         opt = typer.Option(f.default, flag, help=f.description or "")
         params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=opt, annotation=ann))
         annotations[name] = ann
+    params.append(inspect.Parameter("write_docs", inspect.Parameter.KEYWORD_ONLY, annotation=bool,
+                                    default=typer.Option(False, "--write-docs",
+                                                         help="write into docs/ (default: reproduced/)")))
+    annotations["write_docs"] = bool
 
     def command(**kw):
         from pydantic import ValidationError
 
         from app.cli.common import fail
 
+        write_docs = kw.pop("write_docs")
+        moved = []
+        for name, f in fields.items():
+            v = kw.get(name)
+            if (not write_docs and isinstance(v, Path) and isinstance(f.default, Path) and v == f.default
+                    and f.default.parts[:1] == DOCS.parts):
+                kw[name] = REPRODUCED / f.default.relative_to(DOCS)
+                moved.append(f"--{name.replace('_', '-')} {kw[name]}")
         try:
             p = experiment.Params(**kw)
         except ValidationError as e:
             fail("; ".join(f"--{'.'.join(map(str, x['loc'])).replace('_', '-')}: {x['msg']}" for x in e.errors()))
+        if moved:
+            err.print(f"writing {', '.join(moved)} (docs/ is left as published; --write-docs to update it)",
+                      highlight=False)
         print(experiment.run(p, err.print))
 
     command.__signature__ = inspect.Signature(params)

@@ -16,14 +16,34 @@ def test_compose_file_describes_the_distributed_mode():
     assert {"redis", "db", "api", "worker"} <= set(sv)
     assert sv["worker"]["command"] == ["gaitmend", "worker"]
     assert sv["api"]["command"][:2] == ["gaitmend", "serve"]
-    assert sv["worker"]["image"] == sv["api"]["image"]
+    assert sv["worker"]["image"] == sv["api"]["image"] and sv["worker"]["build"] == sv["api"]["build"]
     assert "replicas" not in str(sv["worker"])  # scaled with --scale worker=N
     for name in ("api", "worker"):
         env = sv[name]["environment"]
         assert env["GAITMEND_BROKER_URL"].startswith("redis://")
         assert env["GAITMEND_DATABASE_URL"].startswith("postgresql://")
-        assert ":?" in env["GAITMEND_DATABASE_URL"] and ":?" in env["GAITMEND_BROKER_URL"]  # no default secret
+        # no default secret, and none pasted into a URL (a password with '@' or '/' would break it)
+        assert ":?" in env["GAITMEND_DATABASE_PASSWORD"] and ":?" in env["GAITMEND_BROKER_PASSWORD"]
+        assert "PASSWORD" not in env["GAITMEND_DATABASE_URL"] + env["GAITMEND_BROKER_URL"]
         assert "data:/data" in sv[name]["volumes"]
     assert "data" in doc["volumes"]
     dockerfile = (ROOT / "Dockerfile").read_text()
     assert "COPY migrations migrations" in dockerfile and "pip install -e ." in dockerfile
+
+
+def test_passwords_with_at_and_slash_reach_the_servers_intact():
+    from sqlalchemy.engine import make_url
+
+    from app.settings import load_settings
+    from workers.celery_app import broker_options
+
+    pw = "p@ss/w:rd%?#"
+    s = load_settings(database_url="postgresql://gaitmend@db:5432/gaitmend", database_password=pw,
+                      broker_url="redis://redis:6379/0", broker_password=pw)
+    url = make_url(s.db_url)
+    assert (url.username, url.password, url.host, url.database) == ("gaitmend", pw, "db", "gaitmend")
+    from kombu import Connection
+
+    conn = Connection(broker_options(s)[0])
+    assert (conn.password, conn.hostname, conn.port) == (pw, "redis", 6379)
+    assert pw not in repr(s)

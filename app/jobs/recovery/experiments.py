@@ -414,6 +414,10 @@ class Table2Params(BaseModel):
 
 
 def _table2(p: Table2Params, log: Callable[[str], None]) -> str:
+    # README: a paper-size run (DE 30 x 60) took 24 s on an idle 2-core machine, 148 s on a loaded one.
+    runs, scale = 4 * p.seeds, p.population * (p.generations + 1) / (30 * 61)
+    log(f"{runs} runs (4 scenarios x {p.seeds} seeds); estimate {runs * 24 * scale / 60:.0f}-"
+        f"{runs * 148 * scale / 60:.0f} min (idle to loaded 2-core machine), less for runs already in {p.raw}")
     md = run_table2(seeds=p.seeds, generations=p.generations, population=p.population, log=log, raw_path=p.raw)
     p.out.parent.mkdir(parents=True, exist_ok=True)
     p.out.write_text(md)
