@@ -156,4 +156,9 @@ def spec_json_schema() -> tuple[dict, dict]:
     """(JobSpec schema, its definitions) with refs into #/components/schemas."""
     schema = TypeAdapter(spec_union()).json_schema(ref_template="#/components/schemas/{model}")
     defs = schema.pop("$defs", {})
+    # `kind` has a default in each model (its own name) but a body must name it: say so.
+    refs = list((schema.get("discriminator") or {}).get("mapping", {}).values())
+    for branch in [defs[r.rsplit("/", 1)[1]] for r in refs if r.rsplit("/", 1)[1] in defs] or [schema]:
+        if "kind" in branch.get("properties", {}):
+            branch["required"] = ["kind", *[f for f in branch.get("required", []) if f != "kind"]]
     return schema, defs

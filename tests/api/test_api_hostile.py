@@ -190,3 +190,18 @@ def test_db_backup_copies_committed_rows_while_a_connection_is_open(settings, tm
         backup(settings.db_url, dest)
     with pytest.raises(BackupError, match="pg_dump"):
         backup("postgresql+psycopg://u:secret@h/db", tmp_path / "x")
+
+
+def test_openapi_says_kind_is_required_and_cursor_is_digits(client):
+    doc = client.get("/openapi.json").json()
+    comps = doc["components"]["schemas"]
+    for ref in comps["JobSpec"]["discriminator"]["mapping"].values():
+        assert "kind" in comps[ref.rsplit("/", 1)[1]]["required"]
+    cursor = next(p for p in doc["paths"]["/api/jobs"]["get"]["parameters"] if p["name"] == "cursor")
+    assert "pattern" in str(cursor["schema"])
+    dashboard = [(path, op) for path, ops in doc["paths"].items() for op in ops.values() if "dashboard" in op.get("tags", [])]
+    assert len(dashboard) >= 3
+    for path, op in dashboard:  # every route the dashboard adds declares its error body
+        responses = op["responses"]
+        assert {"401", "422"} <= set(responses), (path, set(responses))
+        assert responses["422"]["content"]["application/json"]["schema"] == {"$ref": "#/components/schemas/ErrorOut"}
