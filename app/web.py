@@ -140,8 +140,8 @@ def history_axis(kind, spec: dict) -> dict | None:
     cols = getattr(kind, "history_columns", {}) or {}
     if "best" not in cols:
         return None
-    series = {k: cols[k] for k in ("best", "generation_best", "mean", "worst") if k in cols}
-    return {"x": kind.history_x, "x_note": cols.get(kind.history_x), "y": cols["best"], "better": None, "series": series}
+    series = {k: cols[k].split(";")[0] for k in ("best", "generation_best", "mean", "worst") if k in cols}
+    return {"x": kind.history_x, "x_note": cols.get(kind.history_x), "y": series["best"], "better": None, "series": series}
 
 
 def _panels_of_tables(tables: list[dict]) -> list[dict]:
@@ -154,9 +154,11 @@ def _as_panel(item: dict, i: int) -> dict:
     """A kind's view: a panel already, or a bare plotly figure dict ({"data", "layout"})."""
     if "figure" in item or "table" in item:
         return item
-    title = ((item.get("layout") or {}).get("title") or {})
+    layout = dict(item.get("layout") or {})
+    title = layout.pop("title", None) or {}  # the card's heading says it; inside, it would sit on the legend
     title = title.get("text", "") if isinstance(title, dict) else str(title)
-    return {"id": f"view-{i}", "title": title or f"Figure {i + 1}", "caption": "", "figure": item}
+    return {"id": f"view-{i}", "title": title or f"Figure {i + 1}", "caption": "",
+            "figure": {"data": item.get("data", []), "layout": layout}}
 
 
 @functools.lru_cache(maxsize=16)

@@ -229,3 +229,45 @@ def test_compare_separates_kinds(page, server, shots, second_job):
             traces = page.evaluate(f"document.getElementById('plot-compare-{n}').data.map(t => t.name)")
             assert len({t.split(' · ')[0] for t in traces}) == 1, traces
     page.screenshot(path=shots / "compare-kinds-1280.png", full_page=True)
+
+
+# Kinds the dashboard's code never names: their fields come from their schema, their page
+# from what they supply (headline, tables, views, figures, files). Small budgets, evidence
+# runs off (the kinds' own tests cover them).
+NEWER = {
+    "freegait": ({"route": ["distance-m"]}, {"#f-route-distance-m": "0.3"}, ("controls", "robustness")),
+    "energy": ({"search": [], "physics": []}, {"#f-search-population": "4", "#f-search-generations": "1",
+                                                "#f-physics-periods": "2"}, ("controls", "random-search", "robustness")),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(NEWER))
+def test_newer_kind_through_the_form(kind, page, new_page, server, shots):
+    from app.jobs.registry import KINDS
+
+    if kind not in KINDS:
+        pytest.skip(f"{kind} is not registered")
+    groups, fills, evidence = NEWER[kind]
+    open_kind(page, server, kind)
+    for g in list(groups) + ["evidence"]:
+        open_group(page, g)
+    for sel, value in fills.items():
+        page.fill(sel, value)
+    for box in evidence:
+        page.uncheck(f"#f-evidence-{box}")
+    expect(page.locator("#budget")).to_contain_text("Budget:")
+    job_id = submit(page)
+    jp = new_page()
+    wait_done(server, jp, job_id)
+    with server.client() as c:
+        v = c.get(f"/api/jobs/{job_id}/views").json()
+    head = jp.locator("#headline")
+    for r in v["headline"]:
+        expect(head).to_contain_text(r["label"])
+    figs = [p for p in v["panels"] if "figure" in p]
+    assert figs, "the kind supplies at least one figure"
+    first = jp.locator(f"#plot-{figs[0]['id']} .main-svg").first
+    expect(first).to_be_visible(timeout=30_000)
+    expect(jp.locator("#files tbody tr")).to_have_count(len(v["files"]) + 1)
+    expect(jp.locator("#figures img").first).to_be_attached()
+    jp.screenshot(path=shots / f"{kind}-job-1280.png", full_page=True)
