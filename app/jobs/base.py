@@ -327,7 +327,14 @@ class Kind(abc.ABC):
         return []
 
     def views(self, summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
-        """Plotly figure dicts ({"data": [...], "layout": {...}}) for the dashboard page."""
+        """The kind's dashboard page, in order: panels {"id", "title", "caption", and
+        "figure": {"data", "layout"} (a plotly figure) or "table": {"columns", "rows"}}, cells
+        plain values or {"value", "unit", "met", "better", "note"} (app/jobs/viewkit.py builds
+        both); a bare plotly figure dict is accepted too. ``traces``: the bundle's
+        trajectories by name (lazy .npz mappings). Optional companions the dashboard asks
+        for with getattr: ``history_axis(spec) -> {"x", "x_note", "y", "better", "series"}``
+        (what history.csv's objective means; default read from ``history_columns``) and
+        ``form_open`` (the spec groups its form opens first)."""
         return []
 
     def form(self) -> list[dict[str, Any]]:

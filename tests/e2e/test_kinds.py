@@ -155,7 +155,7 @@ def test_multigait_through_the_form(page, new_page, server, shots):
     expect(page.locator("#robot")).to_have_value("lizard")
     page.fill("#f-damage-stuck-modules", "1")
     page.select_option("#f-cost", "coverage")
-    page.fill("#f-map", "empty")
+    page.select_option("#f-map", "column")  # a select: the schema lists the maps
     open_group(page, "search")
     page.fill("#f-search-particles", "4")
     page.fill("#f-search-generations", "2")
@@ -170,7 +170,7 @@ def test_multigait_through_the_form(page, new_page, server, shots):
     with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
         job_id = submit(page)
     sent = req.value.post_data_json
-    assert sent["kind"] == "multigait" and sent["damage"] == {"stuck_modules": [1]}
+    assert sent["kind"] == "multigait" and sent["damage"] == {"stuck_modules": [1]} and sent["map"] == "column"
     assert sent["search"] == {"particles": 4, "generations": 2}
     jp = new_page()
     wait_done(server, jp, job_id)
@@ -202,6 +202,8 @@ def test_multigait_through_the_form(page, new_page, server, shots):
         assert comp[0].startswith("node depth"), comp
     expect(jp.locator("#panel-per-gait table tbody tr")).to_have_count(3)
     expect(jp.locator("#panel-reuse-table")).to_contain_text("column opposite")
+    # the column map's obstacle is drawn
+    assert jp.evaluate("document.getElementById('plot-map').layout.shapes.filter(s => s.fillcolor === '#374151').length") >= 1
     jp.locator("#panel-map").scroll_into_view_if_needed()
     jp.locator("#panel-map").screenshot(path=shots / "multigait-map-1280.png")
     jp.screenshot(path=shots / "multigait-job-1280.png", full_page=True)
