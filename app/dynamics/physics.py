@@ -50,7 +50,7 @@ class PhysicsConfig:
     kd_pos: float = 200.0  # N s / m
     kp_att: float = 0.0  # N m / rad (off)
     kd_att: float = 20.0  # N m s / rad
-    balance: bool = True
+    balance: bool = False
     foot_placement_s: float = 0.0  # Raibert gain: swing feet land k (v - v_ref) further (0 = off)
     friction: float | None = None  # None: the task's
     mass_scale: float = 1.0  # every body's mass and inertia (perturbation)
