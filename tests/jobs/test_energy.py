@@ -114,7 +114,7 @@ def test_result_carries_the_stages_and_the_physics_check(tmp_path):
     assert any(row["label"].startswith("CoT final") for row in rows)
     assert {t["title"] for t in kind.summary_tables(s)} >= {"Gait and design", "Cost of transport per stage"}
     views = kind.views(s, r.traces)
-    assert len(views) == 4 and json.loads(json.dumps(views))
+    assert [v["id"] for v in views] == ["forces", "body", "residuals", "gait"] and json.loads(json.dumps(views))
     files = kind.figures(r, tmp_path / "plots")
     assert {f.stem for f in files} == set(kind.figure_descriptions)
 

@@ -49,6 +49,9 @@ class EnergyKind(Kind):
     def views(self, summary, traces):
         return present.views(summary, traces)
 
+    def history_axis(self, spec):
+        return present.history_axis(spec)
+
     def experiments(self):
         from app.jobs.energy.experiments import EXPERIMENTS
 

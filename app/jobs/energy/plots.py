@@ -107,19 +107,19 @@ def gait_diagram(summary: dict, out: Path) -> list[Path]:
 
 def convergence(history: list[dict], out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    for phase, style in (("ga", "-"), ("random_search", "--")):
-        rows = [r for r in history if r.get("phase") == phase]
-        if rows:
-            ax.plot([r["generation"] for r in rows], [r["best"] for r in rows], style,
-                    label={"ga": "GA", "random_search": "random search (same budget)"}[phase])
-    ax.set_xlabel("generation")
-    ax.set_ylabel("best J (Eq. 11)")
-    ax.grid(alpha=0.3)
     if history:
+        g = [r["generation"] for r in history]
+        ax.plot(g, [r["best"] for r in history], "-", color=hex_color("method"), label="GA")
+        if "random_search_best" in history[0]:
+            ax.plot(g, [r["random_search_best"] for r in history], "--", color=hex_color("baseline"),
+                    label="random search (same budget)")
         ax.set_yscale("log")
         ax.legend()
     else:
         ax.text(0.5, 0.5, "no search (search.optimizer = none)", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlabel("generation")
+    ax.set_ylabel("best J (Eq. 11)")
+    ax.grid(alpha=0.3)
     ax.set_title("Convergence")
     return _save(fig, out, "convergence")
 

@@ -13,9 +13,8 @@ from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_r
 from app.robots.quadruped import LEGS
 
 HISTORY_COLUMNS = {
-    "phase": "ga (the method) or random_search (its equal-budget control)",
     "generation": "0 = the initial population",
-    "evaluations": "fitness evaluations so far in this phase",
+    "evaluations": "GA fitness evaluations so far",
     "best": "best J (Eq. 11) so far; infeasible candidates carry a penalty >= 1e4",
     "generation_best": "best J in this generation",
     "mean": "mean J in this generation (penalties included)",
@@ -23,6 +22,9 @@ HISTORY_COLUMNS = {
     "feasible_share": "share of this generation that is periodic and reachable",
     "mean_feasible": "mean J of this generation's feasible candidates",
     "best_cot": "CoT (final stage) of the best so far",
+    "random_search_best": "the equal-budget random search's best J so far (same generation size)",
+    "random_search_generation_best": "the random search's best J in this generation",
+    "random_search_feasible_share": "share of the random search's generation that is feasible",
 }
 TRACES = {
     "body": "trunk position and angles over one period on the NLP knots: the paper's NLP (first pass), the NLP "
@@ -51,6 +53,12 @@ def _f(v, fmt="{:.3g}"):
     if isinstance(v, (int, float)):
         return fmt.format(v)
     return str(v)
+
+
+def history_axis(spec: dict) -> dict:
+    return {"x": "generation", "x_note": HISTORY_COLUMNS["generation"], "y": "J (Eq. 11)", "better": "lower",
+            "series": {"best": "GA: best so far", "generation_best": "GA: best of the generation",
+                       "random_search_best": "random search (same budget): best so far"}}
 
 
 def damage_text(spec) -> str:
@@ -161,8 +169,11 @@ def views(summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
                          "line": {"color": hex_color(None, i)}})
             data.append({"type": "scatter", "x": t, "y": fn[:, 3 * i + 2].tolist(), "name": f"{leg} F_z NLP",
                          "line": {"color": hex_color(None, i), "dash": "dash"}})
-        out.append({"data": data, "layout": {"title": {"text": "Normal contact forces: NLP (dashed) and final (Fig. 3)"},
-                                             "xaxis": {"title": {"text": "t (s)"}}, "yaxis": {"title": {"text": "F_z (N)"}}}})
+        out.append(_panel("forces", "Normal contact forces (Fig. 3)",
+                          "Per leg over one period: the paper's NLP (SRB + dummy legs, dashed) and the final QP forces "
+                          "(solid), which satisfy the full multibody equations.",
+                          {"data": data, "layout": {"xaxis": {"title": {"text": "t (s)"}},
+                                                    "yaxis": {"title": {"text": "F_z (N)"}}}}))
     b = traces.get("body")
     if b is not None and "nlp_r" in b:
         t = np.asarray(b["time_s"]).tolist()
@@ -173,16 +184,22 @@ def views(summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
                          "line": {"color": hex_color(role)}})
             data.append({"type": "scatter", "x": t, "y": np.asarray(b[f"{key}_theta"])[:, 1].tolist(),
                          "name": f"pitch {label}", "yaxis": "y2", "line": {"color": hex_color(role), "dash": "dot"}})
-        out.append({"data": data, "layout": {"title": {"text": "Trunk height and pitch over a period (Fig. 4)"},
-                                             "xaxis": {"title": {"text": "t (s)"}}, "yaxis": {"title": {"text": "z (m)"}},
-                                             "yaxis2": {"title": {"text": "pitch (rad)"}, "overlaying": "y", "side": "right"}}})
+        out.append(_panel("body", "Trunk height and pitch over a period (Fig. 4)",
+                          "The NLP's trunk path, the full equations integrated with the NLP's forces (they drift: the "
+                          "residual), and with the final QP forces (periodic within tolerance).",
+                          {"data": data, "layout": {"xaxis": {"title": {"text": "t (s)"}},
+                                                    "yaxis": {"title": {"text": "z (m)"}},
+                                                    "yaxis2": {"title": {"text": "pitch (rad)"}, "overlaying": "y",
+                                                               "side": "right"}}}))
     eps = summary.get("eps")
     if eps:
         axes = ["x", "y", "z", "roll", "pitch", "yaw"]
-        out.append({"data": [{"type": "bar", "x": axes, "y": [eps[st][a] for a in axes], "name": st,
-                              "marker": {"color": hex_color(None, i)}} for i, st in enumerate(eps)],
-                    "layout": {"title": {"text": "RMS residual of the full equations per stage"}, "barmode": "group",
-                               "yaxis": {"type": "log", "title": {"text": "N, N m"}}}})
+        out.append(_panel("residuals", "Residual of the full equations per stage (Eq. 9)",
+                          "RMS over the period, per trunk axis: the paper's NLP, the NLP re-solved with the legs' true "
+                          "wrench, the QP, and the forward check's final path.",
+                          {"data": [{"type": "bar", "x": axes, "y": [eps[st][a] for a in axes], "name": st,
+                                     "marker": {"color": hex_color(None, i)}} for i, st in enumerate(eps)],
+                           "layout": {"barmode": "group", "yaxis": {"type": "log", "title": {"text": "N, N m"}}}}))
     g = summary.get("gait")
     if g:
         T = g["period_s"]
@@ -194,7 +211,14 @@ def views(summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
                 if e > a:
                     data.append({"type": "bar", "orientation": "h", "y": [leg], "x": [e - a], "base": [a],
                                  "showlegend": False, "marker": {"color": hex_color("support")}})
-        out.append({"data": data, "layout": {"title": {"text": f"Gait diagram (T = {T:.3f} s)"}, "barmode": "overlay",
-                                             "xaxis": {"title": {"text": "t (s)"}, "range": [0, 2 * T]},
-                                             "yaxis": {"autorange": "reversed"}}})
+        out.append(_panel("gait", f"Gait diagram (T = {T:.3f} s)", "Contact phases (bars) of the four legs over two periods.",
+                          {"data": data, "layout": {"barmode": "overlay",
+                                                    "xaxis": {"title": {"text": "t (s)"}, "range": [0, 2 * T]},
+                                                    "yaxis": {"autorange": "reversed"}}}))
     return out
+
+
+def _panel(pid: str, title: str, caption: str, figure: dict) -> dict:
+    from app.jobs import viewkit as kit
+
+    return kit.panel(pid, title, caption, figure=figure)

@@ -114,7 +114,7 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
             st = _search_loop("ga", ga, 1.0, evaluator, spec, ctx, st, 0, total)
             root["ga"] = {k: v for k, v in st.items() if k != "ckpt_root"}
             best_x = np.asarray(st["best"]["x"])
-            history = list(st["history"])
+            history = [{k: v for k, v in r.items() if k != "phase"} for r in st["history"]]
             done = st["evaluations"]
             # --- its equal-budget control: uniform random search over the same box -------
             rs_state = None
@@ -129,7 +129,7 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
                     rs.generation = rst["generation"]
                 rst = _search_loop("random_search", _RSAdapter(rs), -1.0, evaluator, spec, ctx, rst, done, total)
                 rs_state = {k: v for k, v in rst.items() if k != "ckpt_root"}
-                history += rst["history"]
+                history = _merge_history(history, rst["history"])
                 done += rst["evaluations"]
         else:
             best_x, history, done, rs_state, st = encode_nominal(sp, spec), [], 0, None, None
@@ -178,6 +178,20 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
     model_xml = build_spec(dataclasses.replace(geom, timestep=spec.physics.timestep_s)).to_xml()
     return JobResult(summary=summary, history=history, traces=traces, model_xml=model_xml, evaluations=done,
                      sim_steps=int(sim_steps + (robustness or {}).get("sim_steps", 0)))
+
+
+def _merge_history(ga: list[dict], rs: list[dict]) -> list[dict]:
+    """One row per generation: the GA's columns and its random-search control's beside them."""
+    by_gen = {r["generation"]: r for r in rs}
+    out = []
+    for row in ga:
+        r = by_gen.get(row["generation"])
+        row = {k: v for k, v in row.items() if k != "phase"}
+        if r is not None:
+            row |= {"random_search_best": r["best"], "random_search_generation_best": r["generation_best"],
+                    "random_search_feasible_share": r["feasible_share"]}
+        out.append(row)
+    return out
 
 
 def _feedback_text(balance: bool, foot_placement: float) -> str:
