@@ -10,6 +10,7 @@ import datetime as dt
 import hashlib
 import io
 import json
+import math
 import os
 import platform
 import tempfile
@@ -58,6 +59,17 @@ def manifest(job_id: str, spec: Any, result: JobResult) -> dict:
         "sim_steps": result.sim_steps,
         "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
     }
+
+
+def _finite(v):
+    """JSON has no NaN or Infinity: a number a kind could not compute is written as null."""
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_finite(x) for x in v]
+    return v
 
 
 def _csv(rows: list[dict]) -> str:
@@ -146,7 +158,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
             model = mujoco.MjModel.from_xml_string(result.model_xml)
             extra_files["replay.viser"] = record(model, {t.name: replayable[t.name] for t in tracks}, tracks=tracks)
         members: dict[str, bytes | str | Path] = {
-            "manifest.json": json.dumps(man, indent=2), "result.json": dumps(result.summary),
+            "manifest.json": json.dumps(man, indent=2), "result.json": json.dumps(_finite(json.loads(dumps(result.summary)))),
             "history.csv": _csv(result.history), "robot.xml": result.model_xml}
         for name, tr in result.traces.items():
             buf = io.BytesIO()

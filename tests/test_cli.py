@@ -114,3 +114,15 @@ def test_reproduce_writes_beside_docs_unless_asked(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "reproduced" / "recovery_baselines.md").is_file() and not (tmp_path / "docs").exists()
     assert "--write-docs" in r.stderr
+
+
+@pytest.mark.parametrize("text, needle", [
+    ('{"kind": "recovery", "kind": "tipping"}', "kind: duplicate key"),
+    ('{"kind": "recovery", "sim": {"duration_s": NaN}}', "sim.duration_s: NaN is not JSON"),
+])
+def test_spec_files_get_the_api_parser(tmp_path, text, needle):
+    spec = tmp_path / "bad.json"
+    spec.write_text(text)
+    p = gaitmend("run", str(spec), "--out", str(tmp_path / "out"))
+    assert p.returncode == 2 and needle in " ".join(p.stderr.split()), p.stderr
+    assert not (tmp_path / "out").exists()

@@ -48,13 +48,26 @@ def load_spec(path: Optional[Path]):
     """Parse a spec file (spec JSON, bundle manifest or bundle zip); exit 2 if it is bad."""
     from app.bundle import read_spec_file
 
+    from app.api.body import BodyError, parse_json
+
     try:
         if path is None:
             data = json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
-        else:
+        elif path.suffix == ".zip":
             data = read_spec_file(path)
+        else:
+            # The API's parser: duplicate keys, NaN, a BOM or absurd nesting are errors here too.
+            data = parse_json(path.read_bytes())
+            if isinstance(data, dict) and "bundle_schema" in data:
+                data = data.get("spec")
     except FileNotFoundError:
         fail(f"spec file not found: {path}")
+    except IsADirectoryError:
+        fail(f"{path} is a folder; give a spec JSON, a bundle's manifest.json or a bundle zip")
+    except BodyError as e:
+        for item in e.errors:
+            err.print(f"[bold red]error:[/] {path}: {item['field']}: {item['message']}", highlight=False)
+        raise typer.Exit(2) from None
     except (json.JSONDecodeError, zipfile.BadZipFile, KeyError, UnicodeDecodeError) as e:
         fail(f"cannot read spec {path}: {e}")
     try:
