@@ -160,16 +160,20 @@ def test_signed_links_bound_exp_and_die_with_their_token(settings, tmp_path):
     assert client.get(url).status_code == 401  # revoked: its links stop working at once
 
 
-def test_submit_does_not_wait_for_an_unreachable_redis(tmp_path):
+def test_submit_does_not_wait_for_an_unreachable_redis(tmp_path, monkeypatch):
+    from app import dispatch
+
     settings = migrated(deployment(tmp_path, broker=("redis://127.0.0.1:1/0", "gmtest-down:")))
     client = TestClient(create_app(settings))
+    dispatch._celery(settings)  # imports and app set-up are not what is measured
+    monkeypatch.setattr(dispatch, "BROKER_DOWN_S", 0.0)  # every submit really tries the broker
     took = []
     for i in range(3):
         t = time.monotonic()
         r = client.post("/api/jobs", json=spec(seed=i))
         took.append(time.monotonic() - t)
         assert r.status_code == 201 and r.json()["status"] == "queued"
-    assert max(took) < 2.0, took  # kombu's default retries made each ~6 s
+    assert max(took) < 3.0, took  # kombu's default retries made each ~6 s
     with session_scope(settings.db_url, readonly=True) as s:
         assert repo.undelivered(s, after_s=3600) and len(repo.undelivered(s, after_s=3600)) == 3
 
