@@ -28,6 +28,10 @@ class EnergyKind(Kind):
     def robot_info(self, robot):
         return describe(QUADRUPED25)
 
+    def smoke_spec(self):
+        return {"kind": "energy", "search": {"population": 4, "generations": 1, "workers": 1}, "model": {"knots": 48},
+                "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
+
     def damage_text(self, spec):
         return present.damage_text(spec)
 
