@@ -347,8 +347,7 @@ def run_summary(r: dict, threshold: float) -> dict:
         "min_margin_deg": float(m[active].min()), "final_margin_deg": float(m[-1]),
         "final_body_tilt_deg": float(tr["tilt_rel_deg"][-1]),
         "adjustments": r["adjustments"], "final_stance": r["final_stance"],
-        "control_ms_mean": r["control_ms_mean"], "control_ms_p95": r["control_ms_p95"],
-    }
+    }  # measured times (control_ms_*) stay out: the same spec must give the same summary
     for k in ("static_tip_deg", "max_tilt_deg", "distance_m", "max_slip_m"):
         if k in r:
             out[k] = r[k]

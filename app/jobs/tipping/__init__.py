@@ -28,6 +28,12 @@ class TippingKind(Kind):
 
         return run(spec, ctx)
 
+    def smoke_spec(self):
+        # Five short simulations (the runs with and without recovery, three controls): the
+        # evidence path and its checkpoints without the band's and robustness's 23 runs.
+        return {"kind": "tipping", "scenario": {"type": "tilt", "hold_s": 0.5},
+                "evidence": {"robustness": False, "band": False}}
+
     def damage_text(self, spec):
         sc = spec.scenario
         return present.damage_text(sc.model_dump() | ({"downhill_deg": sc.resolved_downhill()}

@@ -51,7 +51,7 @@ def paper_cases(duration_s: float = 20.0, rate_deg_s: float = 10.0, max_tilt_deg
                      "margin_before_deg": rec.get("margin_before_landing_deg"),
                      "margin_after_deg": rec.get("margin_after_landing_deg"),
                      "final_margin_deg": rec["final_margin_deg"], "static_tip_deg": rec.get("static_tip_deg"),
-                     "max_tilt_deg": rec.get("max_tilt_deg"), "control_ms_mean": rec["control_ms_mean"], **ev})
+                     "max_tilt_deg": rec.get("max_tilt_deg"), "control_ms_mean": r["control_ms_mean"], **ev})
         log(f"{rows[-1]['case']}: done")
     return rows
 

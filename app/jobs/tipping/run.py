@@ -108,8 +108,8 @@ def run(spec: TippingSpec, ctx: RunContext) -> JobResult:
         "recovered": (spec.recovery.enabled and summaries["no_recovery"]["tipped"]
                       and not summaries["recovery"]["tipped"]),
         "timing": {"wall_s": wall, "sim_steps": sim_steps, "sim_steps_per_s": sim_steps / max(wall, 1e-9),
-                   "control_ms_mean": float(np.mean([s["control_ms_mean"] for s in summaries.values()])),
-                   "control_ms_p95": float(np.max([s["control_ms_p95"] for s in summaries.values()]))},
+                   "control_ms_mean": float(np.mean([r["control_ms_mean"] for r in runs.values()])),
+                   "control_ms_p95": float(np.max([r["control_ms_p95"] for r in runs.values()]))},
     }
     if "recovery" in summaries:
         rs = summaries["recovery"]
