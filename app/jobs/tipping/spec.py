@@ -190,8 +190,8 @@ class TippingSpec(SpecBase):
         "stance, fixed swing time) when evidence.controls; + 7 robustness re-runs (step halved and quartered, "
         "friction x0.7 and x1.3, masses +-10 %, payload) when evidence.robustness; + 2 x (2 + "
         "ceil(log2((band_max - band_min) / band_tolerance))) bisection probes (with and without recovery) when "
-        "evidence.band on the tilting platform (2 only, for a controller that already tips at band_min or still "
-        "stands at band_max); + 2 x directions x stances when the sweep is on")
+        "evidence.band on the tilting platform (only 1 for a controller that already tips at band_min, 2 for one that "
+        "still stands at band_max); + 2 x directions x stances when the sweep is on")
 
     @property
     def evaluations_budget(self) -> int:
