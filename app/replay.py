@@ -141,8 +141,9 @@ class _Scene:
         spacing = 3.2 * size
         start = next(iter(poses.values()))[0][0, root]
         self._frame_camera(server, poses, root, size, spacing)
-        scene.add_grid("/ground", width=16 * size, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
-                       position=(start[0], start[1] + 4 * size, 0.0))
+        row = spacing * (len(traces) - 1)  # the robots stand side by side along -x: the ground spans them all
+        scene.add_grid("/ground", width=16 * size + row, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
+                       position=(start[0] - row / 2, start[1] + 4 * size, 0.0))
         self.robots = {}
         style = {t.name: t for t in (tracks or replay_tracks(None, list(traces)))}
         for k, (name, tr) in enumerate(traces.items()):
