@@ -54,7 +54,7 @@
       rows.push([key, list.map((c) => {
         const r = ((c.views && c.views.headline) || []).find((x) => x.label === label);
         if (!r) return "–";
-        const v = typeof r.value === "number" ? num(r.value, 3) : r.value === null || r.value === undefined ? "–" : String(r.value);
+        const v = GMViews.show(r.value, 3);
         return r.met === true ? el("span", {}, v, el("span", { class: "mark met", text: "✓ met" }))
           : r.met === false ? el("span", {}, v, el("span", { class: "mark unmet", text: "✗ not met" })) : v;
       })]);
@@ -68,7 +68,8 @@
     const conv = list[0].views && list[0].views.convergence;
     const div = el("div", { class: "plot plot-empty", id: `plot-compare-${n}`, role: "figure",
                             "aria-label": conv ? `${conv.y} per ${conv.x} of each job` : "no per-generation objective" });
-    card.append(div);
+    if (conv) card.append(div);
+    else card.append(el("p", { class: "small muted", text: "These jobs report no objective per generation (their history holds runs); their numbers are in the table." }));
     const rows = metricRows(list);
     card.append(el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": `metrics of ${groupTitle(list[0])}` },
       el("table", { class: "data headline metrics" },
@@ -78,6 +79,7 @@
         el("tbody", {}, rows.map(([name, vals]) => el("tr", {}, el("th", { scope: "row", text: name }),
           vals.map((v) => el("td", {}, v))))))));
     card._draw = () => {
+      if (!conv) return;
       const traces = [];
       if (conv) {
         const series = conv.series || { best: "best so far" };
@@ -98,7 +100,7 @@
       if (traces.length) {
         const maxX = Math.max(...traces.map((t) => t.x.length));
         plot(div, traces, { xaxis: { title: { text: conv.x }, dtick: maxX <= 12 ? 1 : undefined },
-                            yaxis: { title: { text: `${conv.y}${conv.better ? ` (${conv.better} is better)` : ""}` } },
+                            yaxis: { title: { text: `${conv.y}${conv.better ? `, ${conv.better} better` : ""}` } },
                             legend: { orientation: "h", y: -0.25 } });
         div.dataset.rendered = "1";
       } else empty(div, conv ? "No history yet." : "These jobs report no objective per generation; their numbers are in the table.");

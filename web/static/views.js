@@ -7,6 +7,9 @@ const GMViews = (() => {
   const { el, num, plot } = GM;
 
   const isCell = (c) => c !== null && typeof c === "object" && !Array.isArray(c);
+  // a headline value in words: numbers rounded, yes / no, lists joined
+  const show = (v, digits = 2) => (typeof v === "number" ? num(v, digits) : typeof v === "boolean" ? (v ? "yes" : "no")
+    : Array.isArray(v) ? v.map((x) => show(x, digits)).join(", ") : v === null || v === undefined ? "–" : String(v));
 
   // A value with its unit; a judged cell also says met / not met and better / worse in
   // words (colour alone is not enough), and a worse value is marked as clearly as a better one.
@@ -47,8 +50,6 @@ const GMViews = (() => {
     const hasTarget = rows.some((r) => r.target);
     const cols = ["Quantity", "Value", "Better when"].concat(hasBase ? ["Control", "Against the control"] : [],
                                                              hasTarget ? ["Target", "Met"] : []);
-    const show = (v) => (typeof v === "number" ? num(v, 2) : typeof v === "boolean" ? (v ? "yes" : "no")
-      : Array.isArray(v) ? v.map(show).join(", ") : v === null || v === undefined ? "–" : String(v));
     const fmt = (v, unit) => (v === null || v === undefined ? "–" : `${show(v)}${unit ? ` ${unit}` : ""}`);
     const cmp = (r) => {
       if (typeof r.value !== "number" || typeof r.baseline !== "number" || r.value === r.baseline) return null;
@@ -112,5 +113,5 @@ const GMViews = (() => {
     return secs;
   }
 
-  return { cell, table, headline, panel, panels };
+  return { cell, table, headline, panel, panels, show };
 })();
