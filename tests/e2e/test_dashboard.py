@@ -124,7 +124,11 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     expect(row).to_be_visible()
     expect(row).to_have_attribute("data-status", "succeeded", timeout=JOB_TIMEOUT_MS)
     expect(row).to_contain_text("lost 2,5")
-    assert float(row.locator("td").nth(6).inner_text()) != 0
+    # the result column is the kind's first headline row, with its label and unit
+    with server.client() as c:
+        first = c.get(f"/api/jobs/{job_id}").json()["headline"][0]
+    expect(row.locator("td.result")).to_contain_text(f"{first['label']}: ")
+    expect(row.locator("td.result")).to_contain_text(first["unit"])
     page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=shots / "jobs-1280.png")
 

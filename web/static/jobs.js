@@ -195,6 +195,18 @@
     return q.toString();
   }
 
+  // The kind's first headline row (what a user came for, with its unit), or while a search
+  // runs its best so far; never one bare number whose meaning changes from kind to kind.
+  function resultText(item) {
+    const r = (item.headline || [])[0];
+    if (r) {
+      const v = GMViews.show(r.value, 3);
+      return el("span", { title: r.better ? `${r.better} is better` : null }, `${r.label}: ${v}${r.unit ? ` ${r.unit}` : ""}`,
+        r.met === true ? el("span", { class: "mark met", text: "✓" }) : r.met === false ? el("span", { class: "mark unmet", text: "✗" }) : null);
+    }
+    return item.status === "running" && typeof item.best_fitness === "number" ? `best so far ${num(item.best_fitness, 4)}` : "–";
+  }
+
   function cells(item) {
     const bar = item.status === "running" || item.status === "queued"
       ? el("progress", { max: 1, value: item.progress.fraction, "aria-label": `progress ${progressText(item)}` }) : null;
@@ -209,13 +221,13 @@
       el("td", { "data-label": "Damage", text: item.damage || "–" }),
       el("td", { "data-label": "Status" }, badge(item.status), " ",
          el("span", { class: "small muted", text: item.status === "running" ? progressText(item) : "" }), bar),
-      el("td", { class: "num", "data-label": "Best so far", text: num(item.best_fitness, 4) }),
+      el("td", { class: "result", "data-label": "Result" }, resultText(item)),
       el("td", { "data-label": "Age", title: item.created_at, text: age(item.created_at) }),
     ];
   }
 
   function upsert(item) {
-    const sig = JSON.stringify([item.status, item.progress, item.best_fitness, item.damage, age(item.created_at)]);
+    const sig = JSON.stringify([item.status, item.progress, item.best_fitness, item.headline, item.damage, age(item.created_at)]);
     let r = rows.get(item.id);
     if (!r) {
       r = { item, tr: el("tr", { "data-id": item.id, "data-status": item.status }), sig: null };
