@@ -10,7 +10,7 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
-from playwright.sync_api import expect
+from playwright.sync_api import TimeoutError as PlaywrightTimeout, expect
 
 JOB_TIMEOUT_MS = 180_000
 DONE: dict[str, str] = {}  # kind -> job id, for the compare test
@@ -43,9 +43,14 @@ def replay_drawn(jp, shots, name) -> float:
     canvas = jp.frame_locator("#replay").locator("canvas").first
     expect(canvas).to_be_visible(timeout=60_000)
     share = 0.0
-    for _ in range(25):
+    for _ in range(40):
         jp.wait_for_timeout(1000)
-        bb = canvas.bounding_box()
+        try:  # the client lays its canvas out over a few frames in software GL: 0 x 0 at first
+            bb = canvas.bounding_box(timeout=5000)
+        except PlaywrightTimeout:
+            continue
+        if not bb or bb["width"] < 50 or bb["height"] < 50:
+            continue
         png = jp.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
                                   "width": bb["width"] * 0.6, "height": bb["height"] * 0.7})
         a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
