@@ -132,13 +132,15 @@ def plane_normal(points: list) -> tuple[float, float, float]:
 
 def distribute_fast(feet: list, com, mass: float, gravity=(0.0, 0.0, -9.81), normal=(0.0, 0.0, 1.0), mu: float = 0.8,
                     fz_max_factor: float = 1.5, lam: float = 0.9, body_x=(1.0, 0.0, 0.0),
-                    weights: QPWeights = QPWeights(), stability: bool = True) -> ForceSolution:
+                    weights: QPWeights = QPWeights(), stability: bool = True, acc=(0.0, 0.0, 0.0),
+                    moment=(0.0, 0.0, 0.0)) -> ForceSolution:
     """``qp.distribute`` with the geometry in floats and the matrices assembled once."""
     k = len(feet)
     g = math.sqrt(_dot(gravity, gravity))
     mg = mass * g
     normal = _unit(normal)
-    b = np.array([-gravity[0] / g, -gravity[1] / g, -gravity[2] / g, 0.0, 0.0, 0.0])
+    b = np.array([(acc[0] - gravity[0]) / g, (acc[1] - gravity[1]) / g, (acc[2] - gravity[2]) / g,
+                  moment[0] / mg, moment[1] / mg, moment[2] / mg])
     r = [_sub(p, com) for p in feet]
     A = np.zeros((6, 3 * k))
     for j, rj in enumerate(r):

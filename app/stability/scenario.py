@@ -47,6 +47,10 @@ class ControllerConfig:
     # servos' stiffness, not the QP).
     stance_control: str = "force"
     compliance: float = 0.03
+    # Posture feedback in the QP's target wrench b (Eq. 16's a_b and the moment): a critically
+    # damped pull back to the body pose at the QP's takeover with this bandwidth (Hz); 0 =
+    # off (b = support of gravity only), the default: the paper does not say what sets a_b.
+    posture_hz: float = 0.0
 
 
 @dataclasses.dataclass
@@ -124,6 +128,8 @@ class HexapodSim:
         self._kp0 = m.actuator_biasprm[:, 1].copy()  # pid actuators: bias = -kp (q - ctrl) - kv qdot
         self._kv0 = m.actuator_biasprm[:, 2].copy()
         self._jac = np.zeros((3, m.nv))
+        self.root_dof = int(m.jnt_dofadr[m.joint("root").id])
+        self.body_inertia = m.body_inertia[self.torso].copy()  # principal, about the torso's CoM
 
     # -- sensing ---------------------------------------------------------------------------
     def foot_forces(self) -> np.ndarray:
@@ -227,6 +233,7 @@ class TippingController:
         self.qp_stability = False
         self.pending_after: list[tuple[float, Adjustment]] = []
         self.hold_targets: dict[int, np.ndarray] = {}  # stance feet (body frame) when the QP took over
+        self.posture_ref: tuple[np.ndarray, np.ndarray] | None = None
 
     def support(self, forces_w: np.ndarray) -> list[int]:
         """The support polygon's legs: those commanded to stance plus any foot carrying load
@@ -313,8 +320,9 @@ class TippingController:
         pts = [feet_w[l - 1].tolist() for l in self.stance]
         x, R = sim.body_pose()
         normal = plane_normal(pts)
+        acc, moment = self._posture_wrench(x, R)
         sol = distribute_fast(pts, com.tolist(), sim.mass, tuple(sim.gravity), normal=normal, mu=cfg.mu,
-                              lam=cfg.lam, body_x=tuple(R[:, 0]))
+                              lam=cfg.lam, body_x=tuple(R[:, 0]), acc=acc, moment=moment)
         self.qp_forces = {l: sol.forces[i] for i, l in enumerate(self.stance)}
         self.qp_stability = sol.stability_constrained
         sim.apply_foot_forces(self.qp_forces)
@@ -325,6 +333,27 @@ class TippingController:
                 self.hold_targets[leg] = (feet_w[leg - 1] - x) @ R
                 sim.set_compliance(leg, cfg.compliance)
             sim.set_foot_target(leg, self.hold_targets[leg])
+
+
+    def _posture_wrench(self, x: np.ndarray, R: np.ndarray) -> tuple[tuple, tuple]:
+        """Desired body acceleration and moment (world frame) pulling the body back to its
+        pose at the QP's takeover, critically damped at ``posture_hz``."""
+        if self.cfg.posture_hz <= 0:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if self.posture_ref is None:
+            self.posture_ref = (x.copy(), R.copy())
+        x0, R0 = self.posture_ref
+        wn = 2.0 * math.pi * self.cfg.posture_hz
+        qv = self.sim.data.qvel[self.sim.root_dof:self.sim.root_dof + 6]
+        acc = -wn * wn * (x - x0) - 2.0 * wn * qv[:3]  # free joint: linear velocity in the world frame
+        E = R @ R0.T
+        ang = math.acos(max(-1.0, min(1.0, 0.5 * (np.trace(E) - 1.0))))
+        axis = np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+        rot = axis * (0.5 * ang / math.sin(ang)) if ang > 1e-9 else 0.5 * axis
+        w = R @ qv[3:]  # angular velocity: the free joint's is in the body frame
+        inertia = R @ np.diag(self.sim.body_inertia) @ R.T
+        moment = inertia @ (-wn * wn * rot - 2.0 * wn * w)
+        return tuple(acc), tuple(moment)
 
 
 # -- results ----------------------------------------------------------------------------------

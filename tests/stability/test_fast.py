@@ -46,3 +46,14 @@ def test_qp_matches_reference():
         np.testing.assert_allclose(a.forces, b.forces, atol=1e-3 * 5000 * 9.81)
         np.testing.assert_allclose(a.constraint_matrix, b.constraint_matrix, atol=1e-9)
     assert disagree <= 2
+
+
+def test_qp_with_a_desired_acceleration_matches_reference():
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        feet = BASE[:4] + rng.normal(0, 0.1, (4, 3))
+        com = np.array([0.3, 0.1, 1.8]) + rng.normal(0, 0.2, 3)
+        acc, moment = rng.normal(0, 0.5, 3), rng.normal(0, 2000.0, 3)
+        a = distribute(feet, com, 5000.0, acc=acc, moment=moment, stability=False)
+        b = distribute_fast(feet.tolist(), com.tolist(), 5000.0, acc=tuple(acc), moment=tuple(moment), stability=False)
+        np.testing.assert_allclose(a.forces, b.forces, atol=1e-6 * 5000 * 9.81)

@@ -102,6 +102,9 @@ class TippingRecovery(StrictModel):
     # QP's forces (tau = -J^T f); "position" = stiff servos, the QP as feed-forward only.
     stance_control: Literal["force", "position"] = "force"
     compliance: float = Field(0.03, gt=0.0, le=1.0)  # servo stiffness factor in force mode
+    # Posture feedback in the QP's target wrench (Eq. 16's a_b): bandwidth in Hz, 0 = off
+    # (the default; the paper does not say what sets a_b).
+    posture_hz: float = Field(0.0, ge=0.0, le=5.0)
 
     @model_validator(mode="after")
     def _swing_order(self):
@@ -217,7 +220,8 @@ class TippingSpec(SpecBase):
                                 swing_max_s=r.swing_max_s, clearance_m=r.clearance_m, qp=r.qp,
                                 control_dt=self.sim.control_dt, max_adjustments=r.max_adjustments,
                                 swing_timing=r.swing_timing, fixed_swing_s=r.fixed_swing_s,
-                                stance_control=r.stance_control, compliance=r.compliance)
+                                stance_control=r.stance_control, compliance=r.compliance,
+                                posture_hz=r.posture_hz)
 
 
 Spec = TippingSpec
