@@ -18,7 +18,7 @@ import numpy as np
 
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.freegait.spec import ROBUSTNESS_CASES, FreegaitSpec
-from app.planning.freegait.walk import STOP_CAUSES, WalkConfig, WalkResult, stand_pose, walk
+from app.planning.freegait.walk import STOP_CAUSES, WalkConfig, WalkResult, stand_pose, walk, zones_near_route
 from app.robots.silo6 import SILO6
 from app.sim.terrain import Minefield, Terrain, make_minefield, make_terrain
 
@@ -159,7 +159,7 @@ def run(spec: FreegaitSpec, ctx: RunContext) -> JobResult:
                   "zone_radius_m": field.zone_radius, "safe_radius_m": field.safe_radius,
                   "x_range_m": list(terrain.x_range), "y_range_m": list(terrain.y_range),
                   "roughness_m": terrain.roughness},
-        "zones": np.round(field.centres, 4).tolist(),
+        "zones": np.round(zones_near_route(field, spec.route.build()).centres, 4).tolist(),  # drawn ones
         **{k: ms[k] for k in ms},
         "target": TARGET, "target_met": target_met(ms, sm_min),
         "stop_causes": list(STOP_CAUSES[1:]),

@@ -75,7 +75,8 @@ def build_spec(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6G
     spec.option.timestep = cfg.timestep
     add_heightfield(spec, terrain, friction=geom.friction * cfg.friction_scale)
     if markers:
-        add_zone_markers(spec, terrain, field)
+        # the replay draws the zones near the route only (a large field holds thousands)
+        add_zone_markers(spec, terrain, zones_near_route(field, cfg.route))
     silo6.add_robot(spec, dataclasses.replace(geom, friction=geom.friction * cfg.friction_scale))
     if cfg.mass_scale != 1.0:
         for b in spec.bodies:
@@ -83,6 +84,15 @@ def build_spec(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6G
                 if gm.mass > 0:
                     gm.mass = gm.mass * cfg.mass_scale
     return spec
+
+
+def zones_near_route(field: Minefield, route: Route, reach: float = 1.5) -> Minefield:
+    """The zones within ``reach`` of the route's nominal COG path (a foot never goes farther)."""
+    if len(field.centres) == 0:
+        return field
+    path = route.nominal_path()[::10, :2]
+    d = np.linalg.norm(field.centres[:, None, :] - path[None, :, :], axis=-1).min(axis=1)
+    return Minefield(field.centres[d < reach], field.zone_radius, field.safe_radius)
 
 
 def _rot(q: np.ndarray) -> np.ndarray:
