@@ -202,7 +202,7 @@
     if (r) {
       const v = GMViews.show(r.value, 3);
       return el("span", { title: r.better ? `${r.better} is better` : null }, `${r.label}: ${v}${r.unit ? ` ${r.unit}` : ""}`,
-        r.met === true ? el("span", { class: "mark met", text: "✓" }) : r.met === false ? el("span", { class: "mark unmet", text: "✗" }) : null);
+        r.met === true ? el("span", { class: "mark met", text: "✓ met" }) : r.met === false ? el("span", { class: "mark unmet", text: "✗ not met" }) : null);
     }
     return item.status === "running" && typeof item.best_fitness === "number" ? `best so far ${num(item.best_fitness, 4)}` : "–";
   }
