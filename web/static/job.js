@@ -46,7 +46,7 @@
       facts.push(["Search", Object.entries(s).filter(([, v]) => v !== null && typeof v !== "object")
         .map(([k, v]) => `${k.replace(/_/g, " ")} ${k === "optimizer" ? String(v).toUpperCase() : v}`).join(", ")]);
     }
-    if (spec.sim && spec.sim.duration_s) facts.push(["Walk", `${spec.sim.duration_s} s`]);
+    if (spec.sim && spec.sim.duration_s) facts.push(["Simulated time", `${spec.sim.duration_s} s`]);
     facts.push(["Created", new Date(j.created_at).toLocaleString()]);
     // wall time only once the job has ended: while running it is a moving number, not a result
     if (FINAL.has(j.status) && j.wall_s !== null && j.wall_s !== undefined) facts.push(["Wall time", `${num(j.wall_s, 1)} s`]);
@@ -65,11 +65,14 @@
     const xKey = (conv && conv.x) || (rows.length && "generation" in rows[0] ? "generation" : null);
     historyTable(rows);
     if (!rows.length) {
-      empty(div, FINAL.has(job.status) ? "No per-generation history." : "Waiting for the first generation…");
+      empty(div, FINAL.has(job.status) ? "No history." : `Waiting for the first ${conv ? conv.x || "generation" : "history row"}…`);
       return;
     }
     if (!conv || !keys.length) {
-      empty(div, "This job's history has no objective per generation; its rows are in the table below.");
+      // a history of runs (no objective per generation): the table is the whole story
+      $("conv-h").textContent = "History";
+      div.hidden = true;
+      $("conv-note").textContent = "This job's history holds runs, not an objective per generation; its rows are below.";
       const d = $("history-table").querySelector("details");
       if (d) d.open = true;
       return;
