@@ -2,7 +2,7 @@
 folder) driven by Debian's Chromium through Playwright. The server runs with API tokens on,
 so the dashboard's token path, signed replay links and authorised downloads are exercised.
 
-Screenshots go to $GAITMEND_E2E_SHOTS (default: a temporary folder, printed at the end)."""
+Screenshots go to $GAITMEND_E2E_SHOTS (default: tests/e2e/screenshots/, gitignored), to be looked at."""
 
 from __future__ import annotations
 
@@ -86,7 +86,7 @@ def browser():
 
 @pytest.fixture(scope="session")
 def shots(tmp_path_factory) -> Path:
-    d = Path(os.environ.get("GAITMEND_E2E_SHOTS") or tmp_path_factory.mktemp("screenshots"))
+    d = Path(os.environ.get("GAITMEND_E2E_SHOTS") or Path(__file__).parent / "screenshots")  # gitignored
     d.mkdir(parents=True, exist_ok=True)
     return d
 
