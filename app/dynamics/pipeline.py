@@ -27,7 +27,7 @@ import numpy as np
 from app.dynamics.dummy_legs import dummy_leg_wrench, leg_motion, nominal_body
 from app.dynamics.forward import ForwardPath, integrate
 from app.dynamics.gait import Gait, Task, feet_world
-from app.dynamics.nlp import SRBNLP, NLPSolution, SRBProblem
+from app.dynamics.nlp import SRBNLP, SRBProblem
 from app.dynamics.qp import residual_qp
 from app.dynamics.whole_body import GRAVITY, WholeBody, quat, rotation
 from app.robots.quadruped import QuadrupedGeometry

@@ -8,14 +8,13 @@ import dataclasses
 import time
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from app.dynamics.gait import Gait
 from app.dynamics.physics import PhysicsConfig, reference_from, simulate
 from app.dynamics.pipeline import PERIODICITY_TOL, evaluate
 from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.energy.problem import (PopulationEvaluator, compact, decode, encode_nominal, eval_config, geometry,
+from app.jobs.energy.problem import (PopulationEvaluator, decode, encode_nominal, eval_config, geometry,
                                      space, task_of)
 from app.jobs.energy.spec import ROBUSTNESS_CASES, EnergySpec
 from app.optim.ga import GeneticAlgorithm
