@@ -79,6 +79,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     errors.install(app)
     app.include_router(jobs.router, prefix="/api")
     app.include_router(meta.router, prefix="/api")
+    from app.api.routes import studies
+
+    app.include_router(studies.router, prefix="/api")
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
     install_docs(app)

@@ -2,7 +2,7 @@
 (serve, worker, db, token) and client commands (submit, jobs, fetch, cancel, replay), each
 group in its own module registering on the one Typer app in ``common``."""
 
-from app.cli import client, local, server  # noqa: F401  (each registers its commands)
+from app.cli import client, local, server, study  # noqa: F401  (each registers its commands)
 from app.cli.common import cli, main
 
 __all__ = ["cli", "main"]

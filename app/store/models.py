@@ -69,6 +69,8 @@ class Job(Base):
     started_at: Mapped[dt.datetime | None] = mapped_column()
     finished_at: Mapped[dt.datetime | None] = mapped_column()
     updated_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+    study_id: Mapped[str | None] = mapped_column(String(32), ForeignKey("studies.id"), index=True)  # app/studies
+    study_point: Mapped[int | None] = mapped_column(Integer)  # the point's index in its study
 
     __table_args__ = (
         UniqueConstraint("owner", "idempotency_key", name="uq_jobs_owner_idempotency_key"),
@@ -78,6 +80,25 @@ class Job(Base):
         Index("ix_jobs_kind_seq", "kind", "seq"),
         Index("ix_jobs_robot_seq", "robot", "seq"),
     )
+
+
+class Study(Base):
+    """A study (app/studies): its spec and the infeasible points it lists; progress and the
+    aggregate are always computed from its jobs, never stored here."""
+
+    __tablename__ = "studies"
+
+    seq: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    id: Mapped[str] = mapped_column(String(32), unique=True)
+    owner: Mapped[str] = mapped_column(String(64))
+    name: Mapped[str] = mapped_column(String(200))
+    spec: Mapped[dict[str, Any]] = mapped_column(JSON)
+    plan: Mapped[dict[str, Any]] = mapped_column(JSON)  # {"overrides": [per point], "infeasible": [{"overrides", "reason"}]}
+    points: Mapped[int] = mapped_column(Integer)
+    cancel_requested: Mapped[bool] = mapped_column(Boolean, default=False)
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+
+    __table_args__ = (Index("ix_studies_owner_seq", "owner", "seq"),)
 
 
 class JobHistory(Base):

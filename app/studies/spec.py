@@ -1,0 +1,201 @@
+"""The study spec and its expansion into points. Every point is validated by its kind's own
+Spec before anything is queued; one bad point rejects the study, naming the point and field."""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import Field, ValidationError, field_validator, model_validator
+
+from app.jobs.base import SpecError, StrictModel
+from app.jobs.registry import parse_spec
+
+ALL_FEASIBLE = "all_feasible_1_and_2"  # every 1- and 2-leg loss of the hexapod (recovery)
+PATH_RE = r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$"
+
+# Upper bounds of one study; deployments lower or raise them by environment.
+MAX_POINTS = int(os.environ.get("GAITMEND_MAX_STUDY_POINTS", "1000"))
+MAX_STUDY_EVALUATIONS = int(os.environ.get("GAITMEND_MAX_STUDY_EVALUATIONS", "20000000"))
+
+
+class Report(StrictModel):
+    group_by: list[str] = Field(default_factory=list, max_length=8)
+    metrics: list[str] = Field(min_length=1, max_length=32)
+
+    @field_validator("group_by", "metrics")
+    @classmethod
+    def _paths(cls, v: list[str]) -> list[str]:
+        import re
+
+        for p in v:
+            if not re.fullmatch(PATH_RE, p) or len(p) > 200:
+                raise ValueError(f"{p!r} is not a dotted path like 'best.metrics.y_f_m'")
+        if len(set(v)) != len(v):
+            raise ValueError("paths must be distinct")
+        return v
+
+
+class StudySpec(StrictModel):
+    """``points`` (a list of override objects) or ``grid`` (path -> list of values, every
+    combination); overrides are dotted paths into the base spec, e.g. ``search.seed``."""
+
+    name: str = Field(min_length=1, max_length=200)
+    base: dict[str, Any]
+    points: list[dict[str, Any]] | None = Field(None, min_length=1, max_length=100_000)
+    grid: dict[str, list[Any] | str] | None = Field(None, min_length=1, max_length=8)
+    list_infeasible: bool = False  # infeasible damages are listed (never queued) instead of rejected
+    report: Report
+
+    @model_validator(mode="after")
+    def _one_of(self):
+        if (self.points is None) == (self.grid is None):
+            raise ValueError("give exactly one of 'points' or 'grid'")
+        return self
+
+
+@dataclass
+class Plan:
+    study: StudySpec
+    points: list[dict[str, Any]] = field(default_factory=list)  # {"index", "overrides", "spec", "budget"}
+    infeasible: list[dict[str, Any]] = field(default_factory=list)  # {"overrides", "reason"}
+
+    @property
+    def evaluations(self) -> int:
+        return sum(p["budget"] for p in self.points)
+
+
+def set_path(d: dict, path: str, value: Any) -> None:
+    keys = path.split(".")
+    for k in keys[:-1]:
+        nxt = d.get(k)
+        if nxt is None:
+            nxt = d[k] = {}
+        if not isinstance(nxt, dict):
+            raise KeyError(f"{k!r} is not an object")
+        d = nxt
+    d[keys[-1]] = copy.deepcopy(value)
+
+
+def get_path(d: Any, path: str) -> Any:
+    for k in path.split("."):
+        if isinstance(d, dict) and k in d:
+            d = d[k]
+        elif isinstance(d, list) and k.isdigit() and int(k) < len(d):
+            d = d[int(k)]
+        else:
+            return None
+    return d
+
+
+def _all_losses() -> list[list[int]]:
+    return [[l] for l in range(1, 7)] + [list(c) for c in itertools.combinations(range(1, 7), 2)]
+
+
+def infeasible_reason(spec: dict) -> str | None:
+    """Why a point cannot run (a hexapod that cannot walk on the legs left), else None."""
+    lost = get_path(spec, "damage.lost_legs")
+    if spec.get("kind") != "recovery" or not isinstance(lost, list):
+        return None
+    from app.gaits.sequences import InfeasibleMorphology, check_feasible
+
+    try:
+        check_feasible([l for l in range(1, 7) if l not in lost])
+    except InfeasibleMorphology as e:
+        return str(e) or "no statically stable gait on the remaining legs"
+    except Exception:  # malformed lists are the kind's Spec to reject
+        return None
+    return None
+
+
+def _fail(field_: str, message: str) -> SpecError:
+    return SpecError([{"field": field_, "message": message}])
+
+
+def _override_list(study: StudySpec) -> list[dict[str, Any]]:
+    import re
+
+    if study.points is not None:
+        for i, p in enumerate(study.points):
+            for k in p:
+                if not re.fullmatch(PATH_RE, k):
+                    raise _fail(f"points[{i}].{k}", "override keys are dotted paths like 'search.seed'")
+        return [dict(p) for p in study.points]
+    axes = []
+    for k, v in study.grid.items():
+        if not re.fullmatch(PATH_RE, k):
+            raise _fail(f"grid.{k}", "grid keys are dotted paths like 'search.seed'")
+        if isinstance(v, str):
+            if v != ALL_FEASIBLE or k != "damage.lost_legs" or study.base.get("kind") != "recovery":
+                raise _fail(f"grid.{k}", f"a list of values; the one named set is {ALL_FEASIBLE!r} for "
+                                         "recovery's damage.lost_legs")
+            v = _all_losses()
+        if not v:
+            raise _fail(f"grid.{k}", "at least one value")
+        axes.append([(k, x) for x in v])
+    n = math.prod(len(a) for a in axes)
+    if n > MAX_POINTS:
+        raise _fail("grid", f"{n} points; the limit is {MAX_POINTS} per study (GAITMEND_MAX_STUDY_POINTS)")
+    return [dict(c) for c in itertools.product(*axes)]
+
+
+def parse_study(data: Any) -> StudySpec:
+    if not isinstance(data, dict):
+        raise _fail("study", "a study must be a JSON object")
+    try:
+        return StudySpec.model_validate(data)
+    except ValidationError as e:
+        raise SpecError.from_validation(e) from None
+
+
+def expand(data: Any, max_points: int | None = None) -> Plan:
+    """Parse the study and validate every point with its kind's Spec; SpecError on the first
+    bad point (named ``points[i].<field>``) or on a limit."""
+    study = parse_study(data) if not isinstance(data, StudySpec) else data
+    limit = MAX_POINTS if max_points is None else max_points
+    overrides = _override_list(study)
+    if len(overrides) > limit:
+        raise _fail("points", f"{len(overrides)} points; the limit is {limit} per study (GAITMEND_MAX_STUDY_POINTS)")
+    plan = Plan(study)
+    for i, ov in enumerate(overrides):
+        d = copy.deepcopy(study.base)
+        for k, v in ov.items():
+            try:
+                set_path(d, k, v)
+            except KeyError as e:
+                raise _fail(f"points[{i}].{k}", f"cannot set: {e.args[0]}") from None
+        if (why := infeasible_reason(d)) is not None:
+            if not study.list_infeasible:
+                raise _fail(f"points[{i}].damage.lost_legs", f"infeasible damage {ov}: {why} "
+                                                             "(set list_infeasible to list such points instead)")
+            plan.infeasible.append({"overrides": ov, "reason": why})
+            continue
+        try:
+            spec = parse_spec(d)
+        except SpecError as e:
+            first = e.errors[0] if e.errors else {"field": "spec", "message": str(e)}
+            raise SpecError([{"field": f"points[{i}].{x['field']}", "message": f"{x['message']} (overrides {ov})"}
+                             for x in (e.errors or [first])]) from None
+        plan.points.append({"index": len(plan.points), "overrides": ov, "spec": spec.model_dump(mode="json"),
+                            "budget": int(spec.evaluations_budget), "kind": spec.kind,
+                            "robot": getattr(spec, "robot", None)})
+    if not plan.points:
+        raise _fail("points", "no runnable point (every point is infeasible)")
+    if plan.evaluations > MAX_STUDY_EVALUATIONS:
+        raise _fail("points", f"the points need {plan.evaluations} evaluations in all; the limit is "
+                              f"{MAX_STUDY_EVALUATIONS} per study (GAITMEND_MAX_STUDY_EVALUATIONS)")
+    return plan
+
+
+def axes_of(study: StudySpec) -> list[str]:
+    """Every overridden path, in order of first appearance."""
+    if study.grid is not None:
+        return list(study.grid)
+    seen: dict[str, None] = {}
+    for p in study.points or []:
+        seen.update(dict.fromkeys(p))
+    return list(seen)

@@ -1,0 +1,155 @@
+"""Studies end to end: validation of every point before anything is written, real worker
+processes on Redis + PostgreSQL (kill -9 mid-study, cancel mid-study), and the local
+`gaitmend study run` giving the served aggregate."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from fastapi.testclient import TestClient
+from service_support import ENTRY, Proc, deployment, migrated, proc_env, wait_for
+from sqlalchemy import func, select
+
+from app.api import create_app
+from app.store.db import session_scope
+from app.store.models import Job, Study
+from app.studies.aggregate import aggregate
+from app.studies.spec import expand
+
+BASE = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
+        "search": {"population": 4, "generations": 2, "seed": 0}, "sim": {"duration_s": 1.0}}
+REPORT = {"group_by": ["damage.lost_legs"], "metrics": ["best.metrics.y_f_m", "best.metrics.yaw_f_deg", "best.fitness"]}
+
+
+def study(points=None, grid=None, **kw) -> dict:
+    d = {"name": "t", "base": BASE, "report": REPORT} | kw
+    if points is not None:
+        d["points"] = points
+    if grid is not None:
+        d["grid"] = grid
+    return d
+
+
+def counts(settings) -> tuple[int, int]:
+    with session_scope(settings.db_url, readonly=True) as s:
+        return s.scalar(select(func.count()).select_from(Job)), s.scalar(select(func.count()).select_from(Study))
+
+
+def test_grid_expands_and_names_the_bad_point_and_field():
+    plan = expand(study(grid={"damage.lost_legs": "all_feasible_1_and_2", "search.seed": [0, 1]},
+                        list_infeasible=True))
+    assert len(plan.points) == 2 * 15 and {tuple(x["overrides"]["damage.lost_legs"]) for x in plan.infeasible} == {
+        (1, 3), (1, 5), (3, 5), (2, 4), (2, 6), (4, 6)}
+    from app.jobs.base import SpecError
+
+    with pytest.raises(SpecError) as e:
+        expand(study(points=[{"search.seed": 1}, {"search.population": 2.5}]))
+    assert e.value.errors[0]["field"] == "points[1].search.population"
+    with pytest.raises(SpecError) as e:  # infeasible only where the study asks for it to be listed
+        expand(study(points=[{"damage.lost_legs": [1, 3]}]))
+    assert e.value.errors[0]["field"] == "points[0].damage.lost_legs"
+    with pytest.raises(SpecError) as e:
+        expand(study(points=[{"search.seed": 1}], grid={"search.seed": [1]}))
+    with pytest.raises(SpecError) as e:
+        expand(study(grid={"search.seed": list(range(2000))}))
+    assert "limit is" in e.value.errors[0]["message"]
+
+
+def test_bad_point_or_queue_limit_rejects_the_whole_study_and_writes_nothing(tmp_path, pg_url):
+    settings = migrated(deployment(tmp_path, database_url=pg_url, max_queued_per_owner=3))
+    client = TestClient(create_app(settings))
+    r = client.post("/api/studies", json=study(points=[{"search.seed": 1}, {"search.seed": 2},
+                                                       {"search.population": 1}]))
+    assert r.status_code == 422, r.text
+    assert r.json()["errors"][0]["field"] == "points[2].search.population"
+    r = client.post("/api/studies", json=study(grid={"search.seed": [0, 1, 2, 3]}))
+    assert r.status_code == 429 and "limit is 3" in r.text, r.text
+    assert counts(settings) == (0, 0)
+    # the built-in studies are all valid
+    import glob
+
+    for f in glob.glob("app/studies/builtin/*.json"):
+        expand(json.load(open(f)))
+
+
+@pytest.fixture
+def workers(tmp_path):
+    procs = []
+
+    def start(env):
+        p = Proc(["worker", "--loglevel", "INFO"], env, tmp_path / f"worker{len(procs)}.log")
+        procs.append(p)
+        return p
+
+    yield start
+    for p in procs:
+        p.kill9()
+        p.stop()
+
+
+def _jobs(settings, sid):
+    with session_scope(settings.db_url, readonly=True) as s:
+        return list(s.scalars(select(Job).where(Job.study_id == sid).order_by(Job.study_point)))
+
+
+def test_kill9_mid_study_every_point_once_and_local_run_gives_the_same_aggregate(tmp_path, workers, redis_url, pg_url):
+    env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
+    settings = migrated(env)
+    client = TestClient(create_app(settings))
+    spec = study(grid={"damage.lost_legs": [[1, 6], [4]], "search.seed": [0, 1]})
+    r = client.post("/api/studies", json=spec)
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    w1 = workers(env)
+    # kill -9 while a point runs, once another has finished
+    wait_for(lambda: any(j.status == "succeeded" for j in _jobs(settings, sid))
+             and any(j.status == "running" for j in _jobs(settings, sid)), 120, "a point done and one running", proc=w1)
+    w1.kill9()
+    workers(env)
+    st = wait_for(lambda: (x := client.get(f"/api/studies/{sid}").json())["status"] not in ("queued", "running") and x,
+                  240, "the study to finish")
+    assert st["status"] == "succeeded", st
+    assert st["progress"] == {"points": 4, "done": 4, "running": 0, "queued": 0, "failed": 0, "cancelled": 0}
+    jobs = _jobs(settings, sid)
+    assert [j.study_point for j in jobs] == [0, 1, 2, 3] and all(j.status == "succeeded" for j in jobs)
+    assert max(j.attempt for j in jobs) == 2  # the killed point ran again; no point was duplicated
+    # the local command (all cores, no server) gives the same aggregate
+    out = tmp_path / "local"
+    (tmp_path / "s.json").write_text(json.dumps(spec))
+    p = subprocess.run([sys.executable, "-c", ENTRY, "study", "run", str(tmp_path / "s.json"), "--out", str(out),
+                        "--workers", "2", "--json"], env=proc_env({}), capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    local = json.loads(p.stdout.strip().splitlines()[-1])["aggregate"]
+    assert local == st["aggregate"]
+    assert len(st["aggregate"]["rows"]) == 2 and all(r["metrics"]["best.fitness"]["n"] == 2 for r in st["aggregate"]["rows"])
+    # the study bundle: aggregate, every summary, a manifest that reproduces the study
+    import io
+    import zipfile
+
+    z = zipfile.ZipFile(io.BytesIO(client.get(f"/api/studies/{sid}/bundle").content))
+    names = set(z.namelist())
+    assert {"aggregate.csv", "aggregate.md", "manifest.json", "points/0003.json"} <= names
+    man = json.loads(z.read("manifest.json"))
+    assert expand(man["study"]).points == expand(spec).points
+    assert (out / "aggregate.csv").read_text() == z.read("aggregate.csv").decode()
+
+
+def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, workers, redis_url, pg_url):
+    env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
+    settings = migrated(env)
+    client = TestClient(create_app(settings))
+    r = client.post("/api/studies", json=study(grid={"search.seed": [0, 1, 2, 3, 4]}))
+    sid = r.json()["id"]
+    w = workers(env)
+    wait_for(lambda: any(j.status == "running" for j in _jobs(settings, sid)), 120, "a point running", proc=w)
+    assert client.post(f"/api/studies/{sid}/cancel").status_code == 202
+    st = wait_for(lambda: (x := client.get(f"/api/studies/{sid}").json())["status"] not in ("queued", "running") and x,
+                  120, "the study to stop")
+    assert st["status"] == "cancelled"
+    jobs = _jobs(settings, sid)
+    assert sum(j.status == "cancelled" for j in jobs) >= 4
+    assert all(j.attempt == 0 for j in jobs if j.status == "cancelled" and j.started_at is None)
+    assert {f["index"] for f in st["aggregate"]["failed"]} == {j.study_point for j in jobs if j.status == "cancelled"}
