@@ -52,7 +52,23 @@ async def _db(request: Request, fn, readonly: bool = False):
         raise ApiError(404, f"no study {str(e)!r}", field="id") from None
 
 
-@router.post("", status_code=201, responses=ERRORS)
+def _study_schema() -> dict:
+    """StudySpec's JSON schema with its definitions inlined (an operation's body schema
+    cannot carry $defs of its own)."""
+    import json
+
+    from app.studies.spec import StudySpec
+
+    sch = StudySpec.model_json_schema()
+    defs = sch.pop("$defs", {})
+    text = json.dumps(sch)
+    for name, d in defs.items():
+        text = text.replace(json.dumps({"$ref": f"#/$defs/{name}"}), json.dumps(d))
+    return json.loads(text)
+
+
+@router.post("", status_code=201, responses=ERRORS, openapi_extra={"requestBody": {"required": True, "content": {
+             "application/json": {"schema": _study_schema()}}}})
 async def submit_study(request: Request, response: Response, who: Principal = Depends(principal)):
     """Queue a study: every point is validated first; one bad point rejects the whole study
     (the error names the point and the field) and nothing is written."""
