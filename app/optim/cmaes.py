@@ -2,12 +2,15 @@
 
 Searches the unit cube (bounds scaled to [0, 1] per coordinate, so one step size suits
 every parameter) with cma's own boundary handling; maximises by telling cma -F.
+
+The state is JSON, not a pickle of cma's object (a worker must never unpickle what it
+reads from the database): the fitness values told so far. ``restore`` rebuilds the
+strategy from its seed and replays ask / tell with them, which is deterministic (cma
+draws from NumPy's global generator, seeded by the strategy's constructor) and cheap next
+to the evaluations it stands for.
 """
 
 from __future__ import annotations
-
-import base64
-import pickle
 
 import cma
 import numpy as np
@@ -19,18 +22,22 @@ class CMAES:
         self.upper = np.asarray(upper, dtype=float)
         if population < 4:
             raise ValueError("population must be at least 4")
-        self.population = int(population)
-        self.generation = 0
-        self._es = cma.CMAEvolutionStrategy(
-            np.full(self.lower.size, 0.5), sigma0,
-            {"bounds": [0.0, 1.0], "popsize": self.population, "seed": int(seed) + 1,  # cma: seed 0 = random
-             "verbose": -9, "verb_log": 0, "verb_disp": 0, "tolx": 0, "tolfun": 0, "tolfunhist": 0,
-             "tolstagnation": 10**9, "maxiter": 10**9},
-        )
+        self.population, self.seed, self.sigma0 = int(population), int(seed), float(sigma0)
+        self._new_strategy()
         self._asked: list[np.ndarray] | None = None
+        self._told: list[list[float]] = []
         self._best_x: np.ndarray | None = None
         self._best_f = -np.inf
         self.population_fitness: np.ndarray | None = None  # of the last generation told
+
+    def _new_strategy(self) -> None:
+        self.generation = 0
+        self._es = cma.CMAEvolutionStrategy(
+            np.full(self.lower.size, 0.5), self.sigma0,
+            {"bounds": [0.0, 1.0], "popsize": self.population, "seed": self.seed + 1,  # cma: seed 0 = random
+             "verbose": -9, "verb_log": 0, "verb_disp": 0, "tolx": 0, "tolfun": 0, "tolfunhist": 0,
+             "tolstagnation": 10**9, "maxiter": 10**9},
+        )
 
     @property
     def dim(self) -> int:
@@ -48,6 +55,7 @@ class CMAES:
         if self._asked is None or fitness.shape != (len(self._asked),):
             raise ValueError("tell() needs one fitness per candidate of the last ask()")
         self._es.tell(self._asked, (-fitness).tolist())
+        self._told.append(fitness.tolist())
         self.population_fitness = fitness
         i = int(np.argmax(fitness))
         if fitness[i] > self._best_f:  # CMA's mean moves on; the best ever seen is kept
@@ -60,9 +68,22 @@ class CMAES:
         return self._best_x.copy(), self._best_f
 
     def state(self) -> dict:
-        blob = pickle.dumps((self._es, self._best_x, self._best_f, self.generation, self.population_fitness))
-        return {"generation": self.generation, "cma": base64.b64encode(blob).decode("ascii")}
+        return {"generation": self.generation, "seed": self.seed, "sigma0": self.sigma0, "told": self._told,
+                "best_x": None if self._best_x is None else self._best_x.tolist(),
+                "best_f": None if self._best_x is None else self._best_f}
 
     def restore(self, state: dict) -> None:
-        self._es, self._best_x, self._best_f, self.generation, self.population_fitness = pickle.loads(base64.b64decode(state["cma"]))
+        self.seed, self.sigma0 = int(state["seed"]), float(state["sigma0"])
+        self._new_strategy()
+        self._told = []
+        for f in state["told"]:
+            self._asked = self._es.ask()
+            self._es.tell(self._asked, (-np.asarray(f, dtype=float)).tolist())
+            self._told.append(list(f))
+            self.generation += 1
         self._asked = None
+        self.population_fitness = np.asarray(self._told[-1]) if self._told else None
+        self._best_x = None if state["best_x"] is None else np.asarray(state["best_x"], dtype=float)
+        self._best_f = -np.inf if state["best_f"] is None else float(state["best_f"])
+        if self.generation != int(state["generation"]):
+            raise ValueError("CMA-ES state: generation does not match the fitness values told")

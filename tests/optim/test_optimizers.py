@@ -95,6 +95,23 @@ def test_checkpoint_restore_is_bit_identical(name):
     assert best_a[1] == best_b[1]
 
 
+def test_cmaes_state_is_plain_json_numbers():
+    """Workers read checkpoints from the database: no pickle, only numbers and lists."""
+    opt = make_optimizer("cmaes", -np.ones(3), np.ones(3), population=6, seed=1)
+    for _ in range(3):
+        opt.tell(sphere(opt.ask()))
+    state = opt.state()
+
+    def leaves(v):
+        if isinstance(v, dict):
+            return [x for u in v.values() for x in leaves(u)]
+        if isinstance(v, list):
+            return [x for u in v for x in leaves(u)]
+        return [v]
+    assert all(isinstance(v, (int, float)) or v is None for v in leaves(state))
+    assert len(state["told"]) == 3 and state["generation"] == 3
+
+
 def test_same_seed_same_numbers_other_seed_other_numbers():
     a = optimise(DifferentialEvolution(-np.ones(3), np.ones(3), seed=5), sphere, 5)
     b = optimise(DifferentialEvolution(-np.ones(3), np.ones(3), seed=5), sphere, 5)

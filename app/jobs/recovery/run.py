@@ -8,7 +8,8 @@ import numpy as np
 
 from app.gaits.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.gaits.trajectory import param_names
-from app.jobs.base import Cancelled, JobResult, RunContext
+from app.jobs.base import JobResult, RunContext
+from app.jobs.loop import Generation, Phases, run_search
 from app.jobs.recovery.spec import RecoverySpec
 from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
@@ -115,34 +116,6 @@ class _Scorer:
         self.ev.close()
 
 
-def _phase(name: str, opt, score, total: int, ctx: RunContext, state: dict, done_before: int, grand_total: int,
-           save) -> None:
-    """Runs ``opt`` to ``total`` generations, appending to state[name + "_history"];
-    checkpoints after each generation (``save``) and checks the cancel flag before each."""
-    hist = state.setdefault(f"{name}_history", [])
-    seg = time.perf_counter()
-    wall0 = state["wall_s"]
-    while opt.generation < total:
-        if ctx.is_cancelled():
-            raise Cancelled()
-        x = opt.ask()
-        f, m, steps = score(x)
-        opt.tell(f)
-        state["evaluations"] += len(f) * score.ev_models
-        state["sim_steps"] += steps
-        pop_fit = opt.population_fitness
-        row = {"generation": opt.generation - 1, "best": opt.best[1], "mean": float(np.mean(pop_fit)),
-               "worst": float(np.min(pop_fit)), "generation_best": float(np.max(f)),
-               "fell": int(np.sum(m["fell"])), "evaluations": state["evaluations"]}
-        hist.append(row)
-        state["wall_s"] = wall0 + time.perf_counter() - seg
-        save(name, opt)
-        wall = max(state["wall_s"], 1e-9)
-        info = {"best": row["best"], "mean": row["mean"], "worst": row["worst"], "evaluations": state["evaluations"],
-                "sim_steps_per_s": state["sim_steps"] / wall, "phase": name}
-        ctx.progress(done_before + opt.generation, grand_total, info)
-
-
 def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     t0 = time.perf_counter()
     robot = get_robot(spec.robot)
@@ -156,8 +129,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     names = param_names(legs)
     s = spec.search
     total = s.generations + 1  # generation 0 is the initial population
-    phases = ["search"] + (["random_search"] if spec.controls.random_search else [])
-    grand_total = total * len(phases)
+    names_of_phases = ["search"] + (["random_search"] if spec.controls.random_search else [])
 
     score = _Scorer(spec, robot, mspec, model, seq, cfg)
     score.ev_models = spec.models_per_candidate
@@ -171,27 +143,25 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         if spec.controls.random_search:
             # its own stream of the job's seed, so adding the control leaves the search's draws alone
             opts["random_search"] = make_optimizer("random", lower, upper, s.population, [s.seed, 1])
-        state = {"evaluations": 0, "sim_steps": 0, "wall_s": 0.0}
-        ckpt = ctx.load_checkpoint()
-        if ckpt is not None:
-            state = {k: v for k, v in ckpt.items() if k != "optimizers"}
-            if "history" in ckpt:  # a checkpoint written before the random-search control existed
-                state["search_history"] = state.pop("history")
-                ckpt = ckpt | {"optimizers": {"search": ckpt["optimizer"]}}
-                state.pop("optimizer", None)
-            for name, st in ckpt["optimizers"].items():
-                opts[name].restore(st)
 
-        def save(name, opt):
-            ctx.save_checkpoint(state | {"optimizers": {n: o.state() for n, o in opts.items()
-                                                        if o.generation > 0}})
+        def evaluate(x: np.ndarray) -> Generation:
+            f, m, steps = score(x)
+            return Generation(f, {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps},
+                              evaluations=len(f) * score.ev_models)
 
+        phases = Phases(ctx, {name: total for name in names_of_phases})
         seg_start = time.perf_counter()
-        for k, name in enumerate(phases):
-            _phase(name, opts[name], score, total, ctx, state, k * total, grand_total, save)
+        searches = {"search": run_search(opts["search"], evaluate, s.generations, phases.context("search"), spec.stop)}
+        if "random_search" in opts:  # as many generations as the search ran, when a stop rule ended it early
+            searches["random_search"] = run_search(opts["random_search"], evaluate,
+                                                   searches["search"].generations_run - 1,
+                                                   phases.context("random_search"))
         post_start = time.perf_counter()
+        state = {"evaluations": sum(o.evaluations for o in searches.values()),
+                 "sim_steps": sum(int(o.totals.get("sim_steps", 0)) for o in searches.values()),
+                 "wall_s": sum(o.wall_s for o in searches.values())}
 
-        best_x, _ = opts["search"].best
+        best_x = searches["search"].best_x
         nominal = nominal_params(robot, legs)
         best = _scored(ev, best_x, weights, units)
         baseline = _scored(base_ev, nominal, weights, units)
@@ -205,7 +175,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
                                                         if baseline["metrics"]["fell"] else ""),
         }]
         if "random_search" in opts:
-            rx, _ = opts["random_search"].best
+            rx = searches["random_search"].best_x
             rs = _scored(ev, rx, weights, units)
             state["evaluations"] += 1
             controls.append({
@@ -238,7 +208,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         if rob_ev is not None:
             rob_ev.close()
     wall = state["wall_s"] + time.perf_counter() - post_start  # searches (across resumes) + final scoring
-    history = state["search_history"]
+    history = searches["search"].history
     best["params"] = {n: float(v) for n, v in zip(names, best_x)}
     best["target_met"] = meets_target(best["metrics"])
     baseline["params"] = {n: float(v) for n, v in zip(names, nominal)}
@@ -262,7 +232,8 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         "timestep_s": float(model.opt.timestep),
         "bounds": {"names": names, "lower": lower.tolist(), "upper": upper.tolist()},
         "history": history,
-        "random_search_history": state.get("random_search_history", []),
+        "random_search_history": searches["random_search"].history if "random_search" in searches else [],
+        "search": {"stop_reason": searches["search"].stop_reason, "generations_run": searches["search"].generations_run},
         "timing": {"wall_s": wall, "evaluations": evaluations,
                    "sim_steps_per_s": sim_steps / max(wall, 1e-9), "sim_steps": sim_steps,
                    "setup_s": seg_start - t0},

@@ -9,6 +9,7 @@ from pydantic import Field, field_validator, model_validator
 
 from app.gaits.sequences import InfeasibleMorphology, check_feasible
 from app.jobs.base import SpecBase, StrictModel
+from app.jobs.loop import StopRules
 from app.robots.catalog import ROBOTS
 from app.robots.hexapod import DEFAULT_TIMESTEP
 from app.sim.perturb import walking_cases
@@ -160,6 +161,7 @@ class RecoverySpec(SpecBase):
     # legs 1 and 6 lost). `"damage": {}` is the intact robot.
     damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
     search: Search = Field(default_factory=Search)
+    stop: StopRules = Field(default_factory=StopRules)
     objective: Objective = Field(default_factory=Objective)
     sim: Sim = Field(default_factory=Sim)
     gait: Gait = Field(default_factory=Gait)
@@ -175,6 +177,7 @@ class RecoverySpec(SpecBase):
             raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)}")
         return v
 
+    budget_field: ClassVar[str] = "search.generations"
     budget_formula: ClassVar[str] = (
         "population x (generations + 1) candidate gaits (generation 0 is the initial population), each simulated "
         "on 1 + len(robust.models) models; the same again for the random-search control when it is on; plus one "
