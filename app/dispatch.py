@@ -18,7 +18,7 @@ TASK = "gaitmend.run_job"
 
 @functools.lru_cache(maxsize=8)
 def _celery(settings: Settings):
-    from workers.celery_app import ensure_broker_folder, make_celery
+    from app.broker import ensure_broker_folder, make_celery
 
     ensure_broker_folder(settings)
     return make_celery(settings, sender=True)

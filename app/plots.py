@@ -35,11 +35,13 @@ def convergence(history: list[dict], out: Path) -> list[Path]:
     return _save(fig, out, "convergence")
 
 
-def orientation(traces: dict[str, dict], out: Path) -> list[Path]:
+def orientation(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
+    """``style``: trace name -> (label, colour), the replay's (app/colors.py)."""
     fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
     for name, tr in traces.items():
+        label, color = (style or {}).get(name, (name, None))
         for ax, key in zip(axes, ("roll_deg", "pitch_deg", "yaw_deg")):
-            ax.plot(tr["time_s"], tr[key], label=name)
+            ax.plot(tr["time_s"], tr[key], label=label, color=color)
             ax.set_ylabel(key.replace("_deg", " (deg)"))
     axes[0].set_title("Body orientation (ZYX; roll about y, pitch about x)")
     axes[-1].set_xlabel("time (s)")
@@ -49,12 +51,13 @@ def orientation(traces: dict[str, dict], out: Path) -> list[Path]:
     return _save(fig, out, "orientation")
 
 
-def com_position(traces: dict[str, dict], out: Path) -> list[Path]:
+def com_position(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
     fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
     for name, tr in traces.items():
+        label, color = (style or {}).get(name, (name, None))
         c = np.asarray(tr["com_m"])
         for i, ax in enumerate(axes):
-            ax.plot(tr["time_s"], c[:, i], label=name)
+            ax.plot(tr["time_s"], c[:, i], label=label, color=color)
             ax.set_ylabel(f"CoM {'xyz'[i]} (m)")
     axes[0].set_title("Centre of mass (forward is +y)")
     axes[-1].set_xlabel("time (s)")

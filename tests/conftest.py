@@ -24,6 +24,7 @@ hypothesis_settings.load_profile("gaitmend")
 ROOT = Path(__file__).resolve().parent.parent
 
 sys.path.insert(0, os.path.dirname(__file__))  # tests/service_support.py
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "kinds"))  # the contract tests' own kind
 
 PG_BASE = os.environ.get("GAITMEND_TEST_PG_URL", "postgresql://postgres@127.0.0.1:5432/test")
 REDIS_URL = os.environ.get("GAITMEND_TEST_REDIS_URL", "redis://127.0.0.1:6379/0")

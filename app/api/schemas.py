@@ -13,35 +13,49 @@ from app.store.models import Job
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 
-def best_fitness(job) -> float | None:
-    s = job.summary or {}
-    for path in (("best", "fitness"), ("result", "best_fitness")):
-        v: Any = s
-        for k in path:
-            v = v.get(k) if isinstance(v, dict) else None
-        if isinstance(v, (int, float)):
-            return float(v)
-    info = job.progress_info or {}
-    return float(info["best"]) if isinstance(info.get("best"), (int, float)) else None
+def _kind(job):
+    return KINDS.get(job.kind)  # a job of a kind no longer registered still lists
 
 
-def damage_text(spec: dict | None) -> str:
-    d = (spec or {}).get("damage") or {}
-    parts = []
-    if d.get("lost_legs"):
-        parts.append("lost " + ",".join(str(x) for x in d["lost_legs"]))
-    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak")):
-        for j in d.get(key) or []:
-            if isinstance(j, dict):
-                parts.append(f"{word} {j.get('leg')}.{j.get('joint')}")
-    for key, v in d.items():  # other kinds' damage, e.g. stuck_modules
-        if key not in ("lost_legs", "locked_joints", "weak_joints") and isinstance(v, list) and v:
-            parts.append(f"{key.replace('_', ' ')} " + ",".join(str(x) for x in v))
-    if not parts:
-        sc = (spec or {}).get("scenario")
-        if isinstance(sc, dict) and sc.get("type"):
-            return str(sc["type"])
-    return "; ".join(parts) or "none"
+def damage_text(job) -> str:
+    kind = _kind(job)
+    if kind is None or not isinstance(job.spec, dict):
+        return ""
+    try:
+        return kind.damage_text(job.spec)
+    except (KeyError, TypeError, ValueError, AttributeError):  # a spec stored by an older release
+        return ""
+
+
+def headline(job) -> list[HeadlineOut] | None:
+    kind = _kind(job)
+    if kind is None or not job.summary:
+        return None
+    try:
+        return [HeadlineOut(**row) for row in kind.headline(job.summary)]
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def progress_text(job) -> str | None:
+    kind = _kind(job)
+    if kind is None or not job.progress_info:
+        return None
+    try:
+        return kind.progress_text(job.progress_info)
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+class HeadlineOut(BaseModel):
+    """One number a user came for (the kind's ``headline``)."""
+
+    label: str
+    value: Any = Field(description="a number, a flag, a text or a list (e.g. a foothold)")
+    unit: str
+    better: Literal["higher", "lower"] | None = Field(description="which direction is better, if any")
+    target: str | None = Field(description="the target in words, if the kind states one")
+    met: bool | None = Field(description="whether the value meets the target")
 
 
 class FieldError(BaseModel):
@@ -65,6 +79,7 @@ class Progress(BaseModel):
     total: int
     fraction: float
     info: dict[str, Any] | None = None
+    text: str | None = Field(None, description="the kind's one-line progress text")
 
 
 class JobOut(BaseModel):
@@ -83,10 +98,9 @@ class JobOut(BaseModel):
     updated_at: dt.datetime
     wall_s: float | None = Field(None, description="started to finished (or now), seconds")
     error: str | None
-    damage: str = Field(description="the spec's damage in words, e.g. 'lost 1,6; locked 2.femur'")
-    best_fitness: float | None = Field(None, description="best objective so far (final once succeeded)")
-    headline: list[dict[str, Any]] | None = Field(
-        None, description="the kind's headline rows once the job succeeded: label, value, unit, better, target, met")
+    damage: str = Field(description="the damage or scenario in words, as the kind words it, e.g. 'lost 1,6; "
+                                    "locked 2.femur'")
+    headline: list[HeadlineOut] | None = Field(None, description="the numbers a user came for, once succeeded")
     summary: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     links: dict[str, str]
@@ -101,24 +115,14 @@ class JobOut(BaseModel):
             progress=Progress(done=job.progress_done, total=job.progress_total,
                               fraction=(job.progress_done / job.progress_total) if job.progress_total else
                               (1.0 if job.status == "succeeded" else 0.0),
-                              info=job.progress_info),
+                              info=job.progress_info, text=progress_text(job)),
             created_at=job.created_at, started_at=job.started_at, finished_at=job.finished_at,
             updated_at=job.updated_at,
             wall_s=(end - job.started_at).total_seconds() if job.started_at else None,
-            error=job.error, damage=damage_text(job.spec), best_fitness=best_fitness(job), headline=_headline(job),
+            error=job.error, damage=damage_text(job), headline=headline(job),
             summary=job.summary if detail else None, spec=job.spec if detail else None,
             links={"self": base, "history": f"{base}/history", "events": f"{base}/events",
                    "bundle": f"{base}/bundle"})
-
-
-def _headline(job: Job) -> list[dict[str, Any]] | None:
-    kind = KINDS.get(job.kind)
-    if kind is None or job.status != "succeeded" or not job.summary:
-        return None
-    try:
-        return [dict(r) for r in kind.headline(job.summary)]
-    except (KeyError, TypeError, ValueError, IndexError):  # a summary from an older version of the kind
-        return None
 
 
 class JobList(BaseModel):

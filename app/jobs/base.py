@@ -114,6 +114,7 @@ class SpecBase(StrictModel):
     kind: str
     robot: str
     budget_formula: ClassVar[str] = ""
+    budget_field: ClassVar[str] = "spec"  # the field to lower when the budget is over a limit
 
     @property
     @abc.abstractmethod
@@ -256,6 +257,11 @@ class Kind(abc.ABC):
         """Run the job: report progress, checkpoint, check cancel between units of work
         (raise ``Cancelled``); same spec and seed, same numbers, also after a resume."""
 
+    def smoke_spec(self) -> dict[str, Any] | None:
+        """A spec (JSON) that runs in seconds and checkpoints at least once: the contract
+        tests (tests/jobs/test_contract.py) run every kind with it."""
+        return None
+
     def robot_info(self, robot: str) -> dict[str, Any]:
         """Details of one of ``robots`` for /api/robots and the form (legs, modules,
         parameters ...); JSON."""
@@ -264,8 +270,9 @@ class Kind(abc.ABC):
     def default_spec(self) -> SpecBase:
         return self.Spec.parse({"kind": self.name})
 
-    def damage_text(self, spec: SpecBase) -> str:
-        """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur'."""
+    def damage_text(self, spec: dict[str, Any]) -> str:
+        """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur', from the
+        spec as stored (JSON, every default filled in): job lists word many jobs at once."""
         return "none"
 
     # -- presentation -------------------------------------------------------------------

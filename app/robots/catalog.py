@@ -50,7 +50,7 @@ class RobotEntry:
         stance: what the gait planner's support polygons must hold."""
         import numpy as np
 
-        from app.gaits.ik import leg_ik
+        from app.robots.ik import leg_ik
 
         data = mujoco.MjData(model)
         data.qpos[3] = 1.0

@@ -34,7 +34,7 @@ import math
 import mujoco
 import numpy as np
 
-from app.stability.foothold import LegWorkspace
+from app.robots.pantograph import LegWorkspace, leg_ik
 
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 JOINT_NAMES = ("swing", "horizontal", "vertical")
@@ -229,8 +229,6 @@ def scaled_masses(geom: HeavyHexapodGeometry, factor: float) -> HeavyHexapodGeom
 
 def joint_targets(geom: HeavyHexapodGeometry, feet_body: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
     """(theta, x, d) per leg for body-frame foot points, by the closed-form IK (Eq. 2)."""
-    from app.stability.foothold import leg_ik
-
     out = {}
     for leg, p in feet_body.items():
         x, d, th = leg_ik(geom.workspace(leg), p)

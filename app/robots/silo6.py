@@ -10,7 +10,7 @@ the front and rear leg of one side and the middle leg of the other. Body frame: 
 y left, z up, origin at the body's geometric centre (where the paper puts the COG).
 
 Hips sit on the body's sides (|y| = W_B / 2) at x = +P_x, 0, -P_x. The leg frame has x
-pointing outward and z up, so the closed-form IK of app.gaits.ik serves every leg; the
+pointing outward and z up, so the closed-form IK of app.robots.ik serves every leg; the
 femur and tibia hinges turn about the leg frame's -y so that a positive angle lifts (knee up,
 insect-type).
 
@@ -34,7 +34,7 @@ import math
 import mujoco
 import numpy as np
 
-from app.gaits.ik import leg_fk, leg_ik
+from app.robots.ik import leg_fk, leg_ik
 
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 JOINT_NAMES = ("coxa", "femur", "tibia")

@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from app.gaits.ik import leg_ik
+from app.robots.ik import leg_ik
 from app.gaits.sequences import GaitSequence
 from app.gaits.trajectory import tip_positions
 from app.robots.catalog import RobotEntry

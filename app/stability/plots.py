@@ -12,10 +12,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from app.colors import ROLES  # noqa: E402
 from app.plots import _save  # noqa: E402
 from app.stability.scenario import edge_name  # noqa: E402
 
-STYLE = {"no_recovery": ("tab:red", "without recovery"), "recovery": ("tab:blue", "with recovery")}
+# the colours of the replay and the dashboard (app/colors.py): the answer and its control
+STYLE = {"no_recovery": (ROLES["baseline"], "without recovery"), "recovery": (ROLES["method"], "with recovery")}
 
 
 def margin_timeline(traces: dict, summary: dict, out: Path) -> list[Path]:

@@ -6,7 +6,7 @@ import pytest
 from service_support import deployment, settings_of
 
 from app.settings import SettingsError, load_settings
-from workers.celery_app import broker_options, make_celery
+from app.broker import broker_options, make_celery
 
 
 def test_reliability_settings_on_redis(tmp_path, redis_url):

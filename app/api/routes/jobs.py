@@ -78,9 +78,8 @@ def _budget_error(spec, limit: int) -> ApiError | None:
     budget = int(spec.evaluations_budget)
     if budget <= limit:
         return None
-    field = "search.generations" if hasattr(spec, "search") else "spec"
-    return ApiError(422, f"the spec needs {budget} evaluations (population x (generations + 1)); "
-                         f"the limit is {limit} per job (GAITMEND_MAX_EVALUATIONS_PER_JOB)", field=field)
+    return ApiError(422, f"the spec needs {budget} evaluations ({spec.budget_formula}); "
+                         f"the limit is {limit} per job (GAITMEND_MAX_EVALUATIONS_PER_JOB)", field=spec.budget_field)
 
 
 @router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,

@@ -29,8 +29,13 @@ class MultigaitKind(Kind):
     def robot_info(self, robot):
         return SHAPES[robot].describe()
 
+    def smoke_spec(self):
+        return {"kind": "multigait", "robot": "lizard", "search": {"particles": 4, "generations": 2, "seed": 1},
+                "planner": {"iterations": 10}, "gait_duration_s": 3.0, "reuse": {"plans": 2, "iterations": 10},
+                "verify": {"nodes": 3}}
+
     def damage_text(self, spec):
-        return present.damage_text(spec.damage.model_dump())
+        return present.damage_text(spec.get("damage") or {})
 
     def headline(self, summary):
         return present.headline(summary)

@@ -8,7 +8,7 @@ from pathlib import Path
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 
 HISTORY_COLUMNS = {
-    "generation": "1 = the initial swarm",
+    "generation": "0 = the initial swarm",
     "best": "best cost so far (coverage %: higher is better; distance mu: lower is better)",
     "mean": "mean cost of the gait sets evaluated in this generation",
     "generation_best": "best cost among the gait sets evaluated in this generation",

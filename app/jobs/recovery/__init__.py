@@ -30,8 +30,12 @@ class RecoveryKind(Kind):
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
 
+    def smoke_spec(self):
+        return {"kind": "recovery", "damage": {"lost_legs": [3, 4]},
+                "search": {"population": 6, "generations": 2, "seed": 3}, "sim": {"duration_s": 1.0}}
+
     def damage_text(self, spec):
-        return present.damage_text(spec.damage.model_dump())
+        return present.damage_text(spec.get("damage") or {})
 
     def headline(self, summary):
         return present.headline(summary)

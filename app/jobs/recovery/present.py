@@ -11,8 +11,8 @@ from app.sim.metrics import TARGET  # the issue's target for a recovered gait (f
 HISTORY_COLUMNS = {
     "generation": "0 = the initial population",
     "best": "best F so far (Eq. 5, higher is better)",
-    "mean": "mean F of the population after selection",
-    "worst": "worst F of the population after selection",
+    "mean": "mean F of the candidates evaluated in this generation",
+    "worst": "worst F of the candidates evaluated in this generation",
     "generation_best": "best F among the candidates evaluated in this generation",
     "fell": "candidates of this generation that fell",
     "evaluations": "candidates evaluated so far",
@@ -104,9 +104,10 @@ def figures(result: JobResult, out: Path) -> list[Path]:
     """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
     from app import plots as P
 
+    style = {t.name: (t.label, t.color) for t in replay_style(list(result.traces))}
     files = P.convergence(result.history, out)
-    files += P.orientation(result.traces, out)
-    files += P.com_position(result.traces, out)
+    files += P.orientation(result.traces, out, style)
+    files += P.com_position(result.traces, out, style)
     for name, tr in result.traces.items():
         files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}")
     return files

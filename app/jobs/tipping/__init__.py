@@ -9,6 +9,7 @@ from app.jobs.base import Kind
 from app.jobs.tipping import present
 from app.jobs.tipping.views import FORM_OPEN
 from app.jobs.tipping.spec import TippingSpec
+from app.robots.heavy_hexapod import HEAVY, describe
 
 
 class TippingKind(Kind):
@@ -16,7 +17,7 @@ class TippingKind(Kind):
     title = "Tipping judgment and recovery of a heavy-duty hexapod"
     paper = "Zhang et al. 2024, sideline tipping judgment and recovery of a heavy-duty hexapod (paper 002)"
     Spec = TippingSpec
-    robots = {"heavy_hexapod": "heavy-duty hexapod (paper 002): ~5 m, 3-DoF legs, tripod stance"}
+    robots = {HEAVY.name: describe(HEAVY)["description"]}
     history_x = "run"
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
@@ -34,10 +35,11 @@ class TippingKind(Kind):
         return {"kind": "tipping", "scenario": {"type": "tilt", "hold_s": 0.5},
                 "evidence": {"robustness": False, "band": False}}
 
+    def robot_info(self, robot):
+        return describe(HEAVY)
+
     def damage_text(self, spec):
-        sc = spec.scenario
-        return present.damage_text(sc.model_dump() | ({"downhill_deg": sc.resolved_downhill()}
-                                                      if sc.type == "tilt" else {}))
+        return present.damage_text(spec["scenario"])
 
     def headline(self, summary):
         return present.headline(summary)

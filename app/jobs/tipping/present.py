@@ -16,6 +16,14 @@ HISTORY_COLUMNS = {
     "downhill_deg": "sweep: downhill direction of the platform (0 = robot front down, 90 = left side)",
     "stance": "sweep: the tripod in stance",
     "recovery": "sweep: 1 if the recovery controller was on",
+    "tipped_at_s": "sweep: when it tipped over (s), empty if it did not",
+    "static_tip_deg": "sweep: platform tilt at which the stance polygon stops holding the robot statically (deg)",
+    "detect_time_s": "sweep: when the judgment flagged tipping (s)",
+    "edge": "sweep: the tipping edge (pair of legs)",
+    "leg": "sweep: the adjustment leg (0: none)",
+    "margin_after_deg": "sweep: FASM margin after the caught leg landed (deg)",
+    "final_margin_deg": "sweep: FASM margin at the end of the run (deg)",
+    "sim_steps": "sweep: physics steps of the run",
 }
 TRACES = {"recovery": "the run with tipping recovery on",
           "no_recovery": "the same scenario with recovery off (the control)"}
@@ -29,8 +37,9 @@ FIGURES = {
 
 def damage_text(scenario: dict) -> str:
     if scenario.get("type") == "tilt":
-        d = scenario.get("downhill_deg")
-        where = f"{scenario['axis']} {scenario['direction']}" if scenario.get("axis") else f"downhill {d:g} deg"
+        d = scenario.get("downhill_deg")  # else the paper's naming, y ccw when nothing is given
+        where = f"downhill {d:g} deg" if d is not None else \
+            f"{scenario.get('axis') or 'y'} {scenario.get('direction') or 'ccw'}"
         return f"tilt {where}, stance {''.join(map(str, scenario.get('stance', [])))}"
     return f"cliff on the {scenario.get('side', '?')}"
 

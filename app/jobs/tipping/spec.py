@@ -188,6 +188,7 @@ class TippingSpec(SpecBase):
             raise ValueError("sweep: the direction sweep turns the tilting platform; scenario.type must be 'tilt'")
         return self
 
+    budget_field: ClassVar[str] = "sweep.directions"
     budget_formula: ClassVar[str] = (
         "simulations, each counted once: 1 without recovery; with recovery on, + 1 with it, + 3 controls (no QP, position-servoed "
         "stance, fixed swing time) when evidence.controls; + 7 robustness re-runs (step halved and quartered, "

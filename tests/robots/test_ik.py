@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.gaits.ik import leg_fk, leg_ik, leg_ik_paper
+from app.robots.ik import leg_fk, leg_ik, leg_ik_paper
 from app.robots.catalog import JETHEXA
 from app.robots.hexapod import leg_frame_quat
 
