@@ -32,15 +32,16 @@ def _group(mod: str) -> str | None:
 
 
 def _modules() -> dict[str, tuple[Path, set[str]]]:
+    files = {".".join(f.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"): f
+             for f in sorted([*(ROOT / "app").rglob("*.py"), *(ROOT / "workers").rglob("*.py")])}
     out = {}
-    for f in sorted([*(ROOT / "app").rglob("*.py"), *(ROOT / "workers").rglob("*.py")]):
-        mod = ".".join(f.relative_to(ROOT).with_suffix("").parts)
-        mod = mod.removesuffix(".__init__")
+    for mod, f in files.items():
         imports = set()
         for node in ast.walk(ast.parse(f.read_text())):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                imports.add(node.module)
-                imports.update(f"{node.module}.{a.name}" for a in node.names)
+                subs = {f"{node.module}.{a.name}" for a in node.names}
+                # `from package import module` needs the module; `from module import name` the module
+                imports.update(subs & files.keys() or {node.module} | subs)
             elif isinstance(node, ast.Import):
                 imports.update(a.name for a in node.names)
         out[mod] = (f, imports)

@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, Field, TypeAdapter
 
+from app.jobs.base import SpecError
 from app.jobs.registry import KINDS
 from app.store.models import Job
 
@@ -22,8 +23,8 @@ def damage_text(job) -> str:
     if kind is None or not isinstance(job.spec, dict):
         return ""
     try:
-        return kind.damage_text(job.spec)
-    except (KeyError, TypeError, ValueError, AttributeError):  # a spec stored by an older release
+        return kind.damage_text(kind.Spec.parse(job.spec))
+    except (SpecError, KeyError, TypeError, ValueError, AttributeError):  # a spec stored by an older release
         return ""
 
 

@@ -270,9 +270,8 @@ class Kind(abc.ABC):
     def default_spec(self) -> SpecBase:
         return self.Spec.parse({"kind": self.name})
 
-    def damage_text(self, spec: dict[str, Any]) -> str:
-        """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur', from the
-        spec as stored (JSON, every default filled in): job lists word many jobs at once."""
+    def damage_text(self, spec: SpecBase) -> str:
+        """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur'."""
         return "none"
 
     # -- presentation -------------------------------------------------------------------

@@ -244,7 +244,7 @@ def test_headline_tables_progress_and_history_render(kind):
     assert tables[0]["title"].split(":")[0] in out.getvalue()
     for info in ctx.infos:
         assert isinstance(kind.progress_text(info), str)
-    assert kind.damage_text(spec.model_dump(mode="json"))
+    assert kind.damage_text(spec)
     described = set(kind.history_columns)
     for row in res.history:
         assert kind.history_x in row
@@ -257,8 +257,14 @@ def test_replay_views_form_experiments_and_bench_are_well_formed(kind):
     tracks = kind.replay_style(replayable)
     assert {t.name for t in tracks} <= set(replayable)
     assert all(t.color.startswith("#") and t.label for t in tracks)
-    for fig in kind.views(json.loads(dumps(res.summary)), res.traces):
-        assert "data" in fig
+    for panel in kind.views(json.loads(dumps(res.summary)), res.traces):
+        if "table" in panel:
+            assert {"columns", "rows"} <= set(panel["table"]) and {"id", "title"} <= set(panel)
+        elif "figure" in panel:
+            assert "data" in panel["figure"] and {"id", "title"} <= set(panel)
+        else:
+            assert "data" in panel, "a panel, or a bare plotly figure"
+        json.dumps(panel)
     paths = [f["path"] for f in kind.form()]
     assert "kind" in paths and len(paths) == len(set(paths))
     for e in kind.experiments():

@@ -108,7 +108,7 @@ class BallisticKind(Kind):
         return run(spec, ctx)
 
     def damage_text(self, spec):
-        return f"target {spec['target_m']:g} m"
+        return f"target {spec.target_m:g} m"
 
     def headline(self, summary):
         e = summary["best"]["error_m"]

@@ -35,7 +35,7 @@ class MultigaitKind(Kind):
                 "verify": {"nodes": 3}}
 
     def damage_text(self, spec):
-        return present.damage_text(spec.get("damage") or {})
+        return present.damage_text(spec.damage.model_dump())
 
     def headline(self, summary):
         return present.headline(summary)

@@ -100,7 +100,7 @@ def summary_tables(s: dict) -> list[Table]:
 
 
 def figures(result: JobResult, out: Path) -> list[Path]:
-    from app.planning import plots as P
+    from app.jobs.multigait import plots as P
 
     return P.all_plots(result, out)
 

@@ -35,7 +35,7 @@ class RecoveryKind(Kind):
                 "search": {"population": 6, "generations": 2, "seed": 3}, "sim": {"duration_s": 1.0}}
 
     def damage_text(self, spec):
-        return present.damage_text(spec.get("damage") or {})
+        return present.damage_text(spec.damage.model_dump())
 
     def headline(self, summary):
         return present.headline(summary)

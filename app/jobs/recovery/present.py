@@ -66,7 +66,7 @@ def _evidence_rows(s: dict) -> list[HeadlineRow]:
     rnd = next((c for c in s.get("controls") or [] if c["name"] == "random_search"), None)
     if rnd is not None:
         rows.append(headline_row("random search (same budget) forward", 100 * rnd["metrics"]["y_f_m"], "cm", "higher",
-                                 None, rnd["target_met"]))
+                                 tgt.get("text") or "the recovery target", rnd["target_met"]))
     rob = s.get("robustness")
     if rob:
         rows.append(headline_row("perturbed re-runs meeting the target", f"{rob['met']}/{rob['total']}", "", "higher"))
@@ -102,7 +102,7 @@ def summary_tables(s: dict) -> list[Table]:
 
 def figures(result: JobResult, out: Path) -> list[Path]:
     """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
-    from app import plots as P
+    from app.jobs.recovery import plots as P
 
     style = {t.name: (t.label, t.color) for t in replay_style(list(result.traces))}
     files = P.convergence(result.history, out)

@@ -39,7 +39,7 @@ class TippingKind(Kind):
         return describe(HEAVY)
 
     def damage_text(self, spec):
-        return present.damage_text(spec["scenario"])
+        return present.damage_text(spec.scenario.model_dump())
 
     def headline(self, summary):
         return present.headline(summary)

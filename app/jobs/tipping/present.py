@@ -144,7 +144,7 @@ def _rate(v) -> str:
 
 
 def figures(result: JobResult, out: Path) -> list[Path]:
-    from app.stability import plots as P
+    from app.jobs.tipping import plots as P
 
     files = P.margin_timeline(result.traces, result.summary, out)
     files += P.foot_forces(result.traces, out)

@@ -1,0 +1,70 @@
+"""Bundle figures of the ``recovery`` kind (paper 000): convergence (Fig. 3), body
+orientation (Fig. 4), CoM position (Fig. 5), gait diagrams."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from app.plots import _save, plt
+
+
+def convergence(history: list[dict], out: Path) -> list[Path]:
+    g = [r["generation"] for r in history]
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for key, style in (("best", "-"), ("mean", "--"), ("worst", ":")):
+        ax.plot(g, [r[key] for r in history], style, label=key)
+    ax.set_xlabel("generation")
+    ax.set_ylabel("objective F (Eq. 5)")
+    ax.set_title("Convergence")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return _save(fig, out, "convergence")
+
+
+def orientation(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
+    """``style``: trace name -> (label, colour), the replay's (app/colors.py)."""
+    fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
+    for name, tr in traces.items():
+        label, color = (style or {}).get(name, (name, None))
+        for ax, key in zip(axes, ("roll_deg", "pitch_deg", "yaw_deg")):
+            ax.plot(tr["time_s"], tr[key], label=label, color=color)
+            ax.set_ylabel(key.replace("_deg", " (deg)"))
+    axes[0].set_title("Body orientation (ZYX; roll about y, pitch about x)")
+    axes[-1].set_xlabel("time (s)")
+    axes[0].legend()
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    return _save(fig, out, "orientation")
+
+
+def com_position(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
+    fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
+    for name, tr in traces.items():
+        label, color = (style or {}).get(name, (name, None))
+        c = np.asarray(tr["com_m"])
+        for i, ax in enumerate(axes):
+            ax.plot(tr["time_s"], c[:, i], label=label, color=color)
+            ax.set_ylabel(f"CoM {'xyz'[i]} (m)")
+    axes[0].set_title("Centre of mass (forward is +y)")
+    axes[-1].set_xlabel("time (s)")
+    axes[0].legend()
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    return _save(fig, out, "com")
+
+
+def gait_diagram(trace: dict, out: Path, name: str = "gait_diagram", seconds: float = 2.4) -> list[Path]:
+    t = np.asarray(trace["time_s"])
+    contact = np.asarray(trace["foot_contact"])
+    legs = list(trace["legs"])
+    sel = (t >= 0) & (t <= seconds)
+    fig, ax = plt.subplots(figsize=(6, 0.45 * len(legs) + 1))
+    for i, leg in enumerate(legs):
+        c = contact[sel, i]
+        ax.fill_between(t[sel], i - 0.4, i + 0.4, where=c, step="post", color="#1f4e79", label="support" if i == 0 else None)
+    ax.set_yticks(range(len(legs)), [f"leg {l}" for l in legs])
+    ax.set_xlabel("time (s)")
+    ax.set_title("Gait diagram (filled: foot on the ground)")
+    return _save(fig, out, name)
