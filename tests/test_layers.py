@@ -26,8 +26,8 @@ def _group(mod: str) -> str | None:
         return None
     if len(parts) == 1:
         return "app"
-    if parts[1] == "jobs" and len(parts) > 2 and parts[2] not in ("base", "loop", "registry"):
-        return "jobs.<kind>"
+    if parts[1] == "jobs" and len(parts) > 2 and (ROOT / "app" / "jobs" / parts[2]).is_dir():
+        return "jobs.<kind>"  # a kind is a package under app/jobs; modules beside them are shared
     return parts[1]
 
 

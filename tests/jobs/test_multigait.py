@@ -11,7 +11,7 @@ from app.jobs.multigait import KIND as multigait
 from app.jobs.base import Cancelled, SpecError
 from app.jobs.registry import parse_spec
 
-SMALL = {"kind": "multigait", "robot": "lizard", "search": {"particles": 6, "generations": 5, "seed": 3},
+SMALL = {"kind": "multigait", "robot": "lizard", "search": {"particles": 6, "generations": 4, "seed": 3},
          "planner": {"iterations": 40}, "gait_duration_s": 8.0, "reuse": {"plans": 3, "iterations": 30},
          "verify": {"nodes": 12}}
 
@@ -54,11 +54,11 @@ def test_defaults_are_the_papers():
     assert parse_spec({"kind": "multigait", "cost": "distance"}).iterations == 100
     st = parse_spec({"kind": "multigait", "map": "stairs", "cost": "distance"})
     assert st.k == 2 and st.iterations == 150
-    # every phase counts: search 3000, random search 3000, examine 1, held-out 2 x 20, verify 60,
-    # reuse 3 x 20, robustness 6
-    assert s.budget_parts() == {"search": 3000, "random_search": 3000, "examine": 1, "heldout": 40, "verify": 60,
+    # every phase counts: search 20 x (150 + 1) (generation 0 is the initial swarm), random search the
+    # same, examine 1, held-out 2 x 20, verify 60, reuse 3 x 20, robustness 6
+    assert s.budget_parts() == {"search": 3020, "random_search": 3020, "examine": 1, "heldout": 40, "verify": 60,
                                 "reuse": 60, "robustness": 6}
-    assert s.evaluations_budget == 6167
+    assert s.evaluations_budget == 6207
     assert st.budget_parts()["verify"] == st.budget_parts()["reuse"] == 0  # nothing composed on the staircase
 
 
@@ -66,10 +66,10 @@ def test_a_budget_over_the_limit_is_refused_with_its_formula():
     with pytest.raises(SpecError) as e:
         parse_spec({"kind": "multigait", "search": {"particles": 1000, "generations": 1500}})
     msg = str(e.value)
-    assert "evaluations_budget: 3000167 units exceed the limit of 2000000" in msg
+    assert "evaluations_budget: 3002167 units exceed the limit of 2000000" in msg
     assert "units of work" in msg and "reuse.plans" in msg and "controls.random_search" in msg
     assert parse_spec({"kind": "multigait", "search": {"particles": 1000, "generations": 1500},
-                       "controls": {"random_search": False}}).evaluations_budget == 1500000 + 1 + 20 + 60 + 60 + 6
+                       "controls": {"random_search": False}}).evaluations_budget == 1501000 + 1 + 20 + 60 + 60 + 6
 
 
 @pytest.mark.parametrize("bad,field", [
@@ -233,7 +233,7 @@ def test_cancel_stops_every_post_search_phase(small_ctx, small_run, phase):
 
 def test_cancel_in_the_control_then_resume_gives_the_same_result(small_run):
     spec, full = small_run
-    ctx = Ctx(cancel_after=7)  # 5 search generations + 2 of the random search
+    ctx = Ctx(cancel_after=7)  # 5 search generations (0-4) + 2 of the random search
     with pytest.raises(Cancelled):
         multigait.run(spec, ctx)
     assert len(ctx._ckpt["search"]["history"]) == 5 and len(ctx._ckpt["random_search"]["history"]) == 2

@@ -9,12 +9,12 @@ after every chunk of work. ``Budget.tick`` is the one place that does both.
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
 
 from app.jobs.base import Cancelled, RunContext
+from app.jobs.loop import Generation, run_search
 from app.planning.costs import evaluate
 
 
@@ -55,49 +55,56 @@ class Budget:
         self.ctx.progress(self.total, self.total, {"phase": "done"})
 
 
+class _PhaseContext:
+    """The run context one search phase sees: its checkpoint is ``ckpt[name]`` (the job's
+    checkpoint holds every phase's), its progress goes through the job's ``Budget``."""
+
+    def __init__(self, name: str, ctx: RunContext, ckpt: dict, budget: Budget):
+        self.name, self.ctx, self.ckpt, self.budget = name, ctx, ckpt, budget
+        self.artifact_dir = ctx.artifact_dir
+
+    def load_checkpoint(self):
+        return self.ckpt.get(self.name)
+
+    def save_checkpoint(self, state: dict) -> None:
+        self.ckpt[self.name] = state
+        self.ctx.save_checkpoint(self.ckpt)
+
+    def progress(self, done: int, total: int, info: dict) -> None:
+        self.budget.report(info["evaluations"], info)
+
+    def is_cancelled(self) -> bool:
+        return self.ctx.is_cancelled()
+
+
 def search_phase(name: str, opt, sim, spec, pmap, k: int, K: int, radius: float, budget: Budget,
-                 ctx: RunContext, ckpt: dict) -> dict:
-    """One ask/tell search over the spec's generations with the job's evaluator (the gait
-    sets simulated once, RRT-MP on the search's planner draws); checkpoints under
-    ``ckpt[name]`` after every generation, so a resumed job continues bit-identically."""
+                 ctx: RunContext, ckpt: dict, generations: int | None = None) -> dict:
+    """One ask/tell search through the shared loop (app/jobs/loop.py: generation 0 is the
+    initial swarm, ``generations`` more follow) with the job's evaluator (the gait sets
+    simulated once, RRT-MP on the search's planner draws); checkpoints under ``ckpt[name]``
+    after every generation, so a resumed job continues bit-identically. The spec's stop
+    rules apply to the search; a control runs the ``generations`` the search ran."""
     sign = 1.0 if spec.cost == "coverage" else -1.0
-    G = spec.search.generations
-    st = ckpt.get(name)
-    history: list[dict] = []
-    evaluations, wall_before, sim_s, plan_s, steps = 0, 0.0, 0.0, 0.0, 0
-    if st is not None:
-        opt.restore(st["optimizer"])
-        history, evaluations, wall_before = st["history"], st["evaluations"], st["wall_s"]
-        sim_s, plan_s, steps = st["sim_s"], st["plan_s"], st["sim_steps"]
     budget.begin(name)
-    budget.used[name] = evaluations
-    seg = time.perf_counter()
-    while opt.generation < G:
-        budget.check()
+    budget.used[name] = (ckpt.get(name) or {}).get("evaluations", 0)
+
+    def generation(x):
         steps0 = sim.sim_steps
-        x = opt.ask()
         ev = evaluate(sim, x, k, pmap, K, spec.cost, spec.seed, radius)
-        opt.tell(ev.fitness)
-        evaluations += len(ev.fitness)
-        sim_s += ev.sim_s
-        plan_s += ev.plan_s
-        steps += sim.sim_steps - steps0
-        row = {"generation": opt.generation, "best": sign * opt.best[1], "mean": float(ev.value.mean()),
-               "generation_best": float(ev.value.max() if sign > 0 else ev.value.min()),
-               "worst": float(ev.value.min() if sign > 0 else ev.value.max()),
-               "nodes_mean": float(ev.tree.n.mean()), "evaluations": evaluations}
+        columns = {"nodes_mean": float(ev.tree.n.mean())}
         if hasattr(opt, "diagnostics"):
-            row |= opt.diagnostics()
-        history.append(row)
-        wall = wall_before + time.perf_counter() - seg
-        ckpt[name] = {"optimizer": opt.state(), "history": history, "evaluations": evaluations, "wall_s": wall,
-                      "sim_s": sim_s, "plan_s": plan_s, "sim_steps": steps}
-        ctx.save_checkpoint(ckpt)
-        budget.report(evaluations, {"best": row["best"], "mean": row["mean"], "evaluations": evaluations,
-                                    "sim_steps_per_s": steps / max(wall, 1e-9)})
-    best_x, best_f = opt.best
-    return {"best_x": best_x, "best_value": sign * best_f, "history": history, "evaluations": evaluations,
-            "wall_s": wall_before + time.perf_counter() - seg, "sim_s": sim_s, "plan_s": plan_s, "sim_steps": steps}
+            columns |= opt.diagnostics()
+        return Generation(ev.fitness, columns, {"sim_steps": sim.sim_steps - steps0, "sim_s": ev.sim_s,
+                                                "plan_s": ev.plan_s})
+
+    G = spec.search.generations if generations is None else generations
+    out = run_search(opt, generation, G, _PhaseContext(name, ctx, ckpt, budget), spec.stop if name == "search" else None,
+                     sign=sign)
+    t = out.totals
+    return {"best_x": out.best_x, "best_value": sign * out.best_fitness, "history": out.history,
+            "evaluations": out.evaluations, "wall_s": out.wall_s, "sim_s": t.get("sim_s", 0.0),
+            "plan_s": t.get("plan_s", 0.0), "sim_steps": int(t.get("sim_steps", 0)), "stop_reason": out.stop_reason,
+            "generations_run": out.generations_run}
 
 
 def _stats(v: np.ndarray) -> dict[str, float]:

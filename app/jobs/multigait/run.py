@@ -127,14 +127,16 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
     try:
         lower, upper = sim.bounds(k)
         ckpt = ctx.load_checkpoint() or {}
-        if "optimizer" in ckpt:  # a checkpoint written before the phases had their own keys
-            ckpt = {"search": {**ckpt, "sim_steps": ckpt.get("sim_steps", 0)}}
+        steps0 = sim.sim_steps
         opt = make_optimizer(s.optimizer, lower, upper, s.particles, s.seed, cr=s.cr, f=s.f, **coeffs)
         search = search_phase("search", opt, sim, spec, pmap, k, K, radius, budget, ctx, ckpt)
         control = None
         if spec.controls.random_search:
             rs = make_optimizer("random", lower, upper, s.particles, s.seed + RANDOM_SEED_OFFSET)
-            control = search_phase("random_search", rs, sim, spec, pmap, k, K, radius, budget, ctx, ckpt)
+            control = search_phase("random_search", rs, sim, spec, pmap, k, K, radius, budget, ctx, ckpt,
+                                   generations=search["generations_run"] - 1)
+        # steps of phases restored from a checkpoint count as if this process had simulated them
+        sim.sim_steps = steps0 + search["sim_steps"] + (control["sim_steps"] if control else 0)
         history = search["history"]
         sign = 1.0 if spec.cost == "coverage" else -1.0
 
@@ -232,7 +234,8 @@ def run(spec: MultigaitSpec, ctx: RunContext) -> JobResult:
         "map": pmap.describe(),
         "gaits": k,
         "iterations": K,
-        "search": {"optimizer": s.optimizer, **({"pso": s.pso, **coeffs} if s.optimizer == "pso" else {})},
+        "search": {"optimizer": s.optimizer, **({"pso": s.pso, **coeffs} if s.optimizer == "pso" else {}),
+                   "stop_reason": search["stop_reason"], "generations_run": search["generations_run"]},
         "result": {"final_best": value, "heldout_mean": float(held.mean()), "heldout_std": float(held.std()),
                    "initial_best": first.get("generation_best"),
                    "initial_mean": first.get("mean"), "final_mean": history[-1]["mean"] if history else None,

@@ -12,6 +12,7 @@ from typing import Annotated, ClassVar, Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.jobs.base import SpecBase, StrictModel
+from app.jobs.loop import StopRules
 from app.optim.pso import PRESETS
 from app.planning.evidence import CASES
 from app.planning.maps import MAPS
@@ -104,6 +105,7 @@ class MultigaitSpec(SpecBase):
     cost: Literal["coverage", "distance"] = "coverage"
     map: str = Field("empty", max_length=64, json_schema_extra={"enum": sorted(MAPS)})
     search: Search = Field(default_factory=Search)
+    stop: StopRules = Field(default_factory=StopRules)
     planner: Planner = Field(default_factory=Planner)
     reuse: Reuse = Field(default_factory=Reuse)
     verify: Verify = Field(default_factory=Verify)
@@ -159,8 +161,8 @@ class MultigaitSpec(SpecBase):
         return 150 if (self.cost == "coverage" or not MAPS[self.map].flat) else 100
 
     budget_formula: ClassVar[str] = (
-        "units of work over all phases: search.particles x search.generations gait sets (the search; generation "
-        "1 is the initial swarm; each gait set simulated once and scored by one RRT-MP plan), the same number "
+        "units of work over all phases: search.particles x (search.generations + 1) gait sets (the search; "
+        "generation 0 is the initial swarm; each gait set simulated once and scored by one RRT-MP plan), the same number "
         "again for the random-search control (controls.random_search), 1 to re-examine the best gait set, "
         "controls.heldout_plans held-out plans of the best (twice with the random-search control: its best too), "
         "on flat maps verify.nodes single-gait re-simulations of the best tree and 3 x reuse.plans reuse plans "
@@ -169,7 +171,7 @@ class MultigaitSpec(SpecBase):
 
     def budget_parts(self) -> dict[str, int]:
         """Units per phase, in run order (their sum is ``evaluations_budget``)."""
-        search = self.search.particles * self.search.generations
+        search = self.search.particles * (self.search.generations + 1)  # generation 0 is the initial swarm
         flat = MAPS[self.map].flat
         return {"search": search,
                 "random_search": search if self.controls.random_search else 0,
