@@ -53,7 +53,8 @@ def test_submit_stores_a_queued_job_and_sends_its_id(client, settings):
     msgs = messages(settings)
     assert len(msgs) == 1 and job["id"] in msgs[0].read_text()
     got = client.get(f"/api/jobs/{job['id']}").json()
-    assert got["id"] == job["id"] and got["progress"] == {"done": 0, "total": 0, "fraction": 0.0, "info": None}
+    assert got["id"] == job["id"] and got["progress"] == {"done": 0, "total": 0, "fraction": 0.0, "info": None,
+                                                      "text": None}
 
 
 @pytest.mark.parametrize("body, field, words", [
