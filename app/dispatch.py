@@ -69,12 +69,28 @@ def broker_ok(settings: Settings) -> tuple[bool, str]:
         return False, f"{type(e).__name__}: {e}"
 
 
+def fair_next(s, settings: Settings) -> list[str]:
+    """Queued jobs to send now, per-owner round robin (the policy: app/studies/fair.py)."""
+    from app.studies.fair import select_fair, window
+
+    return select_fair(s, settings.redispatch_after_s, window(s, settings.reaper_interval_s))
+
+
+def refill(settings: Settings) -> int:
+    """Send the next fair share of queued jobs (after a job finished: its slot is free)."""
+    with session_scope(settings.db_url) as s:
+        ids = fair_next(s, settings)
+        repo.mark_dispatched(s, ids)
+    send(settings, ids)
+    return len(ids)
+
+
 def dispatch_pending(settings: Settings) -> int:
     """Requeue jobs whose lease expired and (re)send messages that are missing."""
     with session_scope(settings.db_url) as s:
         requeued = repo.reap(s)
     with session_scope(settings.db_url) as s:
-        ids = repo.undelivered(s, settings.redispatch_after_s)
+        ids = fair_next(s, settings)
         repo.mark_dispatched(s, ids)
     if requeued:
         log.info("requeued after lost lease: %s", requeued)

@@ -9,4 +9,20 @@ from workers.celery_app import celery_app
 
 @celery_app.task(name="gaitmend.run_job", acks_late=True, reject_on_worker_lost=True)
 def run_job(job_id: str) -> str:
-    return _run_job(get_settings(), job_id)
+    settings = get_settings()
+    try:
+        return _run_job(settings, job_id)
+    finally:
+        _refill(settings)
+
+
+def _refill(settings) -> None:
+    """A slot is free: send the owners' next queued jobs (fair dispatch, app/studies/fair.py)."""
+    import logging
+
+    from app.dispatch import refill
+
+    try:
+        refill(settings)
+    except Exception:  # the housekeeper sends them on its next pass
+        logging.getLogger("gaitmend.dispatch").exception("refill after a job failed")

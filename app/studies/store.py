@@ -15,8 +15,10 @@ from app.studies.aggregate import aggregate
 from app.studies.spec import Plan
 
 
-def create_study(s: Session, plan: Plan, *, owner: str, max_attempts: int, max_queued: int) -> tuple[Study, list[str]]:
-    """The study row and one queued job per point, in the caller's transaction. QueueFull
+def create_study(s: Session, plan: Plan, *, owner: str, max_attempts: int, max_queued: int,
+                 redispatch_after_s: float = 300.0, window_: int = 2) -> tuple[Study, list[str]]:
+    """The study row and one queued job per point, in the caller's transaction; returns the
+    ids to send now. QueueFull
     when the points would take the owner past max_queued queued jobs (nothing written)."""
     repo.lock_owner(s, owner)
     queued = repo.count_queued(s, owner, cap=max_queued + 1)
@@ -33,8 +35,13 @@ def create_study(s: Session, plan: Plan, *, owner: str, max_attempts: int, max_q
     for p in plan.points:
         job = repo.create_job(s, owner=owner, kind=p["kind"], robot=p["robot"], spec=p["spec"],
                               evaluations_budget=p["budget"], max_attempts=max_attempts)
-        job.study_id, job.study_point, job.dispatched_at = study.id, p["index"], now
+        job.study_id, job.study_point = study.id, p["index"]
         ids.append(job.id)
+    # Only the owner's fair share goes to the broker now; the rest wait unsent (app/studies/fair.py).
+    from app.studies.fair import select_fair
+
+    ids = [i for i in select_fair(s, redispatch_after_s, window_) if i in set(ids)]
+    repo.mark_dispatched(s, ids, now)
     return study, ids
 
 

@@ -153,3 +153,32 @@ def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, workers, redis
     assert sum(j.status == "cancelled" for j in jobs) >= 4
     assert all(j.attempt == 0 for j in jobs if j.status == "cancelled" and j.started_at is None)
     assert {f["index"] for f in st["aggregate"]["failed"]} == {j.study_point for j in jobs if j.status == "cancelled"}
+
+
+def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study(tmp_path, workers, redis_url, pg_url):
+    """Policy (app/studies/fair.py): at most `window` messages per owner in the broker,
+    refilled round robin. With one worker (window 2), bob's job submitted after alice's
+    10-point study starts after at most a few of alice's points, not after all ten."""
+    from app.store import repo
+
+    env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
+    settings = migrated(env)
+    with session_scope(settings.db_url) as s:
+        alice, bob = repo.create_token(s, "alice"), repo.create_token(s, "bob")
+    client = TestClient(create_app(settings, host="0.0.0.0"))
+    A, B = ({"Authorization": f"Bearer {t}"} for t in (alice, bob))
+    tiny = BASE | {"search": {"population": 4, "generations": 1, "seed": 0}, "sim": {"duration_s": 0.5}}
+    r = client.post("/api/studies", json=study(grid={"search.seed": list(range(10))}, base=tiny), headers=A)
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    r = client.post("/api/jobs", json=tiny, headers=B)
+    jid = r.json()["id"]
+    w = workers(env)
+    wait_for(lambda: client.get(f"/api/jobs/{jid}", headers=B).json()["status"] == "succeeded", 240,
+             "bob's job", proc=w)
+    with session_scope(settings.db_url, readonly=True) as s:
+        bob_start = repo.get_job(s, jid).started_at
+    started_before = [j for j in _jobs(settings, sid) if j.started_at is not None and j.started_at < bob_start]
+    assert len(started_before) <= 3, len(started_before)  # FIFO would have run all 10 first
+    client.post(f"/api/studies/{sid}/cancel", headers=A)
+    assert client.get(f"/api/studies/{sid}", headers=B).status_code == 404  # studies belong to their owner

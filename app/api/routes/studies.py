@@ -91,8 +91,12 @@ async def submit_study(request: Request, response: Response, who: Principal = De
 
     def create_and_send():
         with session_scope(settings.db_url) as s:
+            from app.studies.fair import window
+
             study, ids = store.create_study(s, plan, owner=who.name, max_attempts=settings.max_attempts,
-                                            max_queued=settings.max_queued_per_owner)
+                                            max_queued=settings.max_queued_per_owner,
+                                            redispatch_after_s=settings.redispatch_after_s,
+                                            window_=window(s, settings.reaper_interval_s))
             sid = study.id
         send(settings, ids)
         with session_scope(settings.db_url, readonly=True) as s:
