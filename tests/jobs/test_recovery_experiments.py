@@ -33,3 +33,31 @@ def test_old_format_rows_are_dropped_not_tabled(tmp_path, monkeypatch):
     reproduce.run_table2(seeds=1, generations=1, population=4, raw_path=raw, log=calls.append)
     rows = json.loads(raw.read_text())
     assert len(calls) == 1 and len(rows) == 1 and "from_log" not in rows[0]
+
+
+def _documented_answers():
+    """Recovered gaits the docs report at the default step: Table II rows and the nominal
+    answers of the robust comparison (both written by `gaitmend reproduce`)."""
+    from pathlib import Path
+
+    from app.jobs.recovery.spec import RecoverySpec
+
+    dt = RecoverySpec().sim.timestep_s
+    answers = []
+    for path, keep in (("docs/table2.json", lambda r: True), ("docs/recovery_robust.json",
+                                                               lambda r: r["mode"] == "nominal")):
+        p = Path(__file__).resolve().parents[2] / path
+        if p.exists():
+            answers += [r for r in json.loads(p.read_text())
+                        if r.get("timestep_s") == dt and "best_params" in r and keep(r) and not r["best"]["fell"]]
+    return dt, answers
+
+
+def test_default_timestep_passes_the_convergence_rule_on_recovered_answers():
+    """The rule (app/sim/convergence.py) on the answers the docs report: each is
+    re-simulated at the default step and at half of it, here and now."""
+    dt, answers = _documented_answers()
+    assert len(answers) >= 8, "the docs must report enough recovered answers to check the rule on"
+    rep = reproduce.convergence_report(answers, dt)
+    assert rep["forward_ok"], rep
+    assert rep["passes"], {k: v for k, v in rep.items() if k != "per_answer"}
