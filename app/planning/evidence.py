@@ -116,13 +116,3 @@ def robustness_cases(shape, stuck, pmap: PlanMap, gait_s: float, settle_s: float
         out.append({"name": c.name, "label": c.label, "metrics": m})
         tick(1)
     return out
-
-
-def robustness_block(target: str, nominal: dict[str, float], cases: list[dict]) -> dict:
-    """``summary["robustness"]`` in the shared format (cases carry ``target_met``)."""
-    spread = {}
-    for key, v in nominal.items():
-        vals = [float(c["metrics"][key]) for c in cases if key in c["metrics"]] + [float(v)]
-        spread[key] = {"min": min(vals), "max": max(vals), "nominal": float(v)}
-    return {"target": target, "cases": cases, "met": sum(1 for c in cases if c["target_met"] is True),
-            "total": len(cases), "spread": spread}

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from app.planning.costs import evaluate
-from app.planning.evidence import CASES, CHUNK, gait_metrics, heldout_values, robustness_block, robustness_cases
+from app.planning.evidence import CASES, CHUNK, gait_metrics, heldout_values, robustness_cases
+from app.sim.perturb import robustness_block
 from app.planning.maps import get_map
 from app.planning.primitives import ModularSim
 from app.robots.modular import get_shape

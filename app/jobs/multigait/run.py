@@ -16,11 +16,12 @@ from app.jobs.multigait.phases import Budget, controls_block, search_phase
 from app.jobs.multigait.spec import MultigaitSpec
 from app.optim.registry import make_optimizer
 from app.planning.costs import cost_value, evaluate, planner_draws, verify_tree
-from app.planning.evidence import CHUNK, heldout_values, robustness_block, robustness_cases
+from app.planning.evidence import CHUNK, heldout_values, robustness_cases
 from app.planning.maps import PlanMap, get_map
 from app.planning.primitives import ModularSim, Primitives
 from app.planning.rrt import composed_expander, path_to, rrt_mp
 from app.robots.modular import MU, get_shape
+from app.sim.perturb import robustness_block
 
 RANDOM_SEED_OFFSET = 7919  # the random-search control draws its own stream from the job's seed
 ROBUST_COVERAGE_SHARE = 0.8
