@@ -328,23 +328,9 @@ def install_dashboard(app: FastAPI) -> None:
     async def check(request: Request, who: Principal = Depends(principal)):
         """Validate a spec without queuing it: its evaluation budget (the spec's own
         formula, the number the compare page shows) or the API's field errors."""
-        from app.api.body import BodyError, parse_json
-        from app.api.routes.jobs import _budget_error, _read_body, _require_json
-        from app.jobs.base import SpecError
-        from app.jobs.registry import parse_spec
+        from app.api.routes.jobs import read_spec
 
-        _require_json(request)  # the same edges as POST /api/jobs: what passes here, passes there
-        raw = await _read_body(request, settings.max_body_bytes)
-        try:
-            data = parse_json(raw)
-        except BodyError as e:
-            raise ApiError(422, f"the body is not an acceptable JSON document: {e}", errors=e.errors) from None
-        try:
-            spec = parse_spec(data)
-        except SpecError as e:
-            raise ApiError(422, str(e), errors=e.errors) from None
-        if (err := _budget_error(spec, settings.max_evaluations_per_job)) is not None:
-            raise err
+        spec = await read_spec(request, settings)  # the same edges as POST /api/jobs
         return _budget(spec)
 
     @app.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)

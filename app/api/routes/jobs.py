@@ -82,15 +82,10 @@ def _budget_error(spec, limit: int) -> ApiError | None:
                          f"the limit is {limit} per job (GAITMEND_MAX_EVALUATIONS_PER_JOB)", field=spec.budget_field)
 
 
-@router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,
-             "description": "a retry with the same Idempotency-Key: the job created the first time"}},
-             openapi_extra={"requestBody": {"required": True, "content": {
-                 "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
-async def submit(request: Request, response: Response, who: Principal = Depends(principal),
-                 idempotency_key: Annotated[str | None, Header(min_length=1, max_length=200)] = None):
-    """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
-    checked before anything is written."""
-    settings = _settings(request)
+async def read_spec(request: Request, settings: Settings):
+    """The job spec in a request's body, through every edge (JSON content type, size,
+    strict JSON, the kind's Spec, the evaluation limit); an ApiError names what failed.
+    Shared by POST /api/jobs and the dashboard's check, so what passes one passes the other."""
     _require_json(request)
     body = await _read_body(request, settings.max_body_bytes)
     try:
@@ -103,6 +98,19 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
         raise ApiError(422, str(e), errors=e.errors) from None
     if (err := _budget_error(spec, settings.max_evaluations_per_job)) is not None:
         raise err
+    return spec
+
+
+@router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,
+             "description": "a retry with the same Idempotency-Key: the job created the first time"}},
+             openapi_extra={"requestBody": {"required": True, "content": {
+                 "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
+async def submit(request: Request, response: Response, who: Principal = Depends(principal),
+                 idempotency_key: Annotated[str | None, Header(min_length=1, max_length=200)] = None):
+    """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
+    checked before anything is written."""
+    settings = _settings(request)
+    spec = await read_spec(request, settings)
     full = spec.model_dump(mode="json")
 
     def existing():
