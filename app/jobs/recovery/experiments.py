@@ -70,16 +70,22 @@ def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[
             t = time.perf_counter()
             s = run(spec, MemoryContext()).summary
             rows.append(_row(lost, seed, generations, population, s))
-            if raw_path is not None:
-                raw_path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = raw_path.with_suffix(".part")
-                tmp.write_text(json.dumps(rows, indent=1))
-                tmp.replace(raw_path)
+            _save_rows(rows, raw_path)
             m = s["best"]["metrics"]
             log(f"legs {lost} seed {seed}: x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
                 f"yaw {m['yaw_f_deg']:.1f} deg, robustness {rows[-1]['robustness']['met']}/"
                 f"{rows[-1]['robustness']['total']} ({time.perf_counter() - t:.0f} s)")
     return rows
+
+
+def _save_rows(rows: list[dict], raw_path: Path | None) -> None:
+    """Every finished run at once (a long reproduction resumes from it), never half-written."""
+    if raw_path is None:
+        return
+    raw_path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = raw_path.with_suffix(".part")
+    tmp.write_text(json.dumps(rows, indent=1))
+    tmp.replace(raw_path)
 
 
 def _median(rows, key):
@@ -226,11 +232,7 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
                                                               ("x_f_m", "y_f_m", "yaw_f_deg", "fell")}
                                                   | {"target_met": c["target_met"]} for c in rob["cases"]}},
                          "evaluations": s["timing"]["evaluations"], "wall_s": s["timing"]["wall_s"]})
-            if raw_path is not None:
-                raw_path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = raw_path.with_suffix(".part")
-                tmp.write_text(json.dumps(rows, indent=1))
-                tmp.replace(raw_path)
+            _save_rows(rows, raw_path)
             m = s["best"]["metrics"]
             log(f"legs {lost} {mode} (weights {weights}): x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
                 f"yaw {m['yaw_f_deg']:.1f} deg, target {s['best']['target_met']}, perturbations met "
