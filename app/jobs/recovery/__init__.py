@@ -13,8 +13,8 @@ from app.robots.catalog import ROBOTS
 class RecoveryKind(Kind):
     name = "recovery"
     title = "Gait recovery after leg loss"
-    paper = ("Chen et al., gait recovery of a hexapod robot after leg loss: gait-sequence planning and "
-             "differential evolution of leg-tip trajectories (paper 000)")
+    paper = ("Farghdani & Chhabra, evolutionary gait reconfiguration in damaged legged robots: gait-sequence "
+             "planning and differential evolution of leg-tip trajectories (paper 000)")
     Spec = RecoverySpec
     robots = {name: r.description for name, r in ROBOTS.items()}
     history_columns = present.HISTORY_COLUMNS
