@@ -13,7 +13,7 @@ from app.robots.modular import SHAPES
 class MultigaitKind(Kind):
     name = "multigait"
     title = "Multiple gaits of a modular robot, evolved together for motion planning"
-    paper = "Evolving multiple gaits of modular robots for RRT-MP motion planning, with stuck modules (paper 001)"
+    paper = "Vonásek & Faigl, evolution of multiple gaits for modular robots, scored by RRT-MP motion planning (paper 001)"
     Spec = MultigaitSpec
     robots = {name: shape.description for name, shape in SHAPES.items()}
     history_columns = present.HISTORY_COLUMNS
