@@ -88,6 +88,42 @@ def test_run_is_deterministic_and_resumes_bit_identically(tmp_path):
     assert resumed.progress_log[-1][0] == spec.evaluations_budget
 
 
+def test_resume_inside_the_random_search_control_is_bit_identical(tmp_path):
+    """Killed in the control's second generation (GA: 3 saves, then 1 of the control), the
+    resumed job keeps the GA's best row and continues the control from its checkpoint."""
+    spec = EnergySpec.parse(CHEAP)
+    a = run(spec, Ctx(tmp_path))
+    interrupted = Ctx(tmp_path, cancel_after_saves=4)
+    with pytest.raises(Cancelled):
+        run(spec, interrupted)
+    assert set(interrupted.ckpt) == {"ga", "random_search"}
+    b = run(spec, Ctx(tmp_path, checkpoint=interrupted.ckpt))
+    strip = lambda s: {k: v for k, v in json.loads(dumps(s)).items() if k != "timing"}
+    assert strip(a.summary) == strip(b.summary)
+    assert a.history == b.history
+
+
+def test_stop_rule_ends_the_ga_and_its_control_runs_as_many_generations(tmp_path):
+    """Counting as every kind counts: generation 0 is the initial population; a target any
+    J meets stops the GA after it, and the equal-budget control runs that one generation."""
+    spec = EnergySpec.parse(CHEAP | {"stop": {"target": 1e12}})
+    ctx = Ctx(tmp_path)
+    r = run(spec, ctx)
+    done = [d for d, _ in ctx.progress_log]
+    assert done == sorted(done) and done[-1] == spec.evaluations_budget  # the bar never runs backwards
+    s = r.summary["search"]
+    assert (s["stop_reason"], s["generations_run"], s["evaluations"]) == ("target", 1, 4)
+    assert [h["generation"] for h in r.history] == [0] and "random_search_best" in r.history[0]
+    full = run(EnergySpec.parse(CHEAP), Ctx(tmp_path))
+    assert full.summary["search"]["generations_run"] == 3 and full.summary["search"]["stop_reason"] == "generations"
+    assert [h["evaluations"] for h in full.history] == [4, 8, 12]
+
+
+def test_stop_rules_are_strict():
+    assert _field_errors({"stop": {"plateau_generations": 0}})[0][0] == "stop.plateau_generations"
+    assert _field_errors({"stop": {"target": "1"}})[0][0] == "stop.target"
+
+
 def test_result_carries_the_stages_and_the_physics_check(tmp_path):
     spec = EnergySpec.parse(CHEAP | {"search": {"optimizer": "none", "workers": 1},
                                               "evidence": {"controls": True, "robustness": True,

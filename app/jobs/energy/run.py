@@ -14,6 +14,7 @@ from app.dynamics.gait import Gait
 from app.dynamics.physics import PhysicsConfig, reference_from, simulate
 from app.dynamics.pipeline import PERIODICITY_TOL, evaluate
 from app.jobs.base import Cancelled, JobResult, RunContext
+from app.jobs.loop import Generation, Phases, run_search
 from app.jobs.energy.problem import (PopulationEvaluator, decode, encode_nominal, eval_config, geometry,
                                      space, task_of)
 from app.jobs.energy.spec import ROBUSTNESS_CASES, EnergySpec
@@ -28,40 +29,98 @@ def _gait_summary(gait: Gait) -> dict[str, Any]:
     return {"period_s": gait.period, "touchdown_s": list(gait.touchdown), "duty": list(gait.duty), "legs": list(LEGS)}
 
 
-def _search_loop(name, opt, minimise_sign, evaluator, spec, ctx, state, done_before, total):
-    """Shared generation loop of the GA and its random-search control; returns the state."""
-    G = spec.search.generations
-    # The project's counting convention: generation 0 is the initial population, then G more.
-    while state["generation"] <= G:
-        if ctx.is_cancelled():
-            raise Cancelled()
-        X = opt.ask()
-        rows = evaluator(X)
+class _Minimising:
+    """The GA minimises J; the shared loop maximises its fitness -J (negation is exact, so
+    the GA sees the same numbers as before)."""
+
+    def __init__(self, ga: GeneticAlgorithm):
+        self.ga = ga
+
+    @property
+    def generation(self) -> int:
+        return self.ga.generation
+
+    def ask(self) -> np.ndarray:
+        return self.ga.ask()
+
+    def tell(self, fitness) -> None:
+        self.ga.tell(-np.asarray(fitness, dtype=float))
+
+    @property
+    def best(self) -> tuple[np.ndarray, float]:
+        x, j = self.ga.best
+        return x, -j
+
+    def state(self) -> dict:
+        return self.ga.state()
+
+    def restore(self, state: dict) -> None:
+        self.ga.restore(state)
+
+
+class _SearchPhase:
+    """One search phase's run context plus what the controls and the summary need beyond
+    the loop's history: the evaluation row of the best candidate so far. It rides in the
+    phase's checkpoint, so a resumed search keeps it."""
+
+    def __init__(self, ctx, evaluator):
+        self.ctx, self.evaluator = ctx, evaluator
+        self.artifact_dir = ctx.artifact_dir
+        self.row: dict | None = None
+        self.feasible_share = 0.0
+
+    def load_checkpoint(self):
+        state = self.ctx.load_checkpoint()
+        if state is not None:
+            self.row = state.get("best_row")
+        return state
+
+    def save_checkpoint(self, state: dict) -> None:
+        self.ctx.save_checkpoint(state | {"best_row": self.row})
+
+    def progress(self, done: int, total: int, info: dict) -> None:
+        self.ctx.progress(done, total, info)
+
+    def is_cancelled(self) -> bool:
+        return self.ctx.is_cancelled()
+
+    def __call__(self, X: np.ndarray) -> Generation:
+        rows = self.evaluator(X)
         J = np.array([r["fitness"] for r in rows])
-        opt.tell(minimise_sign * J)
         i = int(np.argmin(J))
-        if state["best"] is None or J[i] < state["best"]["row"]["fitness"]:
-            state["best"] = {"x": X[i].tolist(), "row": rows[i]}
-        feas = [r for r in rows if r["feasible"]]
-        state["evaluations"] += len(rows)
-        state["generation"] += 1
-        state["history"].append({
-            "phase": name, "generation": state["generation"] - 1, "evaluations": state["evaluations"],
-            "best": state["best"]["row"]["fitness"], "generation_best": float(J[i]), "mean": float(J.mean()),
-            "worst": float(J.max()), "feasible_share": len(feas) / len(rows),
-            "mean_feasible": float(np.mean([r["fitness"] for r in feas])) if feas else None,
-            "best_cot": state["best"]["row"].get("cot_final"),
-        })
-        state["opt"] = opt.state()
-        ctx.save_checkpoint({**state["ckpt_root"], name: {k: v for k, v in state.items() if k != "ckpt_root"}})
-        ctx.progress(done_before + state["evaluations"], total,
-                     {"phase": name, "generation": state["generation"] - 1, "best_J": state["best"]["row"]["fitness"],
-                      "feasible_share": len(feas) / len(rows)})
-    return state
+        if self.row is None or J[i] < self.row["fitness"]:
+            self.row = rows[i]
+        feas = [r["fitness"] for r in rows if r["feasible"]]
+        self.feasible_share = len(feas) / len(rows)
+        return Generation(-J, {"feasible_share": self.feasible_share,
+                               "mean_feasible": float(np.mean(feas)) if feas else None,
+                               "best_cot": self.row.get("cot_final")})
+
+    def info(self, info: dict) -> dict:
+        return info | {"best_J": info["best"], "feasible_share": self.feasible_share}
 
 
-def _new_state(root):
-    return {"generation": 0, "evaluations": 0, "best": None, "history": [], "opt": None, "ckpt_root": root}
+class _Skipped:
+    """The analysis's progress after searches a stop rule ended early: the bar counts the
+    searches' whole share as done, so it never runs backwards."""
+
+    def __init__(self, ctx, skipped: int):
+        self.ctx, self.skipped = ctx, skipped
+
+    def progress(self, done: int, total: int, info: dict) -> None:
+        self.ctx.progress(done + self.skipped, total, info)
+
+    def is_cancelled(self) -> bool:
+        return self.ctx.is_cancelled()
+
+
+def _search(opt, phase: _SearchPhase, generations: int, rules) -> dict:
+    """One search (the GA or its control) through the shared loop (app/jobs/loop.py):
+    generation 0 is the initial population, ``generations`` more follow unless a stop
+    rule ends it; checkpoints after every generation, stops on cancel between them."""
+    out = run_search(opt, phase, generations, phase, rules, sign=-1.0, progress_info=phase.info)
+    return {"best_x": out.best_x, "best": {"row": phase.row}, "history": out.history, "evaluations": out.evaluations,
+            "wall_s": out.wall_s, "stop_reason": out.stop_reason, "generations_run": out.generations_run}
 
 
 def _physics_summary(p: dict, ref_cot: float, speed: float) -> dict[str, Any]:
@@ -93,48 +152,42 @@ def _physics(spec, geom, ref, task, **over):
 
 def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
     t_start = time.perf_counter()
-    ckpt = ctx.load_checkpoint() or {}
-    wall_before = float(ckpt.get("wall_s", 0.0))
     total = spec.evaluations_budget
     sp = space(spec)
     task = task_of(spec)
     cfg = eval_config(spec)
     evaluator = PopulationEvaluator(spec) if spec.search.optimizer == "ga" else None
-    root: dict[str, Any] = {}
+    search_wall = 0.0
     try:
-        # --- the GA ---------------------------------------------------------------------
         if spec.search.optimizer == "ga":
+            n = spec.search_evaluations
+            sizes = {"ga": n} | ({"random_search": n} if spec.evidence.random_search else {})
+            phases = Phases(ctx, sizes | {"analysis": total - sum(sizes.values())})
+            # --- the GA ---------------------------------------------------------------------
             ga = GeneticAlgorithm(sp.lower, sp.upper, population=spec.search.population, seed=spec.search.seed)
-            st = _new_state(root)
-            if "ga" in ckpt:
-                st.update({k: v for k, v in ckpt["ga"].items()})
-                st["ckpt_root"] = root
-                ga.restore(st["opt"])
-            st = _search_loop("ga", ga, 1.0, evaluator, spec, ctx, st, 0, total)
-            root["ga"] = {k: v for k, v in st.items() if k != "ckpt_root"}
-            best_x = np.asarray(st["best"]["x"])
-            history = [{k: v for k, v in r.items() if k != "phase"} for r in st["history"]]
-            done = st["evaluations"]
-            # --- its equal-budget control: uniform random search over the same box -------
+            st = _search(_Minimising(ga), _SearchPhase(phases.context("ga"), evaluator), spec.search.generations,
+                         spec.stop)
+            best_x, history, done = st["best_x"], st["history"], st["evaluations"]
+            search_wall += st["wall_s"]
+            # --- its equal-budget control: uniform random search over the same box, as many
+            # generations as the GA ran (fewer when a stop rule ended it) ---------------------
             rs_state = None
             if spec.evidence.random_search:
                 rs = RandomSearch(sp.lower, sp.upper, population=spec.search.population,
                                   seed=spec.search.seed + 7919)
-                rst = _new_state(root)
-                if "random_search" in ckpt:
-                    rst.update({k: v for k, v in ckpt["random_search"].items()})
-                    rst["ckpt_root"] = root
-                    rs.rng.bit_generator.state = rst["opt"]["rng"]
-                    rs.generation = rst["generation"]
-                rst = _search_loop("random_search", _RSAdapter(rs), -1.0, evaluator, spec, ctx, rst, done, total)
-                rs_state = {k: v for k, v in rst.items() if k != "ckpt_root"}
-                history = _merge_history(history, rst["history"])
-                done += rst["evaluations"]
+                rs_state = _search(rs, _SearchPhase(phases.context("random_search"), evaluator),
+                                   st["generations_run"] - 1, None)
+                history = _merge_history(history, rs_state["history"])
+                done += rs_state["evaluations"]
+                search_wall += rs_state["wall_s"]
         else:
             best_x, history, done, rs_state, st = encode_nominal(sp, spec), [], 0, None, None
     finally:
         if evaluator is not None:
             evaluator.close()
+    t_post = time.perf_counter()
+    if st is not None and done < sum(sizes.values()):
+        ctx = _Skipped(ctx, sum(sizes.values()) - done)  # a stop rule ended the searches early
 
     # --- the answer in detail --------------------------------------------------------------
     if ctx.is_cancelled():
@@ -171,7 +224,8 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
         robustness = _robustness(spec, geom, ref, task, phys, ctx, done, total)
         done += len(ROBUSTNESS_CASES)
 
-    wall = wall_before + time.perf_counter() - t_start
+    # the searches' wall time summed over resumed attempts, then this attempt's analysis
+    wall = (search_wall + time.perf_counter() - t_post) if st is not None else time.perf_counter() - t_start
     summary = _summary(spec, best, gait, links, geom, phys, phys_other, controls, analysis, robustness, st, wall, done)
     traces = _traces(best, phys_raw)
     model_xml = build_spec(dataclasses.replace(geom, timestep=spec.physics.timestep_s)).to_xml()
@@ -200,22 +254,6 @@ def _feedback_text(balance: bool, foot_placement: float) -> str:
     if balance:
         parts.append("trunk rate damping")
     return " + ".join(parts) if parts else "joint PD only"
-
-
-class _RSAdapter:
-    """RandomSearch maximises and keeps its own best; the loop only needs ask/tell/state."""
-
-    def __init__(self, rs: RandomSearch):
-        self.rs = rs
-
-    def ask(self):
-        return self.rs.ask()
-
-    def tell(self, f):
-        self.rs.tell(f)
-
-    def state(self):
-        return {"rng": self.rs.rng.bit_generator.state, "generation": self.rs.generation}
 
 
 def _row(name, label, evaluations, metrics, target_met, note):
@@ -347,7 +385,8 @@ def _summary(spec, best, gait, links, geom, phys, phys_other, controls, analysis
     s["physics_other_feedback"] = phys_other
     if st is not None:
         s["search"] = {"optimizer": "ga", "population": spec.search.population, "generations": spec.search.generations,
-                       "evaluations": st["evaluations"], "best_J": st["best"]["row"]["fitness"]}
+                       "evaluations": st["evaluations"], "best_J": st["best"]["row"]["fitness"],
+                       "stop_reason": st["stop_reason"], "generations_run": st["generations_run"]}
     s["analysis"] = analysis
     s["controls"] = controls
     if robustness is not None:

@@ -11,6 +11,7 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from app.jobs.base import STRICT as Strict
 from app.jobs.base import SpecBase, SpecError
+from app.jobs.loop import StopRules
 TABLE1_LINKS = (0.06, 0.33, 0.33)
 TABLE1_TOUCHDOWN = (0.0, 0.23, 0.23, 0.0)  # FR, HR, FL, HL (s)
 LINK_NAMES = ("hip", "thigh", "calf")
@@ -165,7 +166,8 @@ class EnergySpec(SpecBase):
     """An energy-optimal gait for the quadruped of paper 003 (defaults: Table 1)."""
 
     budget_formula: ClassVar[str] = (
-        "GA: population x (generations + 1) fitness evaluations (generation 0 is the initial population); "
+        "GA: population x (generations + 1) fitness evaluations (generation 0 is the initial population; at most, "
+        "fewer when a stop rule ends the GA early); "
         "the same again for the random-search control (evidence.random_search); 1 for the answer in detail; "
         "7 analysis evaluations when evidence.controls (Table 1 baseline, SRB-only, massless legs, high step on "
         "the best and on Table 1's design, rod inertias, no residual iteration); 2 physics runs (as specified and "
@@ -179,6 +181,7 @@ class EnergySpec(SpecBase):
     design: Design = Field(default_factory=Design)
     model: Model = Field(default_factory=Model)
     search: Search = Field(default_factory=Search)
+    stop: StopRules = Field(default_factory=StopRules)  # the GA's; its control runs as many generations
     physics: Physics = Field(default_factory=Physics)
     evidence: Evidence = Field(default_factory=Evidence)
 
