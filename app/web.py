@@ -36,7 +36,8 @@ from app.store.db import session_scope
 WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
 # page name -> (template, title, the nav link marked as the current page)
 PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
-         "compare": ("compare.html", "compare", "/compare")}
+         "compare": ("compare.html", "compare", "/compare"),
+         "studies": ("studies.html", "studies", None)}  # app/studies
 NAV = (("/", "Jobs"), ("/compare", "Compare"), ("/docs", "API"))
 HEADER_MARK = "<!-- gaitmend: header -->"
 LINK_TTL_S = 3600
@@ -240,6 +241,8 @@ def install_dashboard(app: FastAPI) -> None:
     app.add_api_route("/", page("jobs"), include_in_schema=False, methods=["GET"])
     app.add_api_route("/jobs/{job_id}", page("job"), include_in_schema=False, methods=["GET"])
     app.add_api_route("/compare", page("compare"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/studies", page("studies"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/studies/{study_id}", page("studies"), include_in_schema=False, methods=["GET"])
     if (WEB_DIR / "static").is_dir():
         app.mount("/static", StaticFiles(directory=WEB_DIR / "static"), name="static")
     app.mount("/viser", StaticFiles(directory=_viser_client(), html=True), name="viser-client")

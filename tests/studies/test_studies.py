@@ -182,3 +182,15 @@ def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study
     assert len(started_before) <= 3, len(started_before)  # FIFO would have run all 10 first
     client.post(f"/api/studies/{sid}/cancel", headers=A)
     assert client.get(f"/api/studies/{sid}", headers=B).status_code == 404  # studies belong to their owner
+
+
+def test_study_pages_and_builtin_specs_are_served(tmp_path):
+    settings = migrated(deployment(tmp_path))
+    client = TestClient(create_app(settings))
+    spec = client.get("/api/studies/builtin/recovery_table2").json()
+    assert len(expand(spec).points) == 40
+    assert client.get("/api/studies/builtin/nope").status_code == 404
+    for path in ("/studies", "/studies/0123abcd"):
+        r = client.get(path)
+        assert r.status_code == 200 and "/static/studies.js" in r.text
+    assert client.get("/static/studies.js").status_code == 200

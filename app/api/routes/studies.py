@@ -124,6 +124,18 @@ async def list_studies(request: Request, who: Principal = Depends(principal),
     return await _db(request, fn, readonly=True)
 
 
+@router.get("/builtin/{name}", responses=ERRORS)
+async def builtin_study(name: Annotated[str, PathParam(pattern=r"^[a-z0-9_]{1,64}$")]):
+    """A built-in study spec shipped with gaitmend (app/studies/builtin/NAME.json)."""
+    import json
+    from importlib import resources
+
+    f = resources.files("app.studies").joinpath(f"builtin/{name}.json")
+    if not f.is_file():
+        raise ApiError(404, f"no built-in study {name!r}", field="name")
+    return json.loads(f.read_text())
+
+
 @router.get("/{study_id}", responses=ERRORS)
 async def get_study(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
     def fn(s):
