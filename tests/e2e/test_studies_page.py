@@ -1,0 +1,28 @@
+"""The studies pages in a real headless Chromium: the list links to the study, whose page
+shows progress, the aggregate table and every point's job link, and cancels the rest."""
+
+from __future__ import annotations
+
+TINY = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
+        "search": {"population": 4, "generations": 1, "seed": 0}, "sim": {"duration_s": 0.5}}
+
+
+def test_study_list_page_and_cancel(page, server):
+    study = {"name": "e2e seeds", "base": TINY, "grid": {"search.seed": [0, 1, 2]},
+             "report": {"group_by": ["damage.lost_legs"], "metrics": ["best.fitness"]}}
+    with server.client("alice") as c:
+        r = c.post("/api/studies", json=study)
+        assert r.status_code == 201, r.text
+        sid = r.json()["id"]
+    page.goto(f"{server.url}/studies")
+    page.get_by_role("link", name="e2e seeds").click()
+    page.wait_for_url(f"**/studies/{sid}")
+    page.locator("#aggregate tbody tr").first.wait_for()
+    assert page.locator("#aggregate tbody tr").count() == 1
+    assert page.locator("#aggregate thead").inner_text().count("best.fitness") == 1
+    assert page.locator("ul li a[href^='/jobs/']").count() == 3
+    if page.get_by_role("button", name="Cancel unfinished points").count():
+        page.get_by_role("button", name="Cancel unfinished points").click()
+    with server.client("alice") as c:
+        c.post(f"/api/studies/{sid}/cancel")
+        assert c.get(f"/api/studies/{sid}").json()["spec"]["name"] == "e2e seeds"
