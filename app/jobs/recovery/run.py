@@ -8,7 +8,7 @@ import numpy as np
 
 from app.gaits.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.gaits.trajectory import param_names
-from app.jobs.base import JobResult, RunContext
+from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.loop import Generation, Phases, run_search
 from app.jobs.recovery.spec import RecoverySpec
 from app.optim.registry import make_optimizer
@@ -157,6 +157,15 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
                                                    searches["search"].generations_run - 1,
                                                    phases.context("random_search"))
         post_start = time.perf_counter()
+
+        def enter(name: str) -> None:
+            """Between the post-search units of work: stop on cancel (the searches' results are
+            in the checkpoint, a resume starts here), and say which one runs."""
+            if ctx.is_cancelled():
+                raise Cancelled()
+            ctx.progress(phases.total, phases.total, {"phase": name})
+
+        enter("final_scoring")
         state = {"evaluations": sum(o.evaluations for o in searches.values()),
                  "sim_steps": sum(int(o.totals.get("sim_steps", 0)) for o in searches.values()),
                  "wall_s": sum(o.wall_s for o in searches.values())}
@@ -175,6 +184,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
                                                         if baseline["metrics"]["fell"] else ""),
         }]
         if "random_search" in opts:
+            enter("random_search_scoring")
             rx = searches["random_search"].best_x
             rs = _scored(ev, rx, weights, units)
             state["evaluations"] += 1
@@ -188,6 +198,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
             })
         robustness = None
         if rob_ev is not None:
+            enter("robustness")
             r = rob_ev.evaluate_all(best_x)
             state["evaluations"] += len(cases)
             state["sim_steps"] += r.sim_steps
@@ -200,6 +211,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         robust = None
         if spec.robust is not None:
             robust = spec.robust.model_dump() | {"best_per_model": score.per_model(best_x[None])}
+        enter("traces")
         traces = {"best": ev.trace(best_x), "baseline": base_ev.trace(nominal)}
     finally:
         score.close()
