@@ -172,7 +172,9 @@ def expand(data: Any, max_points: int | None = None) -> Plan:
             if not study.list_infeasible:
                 raise _fail(f"points[{i}].damage.lost_legs", f"infeasible damage {ov}: {why} "
                                                              "(set list_infeasible to list such points instead)")
-            plan.infeasible.append({"overrides": ov, "reason": why})
+            damage = {k: v for k, v in ov.items() if k.startswith("damage.")} or ov
+            if not any(x["overrides"] == damage for x in plan.infeasible):  # once per damage, not per seed
+                plan.infeasible.append({"overrides": damage, "reason": why})
             continue
         try:
             spec = parse_spec(d)

@@ -95,7 +95,7 @@ def _jobs(settings, sid):
         return list(s.scalars(select(Job).where(Job.study_id == sid).order_by(Job.study_point)))
 
 
-def test_kill9_mid_study_every_point_once_and_local_run_gives_the_same_aggregate(tmp_path, workers, redis_url, pg_url):
+def test_kill9_mid_study_every_point_once_and_local_run_gives_the_same_aggregate(tmp_path, redis_url, pg_url, workers):
     env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
     settings = migrated(env)
     client = TestClient(create_app(settings))
@@ -137,7 +137,7 @@ def test_kill9_mid_study_every_point_once_and_local_run_gives_the_same_aggregate
     assert (out / "aggregate.csv").read_text() == z.read("aggregate.csv").decode()
 
 
-def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, workers, redis_url, pg_url):
+def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, redis_url, pg_url, workers):
     env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
     settings = migrated(env)
     client = TestClient(create_app(settings))
@@ -155,7 +155,7 @@ def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, workers, redis
     assert {f["index"] for f in st["aggregate"]["failed"]} == {j.study_point for j in jobs if j.status == "cancelled"}
 
 
-def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study(tmp_path, workers, redis_url, pg_url):
+def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study(tmp_path, redis_url, pg_url, workers):
     """Policy (app/studies/fair.py): at most `window` messages per owner in the broker,
     refilled round robin. With one worker (window 2), bob's job submitted after alice's
     10-point study starts after at most a few of alice's points, not after all ten."""
