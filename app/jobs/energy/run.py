@@ -201,6 +201,8 @@ def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
     phys, phys_other, ref, phys_raw = None, None, None, None
     sim_steps = 0
     if tr is not None:
+        if ctx.is_cancelled():
+            raise Cancelled()
         ref = reference_from(tr, gait, task.speed)
         p = _physics(spec, geom, ref, task)
         phys = _physics_summary(p, best["cot"]["qp"], task.speed)
@@ -273,6 +275,12 @@ def _metrics(r: dict) -> dict[str, Any]:
 def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx, done, total):
     controls, analysis = [], {}
     n = 0
+
+    def unit(name: str) -> None:
+        """Before each control's evaluations: stop on cancel, say which control runs."""
+        if ctx.is_cancelled():
+            raise Cancelled()
+        ctx.progress(done + n, total, {"phase": "analysis", "step": "control", "control": name})
     target = "feasible (periodic within tolerance) with a lower J than the control"
     if rs_state is not None and rs_state["best"] is not None:
         row = rs_state["best"]["row"]
@@ -283,6 +291,7 @@ def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx,
             bool(best["fitness"] < row["fitness"]), "same population x generations as the GA; the GA's answer "
             "is target_met when its J is lower"))
     # Table 1's own timing with Table 1 links.
+    unit("paper_table1")
     nominal = encode_nominal(sp, spec)
     g0, l0 = decode(sp, nominal)
     base = evaluate(geometry(spec, l0), g0, task, cfg)
@@ -293,6 +302,7 @@ def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx,
                          bool(best["fitness"] <= base["fitness"]), "the paper's own gait, evaluated by the same pipeline"))
     analysis["table1"] = _metrics(base)
     # SRB-only (massless legs in the NLP), re-evaluated on the heavy-legged robot.
+    unit("srb_only")
     srb = evaluate(geometry(spec, links), gait, task, dataclasses.replace(cfg, leg_dynamics=False))
     n += 1
     # Massless legs: a milligram rod per link (MuJoCo needs some mass on a moving body).
@@ -310,6 +320,7 @@ def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx,
                          bool("eps" in srb and "eps" in best and best["eps"]["nlp"]["norm"] < srb["eps"]["nlp"]["norm"]),
                          "target_met when the dummy legs leave a smaller residual than massless legs"))
     # High step: the same design with a higher swing (obstacle clearance).
+    unit("high_step")
     high = task_of(spec, swing_height=spec.evidence.high_step_swing_height_m)
     hs = evaluate(geometry(spec, links), gait, high, cfg)
     hs0 = evaluate(geometry(spec, l0), g0, high, cfg)
@@ -322,12 +333,14 @@ def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx,
                          bool(hs["feasible"] or hs0["feasible"]),
                          "not re-optimised; a calf and thigh of unequal length cannot fold the foot as close to the hip"))
     # Table 1's inertias vs the ones a slender rod of that mass and length has.
+    unit("rod_inertia")
     rod = evaluate(dataclasses.replace(geometry(spec, links), inertia="rod"), gait, task, cfg)
     n += 1
     analysis["rod_inertia"] = _metrics(rod)
     controls.append(_row("rod_inertia", "link inertias of slender rods instead of Table 1's", 1, _metrics(rod), None,
                          "papers README: Table 1's inertias are 10-1000x a slender link's"))
     # Ablation of the residual iteration (the paper's single NLP pass).
+    unit("no_residual_iteration")
     single = evaluate(geometry(spec, links), gait, task, dataclasses.replace(cfg, residual_iterations=0))
     n += 1
     ms = _metrics(single)
@@ -335,6 +348,8 @@ def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx,
         ms["eps_ratio"] = ms["eps_nlp_N"] / max(ms["eps_qp_N"], 1e-12)
     controls.append(_row("no_residual_iteration", "the paper's single NLP pass (no re-solve with the legs' true wrench)",
                          1, ms, bool("eps_ratio" in ms and ms["eps_ratio"] >= 100), "target: eps_QP 100x below eps_NLP"))
+    if ctx.is_cancelled():
+        raise Cancelled()
     ctx.progress(done + n, total, {"phase": "analysis", "step": "controls"})
     return controls, analysis, n
 

@@ -1,0 +1,77 @@
+"""Cancel reaches every post-search phase of energy: the random-search control, the analysis
+(the answer in detail, the physics check, each control) and the robustness re-runs stop at
+their next unit of work, and no later phase runs."""
+import copy
+
+import pytest
+
+from app.jobs import registry
+from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.energy import run as energy_run
+
+CONTROLS = ["paper_table1", "srb_only", "high_step", "rod_inertia", "no_residual_iteration"]
+POST = (["random_search", "best in detail", "physics check"] + [f"control {c}" for c in CONTROLS]
+        + ["controls", "robustness"])
+
+
+def _key(info):
+    if info.get("phase") == "analysis":
+        return info["step"] + (f" {info['control']}" if "control" in info else "")
+    return info.get("phase")
+
+
+class Ctx(MemoryContext):
+    """Raises the cancel flag once progress has entered `cancel_in`; records every phase."""
+
+    def __init__(self, ckpt=None, cancel_in=None):
+        super().__init__()
+        self._ckpt = copy.deepcopy(ckpt)
+        self.cancel_in = cancel_in
+        self.phases = []
+        self.done = []
+
+    def progress(self, done, total, info):
+        self.phases.append(_key(info))
+        self.done.append(done)
+
+    def save_checkpoint(self, state):
+        self._ckpt = copy.deepcopy(state)
+
+    def is_cancelled(self):
+        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
+
+
+def _spec():
+    data = registry.get_kind("energy").smoke_spec()
+    data["evidence"] = {"controls": True, "robustness": True}  # the smoke spec leaves them out
+    return registry.parse_spec(data)
+
+
+@pytest.fixture(scope="module")
+def full():
+    spec = _spec()
+    ctx = Ctx()
+    res = energy_run.run(spec, ctx)
+    return spec, ctx, res
+
+
+def test_every_post_search_phase_reports_progress(full):
+    spec, ctx, res = full
+    seen = [p for i, p in enumerate(ctx.phases) if p not in ctx.phases[:i]]
+    assert seen == ["ga"] + POST
+    assert ctx.done == sorted(ctx.done) and res.evaluations == spec.evaluations_budget
+    assert res.summary["robustness"] is not None
+
+
+@pytest.mark.parametrize("phase", POST)
+def test_cancel_stops_every_post_search_phase(full, phase):
+    spec, done_ctx, _ = full
+    ckpt = copy.deepcopy(done_ctx._ckpt)  # the finished searches: only the later phases run again
+    if phase == "random_search":
+        ckpt.pop("random_search")
+    ctx = Ctx(ckpt=ckpt, cancel_in=phase)
+    with pytest.raises(Cancelled):
+        energy_run.run(spec, ctx)
+    assert ctx.phases[-1] == phase  # stopped at the phase's next unit, nothing after it ran
+    assert ctx.phases.count(phase) == 1
+    assert not set(ctx.phases) & set(POST[POST.index(phase) + 1:])
