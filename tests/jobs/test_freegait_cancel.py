@@ -1,0 +1,71 @@
+"""Cancel reaches every post-search phase of freegait: once the controls or the robustness
+re-runs have begun, the next unit does not run and no later phase starts."""
+import copy
+
+import pytest
+
+from app.jobs import registry
+from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.freegait import run as freegait_run
+
+GROUPS = ["walk", "control", "robustness"]
+
+
+class Ctx(MemoryContext):
+    """Raises the cancel flag once progress has entered the group `cancel_in`; records every
+    unit's group in the order their progress came."""
+
+    def __init__(self, groups, ckpt=None, cancel_in=None):
+        super().__init__()
+        self._ckpt = copy.deepcopy(ckpt)
+        self.group_of, self.cancel_in = groups, cancel_in
+        self.phases = []
+
+    def progress(self, done, total, info):
+        self.phases.append(self.group_of[info["run"]])
+
+    def save_checkpoint(self, state):
+        self._ckpt = copy.deepcopy(state)
+
+    def is_cancelled(self):
+        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
+
+
+@pytest.fixture(scope="module")
+def full():
+    spec = registry.parse_spec(registry.get_kind("freegait").smoke_spec())
+    groups = {name: g for g, name, _ in freegait_run.unit_configs(spec)}
+    ctx = Ctx(groups)
+    res = freegait_run.run(spec, ctx)
+    return spec, groups, ctx, res
+
+
+def test_every_phase_reports_progress(full):
+    _, groups, ctx, res = full
+    assert [p for i, p in enumerate(ctx.phases) if p not in ctx.phases[:i]] == GROUPS
+    assert len(ctx.phases) == len(groups) and res.summary["robustness"]["total"] > 0
+
+
+@pytest.mark.parametrize("phase", ["control", "robustness"])
+def test_cancel_stops_every_post_search_phase(full, phase):
+    spec, groups, done_ctx, _ = full
+    ckpt = copy.deepcopy(done_ctx._ckpt)
+    later = GROUPS[GROUPS.index(phase):]
+    # the phase and the ones after it are still to run; the walk is done (its trace re-run)
+    ckpt["units"] = {n: u for n, u in ckpt["units"].items() if groups[n] not in later}
+    ctx = Ctx(groups, ckpt=ckpt, cancel_in=phase)
+    with pytest.raises(Cancelled):
+        freegait_run.run(spec, ctx)
+    assert ctx.phases[-1] == phase and ctx.phases.count(phase) == 1  # stopped at the phase's next unit
+    assert not set(ctx.phases) & set(later[1:])
+    assert sum(groups[n] == phase for n in ctx._ckpt["units"]) == 1  # one unit of the phase ran, no more
+
+
+def test_cancel_inside_a_walk_stops_it(full):
+    spec, groups, _, _ = full
+    ctx = Ctx(groups)
+    calls = [0]
+    ctx.is_cancelled = lambda: (calls.__setitem__(0, calls[0] + 1) or calls[0] > 3)  # mid-walk, not between units
+    with pytest.raises(Cancelled):
+        freegait_run.run(spec, ctx)
+    assert ctx.phases == [] and ctx._ckpt is None
