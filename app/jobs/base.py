@@ -325,6 +325,18 @@ class Kind(abc.ABC):
             return f"{what} ({p.suffix[1:].upper()})"
         return "extra file"
 
+    # -- studies --------------------------------------------------------------------------
+    def named_values(self) -> dict[str, dict[str, list[Any]]]:
+        """Named value sets a study grid may use instead of a list, by dotted spec path:
+        {"damage.lost_legs": {"all_feasible_1_and_2": [[1], [2], ...]}}."""
+        return {}
+
+    def infeasible_reason(self, data: dict[str, Any]) -> str | None:
+        """Why a spec (a dict, before validation) describes a robot that cannot run at all
+        (a study lists such points instead of queueing them), else None. Malformed input is
+        the Spec's to reject: return None for it."""
+        return None
+
     # -- reproduction, benchmarks, dashboard ----------------------------------------------
     def experiments(self) -> list[Experiment]:
         return []

@@ -15,7 +15,6 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from app.jobs.base import SpecError, StrictModel
 from app.jobs.registry import parse_spec
 
-ALL_FEASIBLE = "all_feasible_1_and_2"  # every 1- and 2-leg loss of the hexapod (recovery)
 PATH_RE = r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$"
 
 # Upper bounds of one study; deployments lower or raise them by environment.
@@ -92,24 +91,19 @@ def get_path(d: Any, path: str) -> Any:
     return d
 
 
-def _all_losses() -> list[list[int]]:
-    return [[l] for l in range(1, 7)] + [list(c) for c in itertools.combinations(range(1, 7), 2)]
+def _kind_of(base: dict):
+    from app.jobs.registry import get_kind
+
+    try:
+        return get_kind(base.get("kind"))
+    except SpecError:
+        return None  # the base's own validation names the bad kind
 
 
 def infeasible_reason(spec: dict) -> str | None:
-    """Why a point cannot run (a hexapod that cannot walk on the legs left), else None."""
-    lost = get_path(spec, "damage.lost_legs")
-    if spec.get("kind") != "recovery" or not isinstance(lost, list):
-        return None
-    from app.gaits.sequences import InfeasibleMorphology, check_feasible
-
-    try:
-        check_feasible([l for l in range(1, 7) if l not in lost])
-    except InfeasibleMorphology as e:
-        return str(e) or "no statically stable gait on the remaining legs"
-    except Exception:  # malformed lists are the kind's Spec to reject
-        return None
-    return None
+    """Why a point cannot run at all (the kind says: e.g. a hexapod without enough legs), else None."""
+    kind = _kind_of(spec)
+    return None if kind is None else kind.infeasible_reason(spec)
 
 
 def _fail(field_: str, message: str) -> SpecError:
@@ -130,10 +124,13 @@ def _override_list(study: StudySpec) -> list[dict[str, Any]]:
         if not re.fullmatch(PATH_RE, k):
             raise _fail(f"grid.{k}", "grid keys are dotted paths like 'search.seed'")
         if isinstance(v, str):
-            if v != ALL_FEASIBLE or k != "damage.lost_legs" or study.base.get("kind") != "recovery":
-                raise _fail(f"grid.{k}", f"a list of values; the one named set is {ALL_FEASIBLE!r} for "
-                                         "recovery's damage.lost_legs")
-            v = _all_losses()
+            kind = _kind_of(study.base)
+            named = (kind.named_values() if kind is not None else {}).get(k, {})
+            if v not in named:
+                offered = {p: sorted(n) for p, n in (kind.named_values() if kind is not None else {}).items()}
+                raise _fail(f"grid.{k}", f"a list of values, or a named set the base's kind offers: "
+                                         f"{offered or 'none'}; got {v!r}")
+            v = named[v]
         if not v:
             raise _fail(f"grid.{k}", "at least one value")
         axes.append([(k, x) for x in v])

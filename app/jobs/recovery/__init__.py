@@ -3,6 +3,8 @@ planned for the remaining legs, then DE over the leg-tip trajectories in MuJoCo.
 
 from __future__ import annotations
 
+import itertools
+
 from app.jobs.base import Kind
 from app.jobs.recovery import present
 from app.jobs.recovery.views import FORM_OPEN
@@ -61,6 +63,23 @@ class RecoveryKind(Kind):
 
     def progress_text(self, info):
         return present.progress_text(info)
+
+    def named_values(self):
+        # Every 1- and 2-leg loss of the hexapod: the damage atlas's grid (issue 17).
+        losses = [[l] for l in range(1, 7)] + [list(c) for c in itertools.combinations(range(1, 7), 2)]
+        return {"damage.lost_legs": {"all_feasible_1_and_2": losses}}
+
+    def infeasible_reason(self, data):
+        from app.gaits.sequences import InfeasibleMorphology, check_feasible
+
+        lost = (data.get("damage") or {}).get("lost_legs") if isinstance(data.get("damage"), dict) else None
+        if not isinstance(lost, list) or not all(isinstance(l, int) and not isinstance(l, bool) for l in lost):
+            return None
+        try:
+            check_feasible([l for l in range(1, 7) if l not in lost])
+        except InfeasibleMorphology as e:
+            return str(e) or "no statically stable gait on the remaining legs"
+        return None
 
     def experiments(self):
         from app.jobs.recovery.experiments import EXPERIMENTS
