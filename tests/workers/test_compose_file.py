@@ -35,7 +35,7 @@ def test_passwords_with_at_and_slash_reach_the_servers_intact():
     from sqlalchemy.engine import make_url
 
     from app.settings import load_settings
-    from workers.celery_app import broker_options
+    from app.broker import broker_options
 
     pw = "p@ss/w:rd%?#"
     s = load_settings(database_url="postgresql://gaitmend@db:5432/gaitmend", database_password=pw,
