@@ -125,4 +125,6 @@ def progress_text(info: dict) -> str:
         parts.append(f"{info['sim_steps_per_s'] / 1e3:.0f}k steps/s")
     if "evaluations" in info:
         parts.append(f"{info['evaluations']} evals")
+    if "phase" in info:  # after the search: which post-search step runs
+        parts.append(str(info["phase"]).replace("_", " "))
     return "  ".join(parts)

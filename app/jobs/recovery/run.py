@@ -163,7 +163,9 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
             in the checkpoint, a resume starts here), and say which one runs."""
             if ctx.is_cancelled():
                 raise Cancelled()
-            ctx.progress(phases.total, phases.total, {"phase": name})
+            ctx.progress(phases.total, phases.total,
+                         {"phase": name, "best": float(searches["search"].best_fitness),
+                          "evaluations": int(sum(o.evaluations for o in searches.values()))})
 
         enter("final_scoring")
         state = {"evaluations": sum(o.evaluations for o in searches.values()),
