@@ -204,7 +204,7 @@
       return el("span", { title: r.better ? `${r.better} is better` : null }, `${r.label}: ${v}${r.unit ? ` ${r.unit}` : ""}`,
         r.met === true ? el("span", { class: "mark met", text: "✓ met" }) : r.met === false ? el("span", { class: "mark unmet", text: "✗ not met" }) : null);
     }
-    return item.status === "running" && typeof item.best_fitness === "number" ? `best so far ${num(item.best_fitness, 4)}` : "–";
+    return "–";
   }
 
   function cells(item) {
@@ -227,7 +227,7 @@
   }
 
   function upsert(item) {
-    const sig = JSON.stringify([item.status, item.progress, item.best_fitness, item.headline, item.damage, age(item.created_at)]);
+    const sig = JSON.stringify([item.status, item.progress, item.headline, item.damage, age(item.created_at)]);
     let r = rows.get(item.id);
     if (!r) {
       r = { item, tr: el("tr", { "data-id": item.id, "data-status": item.status }), sig: null };
