@@ -61,6 +61,7 @@ def make_celery(settings: Settings | None = None, sender: bool = False) -> Celer
         worker_prefetch_multiplier=1,
         worker_concurrency=settings.worker_concurrency,
         worker_max_tasks_per_child=settings.worker_max_tasks_per_child,
+        worker_max_memory_per_child=settings.worker_max_memory_per_child_mb * 1024,  # KiB
         worker_enable_remote_control=False,  # workers report to the database instead
         worker_send_task_events=False,
         worker_hijack_root_logger=False,

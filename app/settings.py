@@ -48,7 +48,12 @@ class Settings(BaseSettings):
     max_job_s: int = Field(6 * 3600, ge=10)  # a running job past this fails
     visibility_timeout_s: int = Field(12 * 3600, ge=60)  # Redis redelivery; must exceed max_job_s
     worker_concurrency: int = Field(1, ge=1, le=64)
-    worker_max_tasks_per_child: int = Field(20, ge=1)
+    # A pool process is replaced after this many jobs, or at once after a job that left it
+    # above the memory limit (checked after every job). Replacing one costs ~0.3-5 s (its
+    # exit, billiard noticing it, the fork), paid by the next job: every 20 jobs it was
+    # most of a tiny study point's dispatch overhead (docs/studies.md).
+    worker_max_tasks_per_child: int = Field(500, ge=1)
+    worker_max_memory_per_child_mb: int = Field(2048, ge=64, le=1024 * 1024)
     poll_interval_s: float = Field(0.2, gt=0.0, le=5.0)  # embedded broker polling
 
     # Client side (gaitmend submit / jobs / fetch).

@@ -15,6 +15,7 @@ def test_reliability_settings_on_redis(tmp_path, redis_url):
     assert conf.task_acks_late and conf.task_reject_on_worker_lost
     assert conf.worker_prefetch_multiplier == 1
     assert conf.worker_max_tasks_per_child == s.worker_max_tasks_per_child
+    assert conf.worker_max_memory_per_child == s.worker_max_memory_per_child_mb * 1024
     assert conf.broker_transport_options["visibility_timeout"] > s.max_job_s
     assert conf.broker_transport_options["global_keyprefix"] == redis_url[1]
     assert conf.task_default_queue == s.queue
