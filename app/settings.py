@@ -54,6 +54,8 @@ class Settings(BaseSettings):
     # most of a tiny study point's dispatch overhead (docs/studies.md).
     worker_max_tasks_per_child: int = Field(500, ge=1)
     worker_max_memory_per_child_mb: int = Field(2048, ge=64, le=1024 * 1024)
+    # Rollout threads per job (app/sim/threads.py); unset: the worker sets cores / concurrency.
+    sim_threads: int | None = Field(None, ge=1, le=256)
     poll_interval_s: float = Field(0.2, gt=0.0, le=5.0)  # embedded broker polling
 
     # Client side (gaitmend submit / jobs / fetch).

@@ -173,10 +173,15 @@ def worker(concurrency: Optional[int] = typer.Option(None, min=1, max=64,
     if not reachable:
         fail(f"cannot reach the broker {_safe_url(settings.broker_url)}: {why} (GAITMEND_BROKER_URL)", code=1)
     _watch_parent()
+    from app.sim.threads import ENV, available_cpus
+
+    slots = concurrency or settings.worker_concurrency
+    # Each pool process's rollouts get their share of the cores (unless set explicitly).
+    os.environ.setdefault(ENV, str(max(1, available_cpus() // slots)))
     from workers.celery_app import celery_app
 
     celery_app.worker_main(["worker", f"--loglevel={loglevel}", "-Q", settings.queue,
-                            "-c", str(concurrency or settings.worker_concurrency), "--pool=prefork",
+                            "-c", str(slots), "--pool=prefork",
                             "--without-gossip", "--without-mingle", "--without-heartbeat",
                             "-n", f"gaitmend.{os.getpid()}@%h"])
 

@@ -17,7 +17,6 @@ the staircase expansions are simulated for real from the parent's full state.
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import mujoco
 import numpy as np
@@ -26,6 +25,7 @@ from mujoco import rollout
 from app.gaits.cpg import gait_bounds, gait_setpoints
 from app.planning.maps import PlanMap
 from app.robots.modular import MU, PHYSICS, ModulePhysics, Shape, build_model, functional_modules
+from app.sim.threads import sim_threads
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -80,7 +80,7 @@ class ModularSim:
         self.nstep = self.n_gait + self.n_settle
         self.stride = max(1, int(round(sample_s / self.dt)))
         self.limit = float(self.model.jnt_range[self.model.actuator_trnid[0, 0], 1]) if self.model.nu else 0.0
-        self.nthread = nthread or os.cpu_count() or 1  # rollout results do not depend on it
+        self.nthread = nthread or sim_threads()  # rollout results do not depend on it
         self._datas = [mujoco.MjData(self.model) for _ in range(self.nthread)]
         self._runner = rollout.Rollout(nthread=self.nthread)
         d = mujoco.MjData(self.model)

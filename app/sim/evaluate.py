@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 
 import mujoco
 import numpy as np
@@ -32,6 +31,7 @@ from app.robots.catalog import RobotEntry
 from app.robots.hexapod import JOINT_NAMES
 from app.sim.metrics import body_metrics, fallen
 from app.sim.perturb import same_signature
+from app.sim.threads import sim_threads
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -70,7 +70,7 @@ class GaitEvaluator:
         self.n_walk = int(round(cfg.duration_s / self.dt))
         self.n_period = int(round(cfg.period_s / self.dt))
         self.nstep = self.n_settle + self.n_walk
-        self.nthread = cfg.nthread or os.cpu_count() or 1
+        self.nthread = cfg.nthread or sim_threads()
         self._datas = [mujoco.MjData(model) for _ in range(self.nthread)]
         self._runner = rollout.Rollout(nthread=self.nthread) if self.nthread > 1 else None
 

@@ -30,7 +30,7 @@ def run_point(spec_dict: dict) -> tuple[str, dict | None, str | None]:
 
 def _one_thread() -> None:
     # One BLAS/OpenMP thread per process: the pool is the parallelism.
-    for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "GAITMEND_SIM_THREADS"):
         os.environ[k] = "1"
 
 

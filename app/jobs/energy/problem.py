@@ -13,7 +13,6 @@ the process count; results come back in candidate order.
 from __future__ import annotations
 
 import dataclasses
-import os
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
@@ -23,6 +22,7 @@ import numpy as np
 from app.dynamics.gait import Gait, Task
 from app.dynamics.pipeline import EvalConfig, evaluate
 from app.robots.quadruped import QUADRUPED25, QuadrupedGeometry
+from app.sim.threads import sim_threads
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,7 +126,7 @@ class PopulationEvaluator:
     def __init__(self, spec):
         self.spec = spec
         self.sp = space(spec)
-        n = spec.search.workers or (os.cpu_count() or 1)
+        n = spec.search.workers or sim_threads()
         self.workers = max(1, min(n, spec.search.population))
         self._pool = None
         if self.workers > 1:

@@ -128,7 +128,7 @@ class Search(BaseModel):
     population: int = Field(40, ge=4, le=200)
     generations: int = Field(40, ge=1, le=500)
     seed: int = Field(0, ge=0, le=2**32 - 1)
-    workers: int = Field(0, ge=0, le=32)  # processes for a population; 0 = every core
+    workers: int = Field(0, ge=0, le=32)  # processes for a population; 0 = the job's share of the cores (GAITMEND_SIM_THREADS)
 
     @field_validator("population")
     @classmethod
