@@ -59,6 +59,8 @@ def run(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON
                                           f"or a built-in name: {', '.join(BUILTIN)}"),
         out: Path = typer.Option(Path("results"), "--out", help="folder for the study's files"),
         workers: Optional[int] = typer.Option(None, "--workers", min=1, max=256, help="processes (default: all cores)"),
+        bundles: bool = typer.Option(False, "--bundles", help="also write every point's job bundle "
+                                     "(OUT/bundles/point-NNNN.zip), as the served study's workers do"),
         as_json: bool = JsonOpt):
     """Run every point of a study here, on all cores, with no server; writes the same
     files as the served study's bundle."""
@@ -69,7 +71,7 @@ def run(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON
     data, plan = _plan(study_path)
     err.print(f"{len(plan.points)} points, {plan.evaluations} evaluations; {len(plan.infeasible)} infeasible listed")
     t0 = time.monotonic()
-    rows = run_plan(plan, workers, log=lambda s: err.print(s))
+    rows = run_plan(plan, workers, log=lambda s: err.print(s), bundle_dir=out / "bundles" if bundles else None)
     rep = plan.study.report
     agg = aggregate(rows, rep.group_by, rep.metrics)
     spec = plan.study.model_dump(mode="json", exclude_none=True)
@@ -137,3 +139,49 @@ def cancel(study_id: str, server: Optional[str] = ServerOpt, token: Optional[str
     with _client(server, token) as c:
         st = _call(c, "POST", f"/api/studies/{study_id}/cancel").json()
     err.print(f"study {st['id']}: {st['status']}")
+
+
+# -- gaitmend reproduce <kind>-study: the kind's paper study, here or on a server ---------------
+
+def builtin_studies(kind: str) -> list[str]:
+    """The built-in studies whose base is a job of ``kind``, in BUILTIN's order (the
+    paper's own table first)."""
+    from importlib import resources
+
+    folder = resources.files("app.studies").joinpath("builtin")
+    return [n for n in BUILTIN if json.loads(folder.joinpath(f"{n}.json").read_text())["base"]["kind"] == kind]
+
+
+def _study_command(kind: str, names: list[str]):
+    def command(name: str = typer.Argument(names[0], help=f"one of: {', '.join(names)}"),
+                server: Optional[str] = typer.Option(None, "--server",
+                                                     help="submit to this server and wait (default: run here)"),
+                token: Optional[str] = TokenOpt,
+                workers: Optional[int] = typer.Option(None, "--workers", min=1, max=256,
+                                                      help="processes when run here (default: all cores)"),
+                out: Path = typer.Option(Path("reproduced") / "studies", "--out",
+                                         help="parent folder for the study's files when run here"),
+                as_json: bool = JsonOpt):
+        if name not in names:
+            fail(f"NAME: unknown study {name!r} for {kind}; allowed: {', '.join(names)}")
+        if server:
+            submit(Path(name), server=server, token=token, wait=True, as_json=as_json)
+        else:
+            run(Path(name), out=out / name, workers=workers, bundles=False, as_json=as_json)
+
+    command.__doc__ = (f"Run {kind}'s paper study as parallel jobs: {', '.join(names)} (built-in studies; "
+                       f"`gaitmend study run NAME` does the same). Here on all cores, or on a server's workers "
+                       f"with --server.")
+    return command
+
+
+def _register_reproduce_studies() -> None:
+    from app.cli.local import reproduce_app
+    from app.jobs.registry import KINDS
+
+    for kind in KINDS:
+        if names := builtin_studies(kind):
+            reproduce_app.command(f"{kind}-study")(_study_command(kind, names))
+
+
+_register_reproduce_studies()

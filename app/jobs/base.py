@@ -344,6 +344,14 @@ class Kind(abc.ABC):
     def bench(self) -> list[BenchEntry]:
         return []
 
+    def study_views(self, study: dict, points: list[dict]) -> list[dict]:
+        """Panels (the shape of ``views``) drawn from a whole study of this kind, for the
+        study's page, before the generic per-metric charts: e.g. a polar success rate over
+        swept directions. ``study``: the study spec; ``points``: {"index", "overrides",
+        "spec", "status", "summary", "error"} per point (summary None unless succeeded).
+        Default: none."""
+        return []
+
     def views(self, summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
         """The kind's dashboard page, in order: panels {"id", "title", "caption", and
         "figure": {"data", "layout"} (a plotly figure) or "table": {"columns", "rows"}}, cells

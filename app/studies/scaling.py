@@ -1,5 +1,6 @@
 """Parallel scaling of a study: the same points run one after another in one process with
-one thread (`gaitmend study run --workers 1`, GAITMEND_SIM_THREADS=1), then served by N
+one thread, each writing its job bundle as a worker does (`gaitmend study run --workers 1
+--bundles`, GAITMEND_SIM_THREADS=1), then served by N
 `gaitmend worker --concurrency 1` processes of one thread each through the configured
 broker and database, in one run. Prints both wall times, their ratio and whether the two
 aggregates are equal.
@@ -45,14 +46,14 @@ def load_study(name_or_path: str, base: dict) -> dict:
 def serial(study_file: Path, out: Path) -> tuple[float, dict]:
     t0 = time.monotonic()
     r = subprocess.run([sys.executable, "-c", ENTRY, "study", "run", str(study_file), "--workers", "1",
-                        "--out", str(out), "--json"], env=os.environ | ONE_THREAD, capture_output=True, text=True)
+                        "--out", str(out), "--bundles", "--json"], env=os.environ | ONE_THREAD, capture_output=True, text=True)
     wall = time.monotonic() - t0
     if r.returncode != 0:
         raise SystemExit(f"serial run failed ({r.returncode}):\n{r.stderr[-3000:]}")
     return wall, json.loads(r.stdout)["aggregate"]
 
 
-def served(study: dict, workers: int, log) -> dict:
+def served(study: dict, workers: int, log, out: Path | None = None) -> dict:
     from fastapi.testclient import TestClient
 
     from app.api import create_app
@@ -82,9 +83,13 @@ def served(study: dict, workers: int, log) -> dict:
                 last = line
             time.sleep(1.0)
         wall = time.monotonic() - t0
+        if out is not None:  # the served study's bundle and plots, as a user would fetch them
+            (out / "served_bundle.zip").write_bytes(client.get(f"/api/studies/{sid}/bundle").content)
+            (out / "served_views.json").write_text(json.dumps(client.get(f"/api/studies/{sid}/views").json()))
         with session_scope(settings.db_url, readonly=True) as s:
             jobs = store.study_jobs(s, sid)
-            own = sum((j.finished_at - j.started_at).total_seconds() for j in jobs)
+            own = sum((j.finished_at - j.started_at).total_seconds() for j in jobs
+                      if j.started_at and j.finished_at)
         return {"wall_s": wall, "status": st["status"], "aggregate": st["aggregate"], "jobs_claim_to_finish_s": own,
                 "study_id": sid}
     finally:
@@ -99,6 +104,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--base", default="{}", help="JSON merged into the study's base spec (e.g. a smaller budget)")
     ap.add_argument("--out", type=Path, default=None, help="folder for the serial run's files")
+    ap.add_argument("--served-only", action="store_true", help="skip the serial run (e.g. to run a long study once)")
     args = ap.parse_args()
     study = load_study(args.study, json.loads(args.base))
     out = args.out or Path(tempfile.mkdtemp(prefix="gaitmend-scaling-"))
@@ -106,15 +112,19 @@ def main() -> None:
     study_file = out / "study.json"
     study_file.write_text(json.dumps(study))
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
-    log(f"serial: {study['name']} in one process with one thread ...")
-    t_serial, agg_serial = serial(study_file, out / "serial")
-    log(f"serial: {t_serial:.1f} s; served by {args.workers} one-thread workers ...")
-    s = served(study, args.workers, log)
+    t_serial, agg_serial = None, None
+    if not args.served_only:
+        log(f"serial: {study['name']} in one process with one thread ...")
+        t_serial, agg_serial = serial(study_file, out / "serial")
+        log(f"serial: {t_serial:.1f} s")
+    log(f"served by {args.workers} one-thread workers ...")
+    s = served(study, args.workers, log, out)
     print(json.dumps({"study": study["name"], "workers": args.workers, "cores": os.cpu_count(),
-                      "serial_s": round(t_serial, 1), "served_s": round(s["wall_s"], 1),
-                      "ratio": round(s["wall_s"] / t_serial, 3), "served_status": s["status"],
+                      "serial_s": None if t_serial is None else round(t_serial, 1), "served_s": round(s["wall_s"], 1),
+                      "ratio": None if t_serial is None else round(s["wall_s"] / t_serial, 3),
+                      "served_status": s["status"],
                       "served_jobs_claim_to_finish_s": round(s["jobs_claim_to_finish_s"], 1),
-                      "same_aggregate": s["aggregate"] == agg_serial,
+                      "same_aggregate": None if agg_serial is None else s["aggregate"] == agg_serial,
                       "broker": os.environ.get("GAITMEND_BROKER_URL", "embedded"),
                       "database": os.environ.get("GAITMEND_DATABASE_URL", "sqlite").split("@")[-1]}))
 

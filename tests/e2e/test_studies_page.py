@@ -1,7 +1,10 @@
 """The studies pages in a real headless Chromium: the list links to the study, whose page
-shows progress, the aggregate table and every point's job link, and cancels the rest."""
+shows progress, the aggregate table, the per-metric plot and every point's job link, and
+cancels the rest."""
 
 from __future__ import annotations
+
+import time
 
 TINY = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
         "search": {"population": 4, "generations": 1, "seed": 0}, "sim": {"duration_s": 0.5}}
@@ -14,6 +17,10 @@ def test_study_list_page_and_cancel(page, server):
         r = c.post("/api/studies", json=study)
         assert r.status_code == 201, r.text
         sid = r.json()["id"]
+        for _ in range(240):  # let the three tiny points finish: the page then draws their plots
+            if c.get(f"/api/studies/{sid}").json()["status"] not in ("queued", "running"):
+                break
+            time.sleep(0.5)
     page.goto(f"{server.url}/studies")
     page.get_by_role("link", name="e2e seeds").click()
     page.wait_for_url(f"**/studies/{sid}")
@@ -21,6 +28,8 @@ def test_study_list_page_and_cancel(page, server):
     assert page.locator("#aggregate tbody tr").count() == 1
     assert page.locator("#aggregate thead").inner_text().count("best.fitness") == 1
     assert page.locator("ul li a[href^='/jobs/']").count() == 3
+    page.locator("#panel-metric-0 .plot[data-rendered='1'] .main-svg").first.wait_for()  # plotly drew it
+    assert page.locator("#panel-metric-0 h2").inner_text() == "best.fitness"
     if page.get_by_role("button", name="Cancel unfinished points").count():
         page.get_by_role("button", name="Cancel unfinished points").click()
     with server.client("alice") as c:

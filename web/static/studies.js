@@ -30,9 +30,12 @@
         el("tbody", {}, a.rows.map((r) => el("tr", {}, r.group.map((g) => el("td", { text: JSON.stringify(g) })),
           el("td", { text: `${r.succeeded}/${r.points}` }), a.metrics.map((m) => el("td", { text: cell(r.metrics[m]) })))))),
       s.infeasible.length ? el("p", { class: "small muted", text: `Infeasible, listed and never run: ${s.infeasible.map((x) => JSON.stringify(x.overrides)).join(", ")}` }) : null,
+      el("div", { id: "study-views" }),
       el("h3", { text: "Points" }),
       el("ul", {}, s.jobs.map((j) => el("li", {}, el("a", { href: `/jobs/${j.id}`, text: JSON.stringify(j.overrides) }), " ", badge(j.status),
         j.error ? ` ${j.error}` : ""))));
+    const v = await api(s.links.views);
+    GMViews.panels(document.getElementById("study-views"), v.panels);
     if (s.status === "running" || s.status === "queued") setTimeout(() => one().catch(showError), 3000);
   }
 

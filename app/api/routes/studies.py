@@ -28,7 +28,7 @@ def _out(study, c: dict[str, int], jobs=None) -> dict[str, Any]:
     out = {"id": study.id, "name": study.name, "owner": study.owner, "created_at": study.created_at.isoformat(),
            "status": store.status_of(c, study.cancel_requested), "progress": store.progress(c, study.points),
            "links": {"self": f"/api/studies/{study.id}", "bundle": f"/api/studies/{study.id}/bundle",
-                     "page": f"/studies/{study.id}"}}
+                     "page": f"/studies/{study.id}", "views": f"/api/studies/{study.id}/views"}}
     if jobs is not None:
         rows = store.point_rows(study, jobs)
         out["spec"] = study.spec
@@ -141,6 +141,20 @@ async def get_study(request: Request, study_id: StudyId, who: Principal = Depend
     def fn(s):
         st = store.get_study(s, study_id, who.owner_filter)
         return _out(st, store.counts(s, [st.id])[st.id], store.study_jobs(s, st.id))
+
+    return await _db(request, fn, readonly=True)
+
+
+@router.get("/{study_id}/views", responses=ERRORS)
+async def study_views(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
+    """The study's plots for its page: one chart per reported metric (median and range per
+    group) and the panels the base's kind draws from the points (app/studies/views.py)."""
+    from app.studies.views import study_views as views
+
+    def fn(s):
+        st = store.get_study(s, study_id, who.owner_filter)
+        jobs = store.study_jobs(s, st.id)
+        return {"panels": views(st.spec, store.point_rows(st, jobs), store.study_aggregate(st, jobs))}
 
     return await _db(request, fn, readonly=True)
 

@@ -53,6 +53,11 @@ class RecoveryKind(Kind):
 
         return views(summary, traces)
 
+    def study_views(self, study, points):
+        from app.jobs.recovery.views import study_views
+
+        return study_views(study, points)
+
     def history_axis(self, spec):
         from app.jobs.recovery.views import history_axis
 

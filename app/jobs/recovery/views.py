@@ -177,3 +177,98 @@ def history_axis(spec: dict) -> dict:
 
 # form groups the dashboard opens first (the damage is drawn on the robot)
 FORM_OPEN = ["damage", "search", "sim"]
+
+
+ATLAS_COLUMNS = 5
+
+
+def _hexapod(info: dict, cx: float, cy: float, lost: set[int], scale: float) -> tuple[list, ...]:
+    """Top view of the hexapod at (cx, cy): the body outline through the hips, the legs
+    that remain (hip -> foot, sideways) and the lost ones (stubs)."""
+    hips = {int(k): v for k, v in info["hips_m"].items()}
+    order = sorted(hips, key=lambda leg: np.arctan2(hips[leg][1], hips[leg][0]))
+    bx = [cx + scale * hips[leg][0] for leg in order] + [cx + scale * hips[order[0]][0]]
+    by = [cy + scale * hips[leg][1] for leg in order] + [cy + scale * hips[order[0]][1]]
+    reach = 0.11
+    legs_x, legs_y, lost_x, lost_y = [], [], [], []
+    for leg, (x, y, _z) in hips.items():
+        side = 1.0 if x > 0 else -1.0
+        fx, fy = x + side * reach, y + 0.35 * y
+        xs, ys = (lost_x, lost_y) if leg in lost else (legs_x, legs_y)
+        end = 0.35 if leg in lost else 1.0
+        xs += [cx + scale * x, cx + scale * (x + end * (fx - x)), None]
+        ys += [cy + scale * y, cy + scale * (y + end * (fy - y)), None]
+    return bx, by, legs_x, legs_y, lost_x, lost_y
+
+
+def study_views(study: dict, points: list[dict]) -> list[dict]:
+    """A damage atlas (points over damage.lost_legs, e.g. every feasible 1- and 2-leg loss
+    x seeds) as small hexapod top views: lost legs as stubs, the body coloured by the
+    median recovered forward speed, an arrow to the median end point of the walk (drift),
+    and the share of seeds that meet the target."""
+    from app.robots.catalog import ROBOTS
+
+    groups: dict[tuple, list[dict]] = {}
+    robot = None
+    for p in points:
+        s = p.get("summary")
+        if p["status"] != "succeeded" or not s or "lost_legs" not in p["spec"].get("damage", {}):
+            continue
+        d = p["spec"]["damage"]
+        if d.get("locked_joints") or d.get("weak_joints"):
+            continue  # the atlas is of leg losses
+        robot = p["spec"]["robot"]
+        m = s["best"]["metrics"]
+        groups.setdefault(tuple(sorted(d["lost_legs"])), []).append(
+            {"speed": 100 * m["y_f_m"] / p["spec"]["sim"]["duration_s"], "x": 100 * m["x_f_m"], "y": 100 * m["y_f_m"],
+             "yaw": m["yaw_f_deg"], "met": bool(s["target"]["best_met"]),
+             "baseline_met": bool(s["target"]["baseline_met"])})
+    if len(groups) < 2 or robot not in ROBOTS:
+        return []
+    info = ROBOTS[robot].describe()
+    keys = sorted(groups, key=lambda k: (len(k), k))
+    med = {k: {f: float(np.median([r[f] for r in groups[k]])) for f in ("speed", "x", "y", "yaw")} for k in keys}
+    speeds = [med[k]["speed"] for k in keys]
+    lo, hi = min(speeds), max(speeds)
+    import matplotlib
+
+    cmap = matplotlib.colormaps["viridis"]
+    data, notes = [], []
+    scale, cell_w, cell_h = 1.0, 0.5, 0.55
+    for i, k in enumerate(keys):
+        cx, cy = (i % ATLAS_COLUMNS) * cell_w, -(i // ATLAS_COLUMNS) * cell_h
+        bx, by, lx, ly, sx, sy = _hexapod(info, cx, cy, set(k), scale)
+        c = cmap(0.5 if hi == lo else (med[k]["speed"] - lo) / (hi - lo))
+        fill = f"rgba({int(255 * c[0])},{int(255 * c[1])},{int(255 * c[2])},0.9)"
+        rows = groups[k]
+        label = f"legs {', '.join(map(str, k))} lost"
+        hover = (f"{label}<br>forward {med[k]['y']:.1f} cm ({med[k]['speed']:.1f} cm/s), lateral {med[k]['x']:.1f} cm, "
+                 f"yaw {med[k]['yaw']:.1f}°<br>target met {sum(r['met'] for r in rows)}/{len(rows)} seeds; "
+                 f"baseline {'already meets it' if any(r['baseline_met'] for r in rows) else 'does not'}")
+        data.append({"type": "scatter", "mode": "lines", "x": bx, "y": by, "fill": "toself", "fillcolor": fill,
+                     "line": {"color": "#333", "width": 1}, "hoverinfo": "text", "text": hover, "showlegend": False})
+        data.append({"type": "scatter", "mode": "lines", "x": lx, "y": ly, "line": {"color": "#333", "width": 2},
+                     "hoverinfo": "skip", "showlegend": False})
+        data.append({"type": "scatter", "mode": "lines", "x": sx, "y": sy,
+                     "line": {"color": "#c0392b", "width": 2, "dash": "dot"}, "hoverinfo": "skip", "showlegend": False})
+        # drift: from the body centre towards the median end point, 1 m of walk = 0.15 of a cell
+        ax, ay = cx + 0.15 * med[k]["x"] / 100, cy + 0.15 * med[k]["y"] / 100
+        notes.append({"x": ax, "y": ay, "ax": cx, "ay": cy, "xref": "x", "yref": "y", "axref": "x", "ayref": "y",
+                      "showarrow": True, "arrowhead": 2, "arrowcolor": "#111", "arrowwidth": 1.5, "text": ""})
+        notes.append({"x": cx, "y": cy - 0.22, "xref": "x", "yref": "y", "showarrow": False, "font": {"size": 11},
+                      "text": f"{label}<br>{med[k]['speed']:.1f} cm/s, x {med[k]['x']:+.1f} cm, "
+                              f"{sum(r['met'] for r in rows)}/{len(rows)} met"})
+    data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None], "showlegend": False,
+                 "hoverinfo": "skip", "marker": {"color": [lo], "cmin": lo, "cmax": hi, "colorscale": "Viridis",
+                                                 "showscale": True,
+                                                 "colorbar": {"title": {"text": "forward speed (cm/s)"}}}})
+    rows_n = -(-len(keys) // ATLAS_COLUMNS)
+    layout = {"xaxis": {"visible": False, "range": [-0.3, ATLAS_COLUMNS * cell_w - 0.2]},
+              "yaxis": {"visible": False, "scaleanchor": "x", "range": [-(rows_n - 1) * cell_h - 0.32, 0.25]},
+              "annotations": notes, "hovermode": "closest", "margin": {"l": 10, "r": 10, "t": 10, "b": 10}}
+    cap = ("Each hexapod is one damage (red dotted stubs: the lost legs), seen from above with its front up. "
+           "Body colour: the median recovered forward speed over the seeds; arrow: the median end point of the "
+           "walk (straight up = no drift; 1 m of walk is 0.15 of a cell); text: speed, lateral drift and the "
+           "seeds meeting the target. Hover a body for yaw and whether the nominal tripod already meets the target.")
+    return [kit.panel("atlas", "Damage atlas: recovered speed and drift per leg loss", cap,
+                      kit.figure(data, layout), height=max(320, 190 * rows_n))]

@@ -55,6 +55,11 @@ class TippingKind(Kind):
 
         return views(summary, traces)
 
+    def study_views(self, study, points):
+        from app.jobs.tipping.views import study_views
+
+        return study_views(study, points)
+
     def history_axis(self, spec):
         from app.jobs.tipping.views import history_axis
 

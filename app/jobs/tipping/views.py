@@ -203,3 +203,32 @@ def history_axis(spec: dict) -> dict | None:
 
 # form groups the dashboard opens first: what a user sets for a tipping run
 FORM_OPEN = ["scenario", "recovery.enabled", "sweep"]
+
+
+def study_views(study: dict, points: list[dict]) -> list[dict]:
+    """A tilt-direction study (points over scenario.downhill_deg, tripods and recovery on /
+    off) as the polar success rate: per direction, the share of recovery runs that stay
+    upright, and of the runs without recovery that tip (every point also runs the robot
+    without recovery as its own control)."""
+    by_dir: dict[float, dict[str, list[bool]]] = {}
+    for p in points:
+        s, spec = p.get("summary"), p["spec"]
+        if p["status"] != "succeeded" or not s or spec.get("scenario", {}).get("type") != "tilt":
+            continue
+        d = by_dir.setdefault(float(s["scenario"]["downhill_deg"]) % 360.0, {"upright": [], "tipped": []})
+        runs = s["runs"]
+        if "recovery" in runs:
+            d["upright"].append(not runs["recovery"]["tipped"])
+        d["tipped"].append(bool(runs["no_recovery"]["tipped"]))
+    if not by_dir:
+        return []
+    dirs = sorted(by_dir)
+    mean = lambda xs: float(np.mean(xs)) if xs else None  # noqa: E731
+    success = [mean(by_dir[d]["upright"]) for d in dirs]
+    done = [x for x in success if x is not None]
+    sweep = {"directions_deg": dirs, "success_rate": success,
+             "tip_rate_without_recovery": [mean(by_dir[d]["tipped"]) for d in dirs],
+             "overall_success_rate": float(np.mean(done)) if done else None}
+    panel = sweep_view(sweep)
+    panel["id"] = "study-sweep"
+    return [panel]

@@ -1,0 +1,74 @@
+"""The built-in studies against real runs of their kinds: every metric a study reports is
+a finite number (or a bool) in the summary of a real job of the study's first point, run
+at its kind's smoke budget; and `gaitmend reproduce <kind>-study` offers each kind's
+built-in studies."""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.cli.study import BUILTIN, builtin_studies
+from app.jobs.base import MemoryContext, dumps
+from app.jobs.registry import KINDS, get_kind, parse_spec
+from app.studies.aggregate import aggregate
+from app.studies.spec import expand, get_path, set_path
+from app.studies.views import study_views
+
+
+def _builtin(name: str) -> dict:
+    return json.loads(resources.files("app.studies").joinpath(f"builtin/{name}.json").read_text())
+
+
+def _merge(a: dict, b: dict) -> dict:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+@pytest.mark.parametrize("name", BUILTIN)
+def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name, tmp_path):
+    study = _builtin(name)
+    point = expand(study).points[0]
+    kind = get_kind(point["kind"])
+    spec = _merge(point["spec"], kind.smoke_spec())  # the smoke budget ...
+    for path, value in point["overrides"].items():  # ... at the study's first point
+        set_path(spec, path, value)
+    result = kind.run(parse_spec(spec), MemoryContext(tmp_path))
+    summary = json.loads(dumps(result.summary))  # what a worker stores
+    for metric in study["report"]["metrics"]:
+        v = get_path(summary, metric)
+        assert isinstance(v, (bool, int, float)) and math.isfinite(v), (name, metric, v)
+    for path in study["report"].get("group_by", []):
+        assert get_path(point["spec"], path) is not None, (name, path)
+    # the study page's plots from this point: one chart per metric, plus the kind's own
+    rows = [{"index": 0, "overrides": point["overrides"], "spec": json.loads(json.dumps(spec)),
+             "status": "succeeded", "summary": summary, "error": None}]
+    agg = aggregate(rows, study["report"].get("group_by", []), study["report"]["metrics"])
+    panels = {p["id"]: p for p in study_views(study, rows, agg)}
+    for i, metric in enumerate(study["report"]["metrics"]):
+        assert panels[f"metric-{i}"]["figure"]["data"][0]["y"] == [float(get_path(summary, metric))]
+    if name == "tipping_directions":  # the polar success rate over directions
+        polar = panels["study-sweep"]["figure"]["data"]
+        assert polar[0]["theta"] == [0.0] and polar[0]["r"] == [100.0 * (not summary["runs"]["recovery"]["tipped"])]
+        assert polar[1]["r"][0] == 100.0 * summary["runs"]["no_recovery"]["tipped"]
+
+
+def test_reproduce_offers_each_kinds_builtin_studies_and_names_a_bad_one():
+    runner = CliRunner()
+    kinds = {_builtin(n)["base"]["kind"] for n in BUILTIN}
+    assert kinds == set(KINDS)  # every kind has a paper study
+    for kind in kinds:
+        names = builtin_studies(kind)
+        assert names and all(_builtin(n)["base"]["kind"] == kind for n in names)
+        r = runner.invoke(cli, ["reproduce", f"{kind}-study", "--help"])
+        assert r.exit_code == 0 and names[0] in r.output, r.output
+    r = runner.invoke(cli, ["reproduce", "recovery-study", "tipping_directions"])
+    assert r.exit_code == 2
+    assert "NAME" in r.output and "recovery_table2" in r.output
