@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import importlib
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -371,6 +372,72 @@ class Kind(abc.ABC):
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
+
+
+class PackageKind(Kind):
+    """A kind laid out as ``app/jobs/<name>/`` (docs/architecture.md): each method forwards to
+    the function of the same name in the package's module where it lives, imported when
+    first called, so a kind's ``__init__`` holds only what is its own (name, Spec, robots,
+    smoke spec ...). Where: ``run.run``; ``present``: headline, summary_tables, figures,
+    damage_text(spec), replay_style, progress_text; ``views`` (or ``present``): views,
+    history_axis, study_views; ``experiments.EXPERIMENTS``; ``bench.BENCH`` (or
+    ``experiments.BENCH``). An optional one that is missing keeps the Kind default."""
+
+    def _find(self, *places: str) -> Any:
+        pkg = type(self).__module__
+        for place in places:
+            module, attr = place.rsplit(".", 1)
+            try:
+                mod = importlib.import_module(f"{pkg}.{module}")
+            except ModuleNotFoundError as e:
+                if e.name == f"{pkg}.{module}":
+                    continue
+                raise
+            if hasattr(mod, attr):
+                return getattr(mod, attr)
+        return None
+
+    def run(self, spec: Any, ctx: RunContext) -> JobResult:
+        return self._find("run.run")(spec, ctx)
+
+    def damage_text(self, spec: SpecBase) -> str:
+        fn = self._find("present.damage_text")
+        return fn(spec) if fn else super().damage_text(spec)
+
+    def headline(self, summary: dict) -> list[HeadlineRow]:
+        return self._find("present.headline")(summary)
+
+    def summary_tables(self, summary: dict) -> list[Table]:
+        return self._find("present.summary_tables")(summary)
+
+    def figures(self, result: JobResult, out_dir: Path) -> list[Path]:
+        return self._find("present.figures")(result, out_dir)
+
+    def progress_text(self, info: dict[str, Any]) -> str:
+        fn = self._find("present.progress_text")
+        return fn(info) if fn else super().progress_text(info)
+
+    def replay_style(self, trace_names: list[str]) -> list[ReplayTrack]:
+        fn = self._find("present.replay_style")
+        return fn(trace_names) if fn else super().replay_style(trace_names)
+
+    def views(self, summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
+        fn = self._find("views.views", "present.views")
+        return fn(summary, traces) if fn else []
+
+    def study_views(self, study: dict, points: list[dict]) -> list[dict]:
+        fn = self._find("views.study_views", "present.study_views")
+        return fn(study, points) if fn else []
+
+    @property
+    def history_axis(self) -> Callable[[dict], dict] | None:  # optional: the dashboard asks with getattr
+        return self._find("views.history_axis", "present.history_axis")
+
+    def experiments(self) -> list[Experiment]:
+        return self._find("experiments.EXPERIMENTS") or []
+
+    def bench(self) -> list[BenchEntry]:
+        return self._find("bench.BENCH", "experiments.BENCH") or []
 
 
 def form_fields(spec_cls: type[BaseModel]) -> list[dict[str, Any]]:

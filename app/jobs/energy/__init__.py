@@ -4,13 +4,13 @@ multibody equations, a forward check, and the answer played in full MuJoCo physi
 
 from __future__ import annotations
 
-from app.jobs.base import Kind
+from app.jobs.base import PackageKind
 from app.jobs.energy import present
 from app.jobs.energy.spec import EnergySpec
 from app.robots.quadruped import QUADRUPED25, describe
 
 
-class EnergyKind(Kind):
+class EnergyKind(PackageKind):
     name = "energy"
     title = "Energy-optimal quadruped gaits with heavy legs"
     paper = "Quadruped gait optimization with leg dynamics: GA + NLP + QP (paper 003)"
@@ -20,51 +20,12 @@ class EnergyKind(Kind):
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
 
-    def run(self, spec, ctx):
-        from app.jobs.energy.run import run
-
-        return run(spec, ctx)
-
     def robot_info(self, robot):
         return describe(QUADRUPED25)
 
     def smoke_spec(self):
         return {"kind": "energy", "search": {"population": 4, "generations": 1, "workers": 1}, "model": {"knots": 48},
                 "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
-
-    def damage_text(self, spec):
-        return present.damage_text(spec)
-
-    def headline(self, summary):
-        return present.headline(summary)
-
-    def summary_tables(self, summary):
-        return present.summary_tables(summary)
-
-    def figures(self, result, out_dir):
-        return present.figures(result, out_dir)
-
-    def replay_style(self, trace_names):
-        return present.replay_style(trace_names)
-
-    def progress_text(self, info):
-        return present.progress_text(info)
-
-    def views(self, summary, traces):
-        return present.views(summary, traces)
-
-    def history_axis(self, spec):
-        return present.history_axis(spec)
-
-    def experiments(self):
-        from app.jobs.energy.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.energy.experiments import BENCH
-
-        return BENCH
 
 
 KIND = EnergyKind()

@@ -7,12 +7,12 @@ robustness re-simulations."""
 
 from __future__ import annotations
 
-from app.jobs.base import Kind
+from app.jobs.base import PackageKind
 from app.jobs.freegait import present
 from app.jobs.freegait.spec import FreegaitSpec
 
 
-class FreegaitKind(Kind):
+class FreegaitKind(PackageKind):
     name = "freegait"
     title = "Free-crab gaits over forbidden zones (demining hexapod)"
     paper = ("Estremera, Cobano, Gonzalez de Santos 2010, continuous free-crab gaits for hexapod robots on a natural "
@@ -24,11 +24,6 @@ class FreegaitKind(Kind):
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
 
-    def run(self, spec, ctx):
-        from app.jobs.freegait.run import run
-
-        return run(spec, ctx)
-
     def robot_info(self, robot):
         from app.robots.silo6 import describe
 
@@ -37,39 +32,6 @@ class FreegaitKind(Kind):
     def smoke_spec(self):
         return {"kind": "freegait", "route": {"distance_m": 0.3}, "terrain": {"length_m": 3.0, "width_m": 3.0},
                 "forbidden": {"density_per_m2": 6.0}}
-
-    def damage_text(self, spec):
-        return present.damage_text(spec)
-
-    def headline(self, summary):
-        return present.headline(summary)
-
-    def summary_tables(self, summary):
-        return present.summary_tables(summary)
-
-    def figures(self, result, out_dir):
-        return present.figures(result, out_dir)
-
-    def replay_style(self, trace_names):
-        return present.replay_style(trace_names)
-
-    def progress_text(self, info):
-        return present.progress_text(info)
-
-    def views(self, summary, traces):
-        from app.jobs.freegait.views import views
-
-        return views(summary, traces)
-
-    def experiments(self):
-        from app.jobs.freegait.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.freegait.experiments import BENCH
-
-        return BENCH
 
 
 KIND = FreegaitKind()

@@ -34,8 +34,8 @@ FIGURES = {
 }
 
 
-def damage_text(damage: dict) -> str:
-    stuck = damage.get("stuck_modules") or []
+def damage_text(spec) -> str:
+    stuck = spec.damage.stuck_modules or []
     return ("stuck modules " + ",".join(str(m) for m in stuck)) if stuck else "none"
 
 

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import itertools
 
-from app.jobs.base import Kind
+from app.jobs.base import PackageKind
 from app.jobs.recovery import present
 from app.jobs.recovery.views import FORM_OPEN
 from app.jobs.recovery.spec import RecoverySpec
 from app.robots.catalog import ROBOTS
 
 
-class RecoveryKind(Kind):
+class RecoveryKind(PackageKind):
     name = "recovery"
     title = "Gait recovery after leg loss"
     paper = ("Farghdani & Chhabra, evolutionary gait reconfiguration in damaged legged robots: gait-sequence "
@@ -24,50 +24,12 @@ class RecoveryKind(Kind):
     figure_descriptions = present.FIGURES
     form_open = FORM_OPEN  # form groups the dashboard opens first
 
-    def run(self, spec, ctx):
-        from app.jobs.recovery.run import run
-
-        return run(spec, ctx)
-
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
 
     def smoke_spec(self):
         return {"kind": "recovery", "damage": {"lost_legs": [3, 4]},
                 "search": {"population": 6, "generations": 2, "seed": 3}, "sim": {"duration_s": 1.0}}
-
-    def damage_text(self, spec):
-        return present.damage_text(spec.damage.model_dump())
-
-    def headline(self, summary):
-        return present.headline(summary)
-
-    def summary_tables(self, summary):
-        return present.summary_tables(summary)
-
-    def figures(self, result, out_dir):
-        return present.figures(result, out_dir)
-
-    def views(self, summary, traces):
-        from app.jobs.recovery.views import views
-
-        return views(summary, traces)
-
-    def study_views(self, study, points):
-        from app.jobs.recovery.views import study_views
-
-        return study_views(study, points)
-
-    def history_axis(self, spec):
-        from app.jobs.recovery.views import history_axis
-
-        return history_axis(spec)
-
-    def replay_style(self, trace_names):
-        return present.replay_style(trace_names)
-
-    def progress_text(self, info):
-        return present.progress_text(info)
 
     def named_values(self):
         # Every 1- and 2-leg loss of the hexapod: the damage atlas's grid (issue 17).
@@ -85,16 +47,6 @@ class RecoveryKind(Kind):
         except InfeasibleMorphology as e:
             return str(e) or "no statically stable gait on the remaining legs"
         return None
-
-    def experiments(self):
-        from app.jobs.recovery.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.recovery.bench import BENCH
-
-        return BENCH
 
 
 KIND = RecoveryKind()

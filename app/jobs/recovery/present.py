@@ -26,7 +26,8 @@ FIGURES = {
 }
 
 
-def damage_text(damage: dict) -> str:
+def damage_text(spec) -> str:
+    damage = spec.damage.model_dump()
     parts = []
     if damage.get("lost_legs"):
         parts.append("lost " + ",".join(str(x) for x in damage["lost_legs"]))

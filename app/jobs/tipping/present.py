@@ -35,7 +35,8 @@ FIGURES = {
 }
 
 
-def damage_text(scenario: dict) -> str:
+def damage_text(spec) -> str:
+    scenario = spec.scenario.model_dump()
     if scenario.get("type") == "tilt":
         d = scenario.get("downhill_deg")  # else the paper's naming, y ccw when nothing is given
         where = f"downhill {d:g} deg" if d is not None else \
