@@ -161,13 +161,20 @@ def bench(
     as_json: bool = typer.Option(False, "--json", help="print the figures as one JSON object on the last stdout line"),
     quick: bool = typer.Option(False, "--quick", help="small budget (CI smoke); figures are not the targets'"),
     kind: Optional[list[str]] = typer.Option(None, "--kind", help="only these kinds (repeat); default all"),
+    studies: bool = typer.Option(False, "--studies", help="instead: a study's dispatch overhead per point through "
+                                 "a real worker on the configured broker and database (200 tiny points; --quick 20)"),
 ):
     """Measure every kind's hot paths (rollout and evaluator throughput, paper-size runs, peers)."""
     from app.bench import run_bench
 
     for k in kind or []:
         get_kind_or_exit(k)
-    figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
+    if studies:
+        from app.studies.bench import TINY, dispatch_overhead
+
+        figures = {"study_dispatch": dispatch_overhead(TINY, 20 if quick else 200, log=err.print)}
+    else:
+        figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
     if as_json:
         print(json.dumps(figures))
     else:
