@@ -19,6 +19,5 @@ def test_bench_studies_quick_reports_the_dispatch_figures(tmp_path):
     f = json.loads(p.stdout.strip().splitlines()[-1])["study_dispatch"]
     assert f["points"] == 20 and f["status"] == "succeeded"
     assert 0 < f["kind_compute_s"] < f["jobs_claim_to_finish_s"] < f["wall_s"]
-    assert f["overhead_per_point_ms"] == round(1000 * (f["wall_s"] - f["jobs_claim_to_finish_s"]) / 20, 1) or \
-        abs(f["overhead_per_point_ms"] - 1000 * (f["wall_s"] - f["jobs_claim_to_finish_s"]) / 20) < 1.0
+    assert abs(f["overhead_per_point_ms"] - 1000 * (f["wall_s"] - f["jobs_claim_to_finish_s"]) / 20) < 1.0
     assert f["target_ms"] == 50.0 and isinstance(f["met"], bool)
