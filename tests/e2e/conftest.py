@@ -2,7 +2,7 @@
 folder) driven by Debian's Chromium through Playwright. The server runs with API tokens on,
 so the dashboard's token path, signed replay links and authorised downloads are exercised.
 
-Screenshots go to $GAITMEND_E2E_SHOTS (default: tests/e2e/screenshots/, gitignored), to be looked at."""
+Screenshots go to $GAITMEND_E2E_SHOTS (default: a temporary folder of the run), to be looked at."""
 
 from __future__ import annotations
 
@@ -86,7 +86,8 @@ def browser():
 
 @pytest.fixture(scope="session")
 def shots(tmp_path_factory) -> Path:
-    d = Path(os.environ.get("GAITMEND_E2E_SHOTS") or Path(__file__).parent / "screenshots")  # gitignored
+    # never into the checkout (the suite writes nothing there): a temporary folder unless asked
+    d = Path(os.environ.get("GAITMEND_E2E_SHOTS") or tmp_path_factory.mktemp("screenshots"))
     d.mkdir(parents=True, exist_ok=True)
     return d
 
