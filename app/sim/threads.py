@@ -22,8 +22,12 @@ def available_cpus() -> int:
 
 def sim_threads() -> int:
     v = os.environ.get(ENV, "").strip()
-    if v:
-        n = int(v)  # validated at start by app.settings (GAITMEND_SIM_THREADS)
-        if n >= 1:
-            return n
-    return available_cpus()
+    if not v:
+        return available_cpus()
+    try:  # a service checks it at start (app.settings); a local run meets it here
+        n = int(v)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ValueError(f"{ENV} must be a whole number >= 1, got {v!r}")
+    return n

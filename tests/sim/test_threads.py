@@ -21,7 +21,9 @@ def test_the_variable_sets_it(monkeypatch):
 
 
 @pytest.mark.parametrize("bad", ["0", "-2", "many"])
-def test_a_bad_value_stops_the_service_with_its_name(monkeypatch, bad):
+def test_a_bad_value_stops_the_service_and_a_local_run_with_its_name(monkeypatch, bad):
     monkeypatch.setenv(ENV, bad)
     with pytest.raises(SettingsError, match="GAITMEND_SIM_THREADS"):
         load_settings()
+    with pytest.raises(ValueError, match="GAITMEND_SIM_THREADS must be a whole number >= 1"):
+        sim_threads()
