@@ -241,7 +241,7 @@ def study_views(study: dict, points: list[dict]) -> list[dict]:
         c = cmap(0.5 if hi == lo else (med[k]["speed"] - lo) / (hi - lo))
         fill = f"rgba({int(255 * c[0])},{int(255 * c[1])},{int(255 * c[2])},0.9)"
         rows = groups[k]
-        label = f"legs {', '.join(map(str, k))} lost"
+        label = f"leg{'s' if len(k) > 1 else ''} {', '.join(map(str, k))} lost"
         hover = (f"{label}<br>forward {med[k]['y']:.1f} cm ({med[k]['speed']:.1f} cm/s), lateral {med[k]['x']:.1f} cm, "
                  f"yaw {med[k]['yaw']:.1f}°<br>target met {sum(r['met'] for r in rows)}/{len(rows)} seeds; "
                  f"baseline {'already meets it' if any(r['baseline_met'] for r in rows) else 'does not'}")
