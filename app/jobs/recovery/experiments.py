@@ -5,6 +5,7 @@ the baselines that need no recovery, and the timestep convergence study."""
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -140,8 +141,8 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
                     "`controls.random_search: false` to fit the CPU time available); 'not run' marks the rest."]
     out += ["", f"Target (issue 12): {TARGET_TEXT}. 'fell' = the chassis, a coxa or a femur touched the ground "
                 "(MuJoCo contact sensors), or the body tilted past 60 deg or sagged below half its height. "
-                f"Wall time per run: median {statistics.median(walls):.0f} s, measured on a shared 2-core machine under "
-                "heavy load (load average 15-25), so not a speed figure.", ""]
+                f"Wall time per run: median {statistics.median(walls):.0f} s on the machine that ran it "
+                f"({os.cpu_count()} cores; a loaded machine makes it longer).", ""]
     cases = list(rows[0]["robustness"]["cases"]) if rows else []
     if cases:
         out += ["Drift and yaw of the recovered gaits under perturbation (median over seeds of |x| cm / |yaw| deg; "
