@@ -170,9 +170,9 @@ def bench(
     for k in kind or []:
         get_kind_or_exit(k)
     if studies:
-        from app.studies.bench import TINY, dispatch_overhead
+        from app.studies.bench import dispatch_overhead, tiny_spec
 
-        figures = {"study_dispatch": dispatch_overhead(TINY, 20 if quick else 200, log=err.print)}
+        figures = {"study_dispatch": dispatch_overhead(tiny_spec(), 20 if quick else 200, log=err.print)}
     else:
         figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
     if as_json:

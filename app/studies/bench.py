@@ -17,10 +17,12 @@ import sys
 import time
 
 
-# The tiniest recovery job (a kind every installation has): 4 candidates x 2 generations of
-# a 0.5 s walk, no controls, no robustness re-runs.
-TINY = {"kind": "recovery", "search": {"population": 4, "generations": 1}, "sim": {"duration_s": 0.5},
-        "controls": {"random_search": False}, "robustness": {"cases": []}}
+def tiny_spec() -> dict:
+    """A job that runs in seconds, of a kind every installation has: the first registered
+    kind's smoke spec (the kind contract's)."""
+    from app.jobs.registry import KINDS
+
+    return next(k.smoke_spec() for k in KINDS.values() if k.smoke_spec() is not None)
 
 
 def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
@@ -74,10 +76,10 @@ def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("base", nargs="?", help="base job spec JSON (make it tiny); default: the tiniest recovery job")
+    ap.add_argument("base", nargs="?", help="base job spec JSON (make it tiny); default: a kind's smoke spec")
     ap.add_argument("--points", type=int, default=200)
     args = ap.parse_args()
-    base = json.load(open(args.base)) if args.base else TINY
+    base = json.load(open(args.base)) if args.base else tiny_spec()
     print(json.dumps(dispatch_overhead(base, args.points, log=lambda s: print(s, file=sys.stderr))))
 
 

@@ -184,7 +184,7 @@ ATLAS_COLUMNS = 5
 
 def _hexapod(info: dict, cx: float, cy: float, lost: set[int], scale: float) -> tuple[list, ...]:
     """Top view of the hexapod at (cx, cy): the body outline through the hips, the legs
-    that remain (hip -> foot, sideways) and the lost ones (stubs)."""
+    that remain (hip -> foot, sideways) and the lost ones (short dotted lines)."""
     hips = {int(k): v for k, v in info["hips_m"].items()}
     order = sorted(hips, key=lambda leg: np.arctan2(hips[leg][1], hips[leg][0]))
     bx = [cx + scale * hips[leg][0] for leg in order] + [cx + scale * hips[order[0]][0]]
@@ -203,7 +203,7 @@ def _hexapod(info: dict, cx: float, cy: float, lost: set[int], scale: float) -> 
 
 def study_views(study: dict, points: list[dict]) -> list[dict]:
     """A damage atlas (points over damage.lost_legs, e.g. every feasible 1- and 2-leg loss
-    x seeds) as small hexapod top views: lost legs as stubs, the body coloured by the
+    x seeds) as small hexapod top views: lost legs as short dotted lines, the body coloured by the
     median recovered forward speed, an arrow to the median end point of the walk (drift),
     and the share of seeds that meet the target."""
     from app.robots.catalog import ROBOTS
@@ -266,7 +266,7 @@ def study_views(study: dict, points: list[dict]) -> list[dict]:
     layout = {"xaxis": {"visible": False, "range": [-0.3, ATLAS_COLUMNS * cell_w - 0.2]},
               "yaxis": {"visible": False, "scaleanchor": "x", "range": [-(rows_n - 1) * cell_h - 0.32, 0.25]},
               "annotations": notes, "hovermode": "closest", "margin": {"l": 10, "r": 10, "t": 10, "b": 10}}
-    cap = ("Each hexapod is one damage (red dotted stubs: the lost legs), seen from above with its front up. "
+    cap = ("Each hexapod is one damage (short red dotted lines: the lost legs), seen from above with its front up. "
            "Body colour: the median recovered forward speed over the seeds; arrow: the median end point of the "
            "walk (straight up = no drift; 1 m of walk is 0.15 of a cell); text: speed, lateral drift and the "
            "seeds meeting the target. Hover a body for yaw and whether the nominal tripod already meets the target.")
