@@ -4,9 +4,10 @@ their next unit of work, and no later phase runs."""
 import copy
 
 import pytest
+from cancel_support import PhaseCtx
 
 from app.jobs import registry
-from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.base import Cancelled
 from app.jobs.energy import run as energy_run
 
 CONTROLS = ["paper_table1", "srb_only", "high_step", "rod_inertia", "no_residual_iteration"]
@@ -20,25 +21,11 @@ def _key(info):
     return info.get("phase")
 
 
-class Ctx(MemoryContext):
+class Ctx(PhaseCtx):
     """Raises the cancel flag once progress has entered `cancel_in`; records every phase."""
 
-    def __init__(self, ckpt=None, cancel_in=None):
-        super().__init__()
-        self._ckpt = copy.deepcopy(ckpt)
-        self.cancel_in = cancel_in
-        self.phases = []
-        self.done = []
-
-    def progress(self, done, total, info):
-        self.phases.append(_key(info))
-        self.done.append(done)
-
-    def save_checkpoint(self, state):
-        self._ckpt = copy.deepcopy(state)
-
-    def is_cancelled(self):
-        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
+    def phase_of(self, info):
+        return _key(info)
 
 
 def _spec():

@@ -3,32 +3,25 @@ re-runs have begun, the next unit does not run and no later phase starts."""
 import copy
 
 import pytest
+from cancel_support import PhaseCtx
 
 from app.jobs import registry
-from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.base import Cancelled
 from app.jobs.freegait import run as freegait_run
 
 GROUPS = ["walk", "control", "robustness"]
 
 
-class Ctx(MemoryContext):
+class Ctx(PhaseCtx):
     """Raises the cancel flag once progress has entered the group `cancel_in`; records every
     unit's group in the order their progress came."""
 
     def __init__(self, groups, ckpt=None, cancel_in=None):
-        super().__init__()
-        self._ckpt = copy.deepcopy(ckpt)
-        self.group_of, self.cancel_in = groups, cancel_in
-        self.phases = []
+        super().__init__(ckpt=ckpt, cancel_in=cancel_in)
+        self.group_of = groups
 
-    def progress(self, done, total, info):
-        self.phases.append(self.group_of[info["run"]])
-
-    def save_checkpoint(self, state):
-        self._ckpt = copy.deepcopy(state)
-
-    def is_cancelled(self):
-        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
+    def phase_of(self, info):
+        return self.group_of[info["run"]]
 
 
 @pytest.fixture(scope="module")

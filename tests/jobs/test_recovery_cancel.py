@@ -4,31 +4,17 @@ next generation; the final re-scoring, the control's re-scoring and the robustne
 import copy
 
 import pytest
+from cancel_support import PhaseCtx
 
 from app.jobs import registry
-from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.base import Cancelled
 from app.jobs.recovery import run as recovery_run
 
 POST = ["random_search", "final_scoring", "random_search_scoring", "robustness", "traces"]
 
 
-class Ctx(MemoryContext):
+class Ctx(PhaseCtx):
     """Raises the cancel flag once progress has entered `cancel_in`; records every phase."""
-
-    def __init__(self, ckpt=None, cancel_in=None):
-        super().__init__()
-        self._ckpt = copy.deepcopy(ckpt)
-        self.cancel_in = cancel_in
-        self.phases = []
-
-    def progress(self, done, total, info):
-        self.phases.append(info.get("phase"))
-
-    def save_checkpoint(self, state):
-        self._ckpt = copy.deepcopy(state)
-
-    def is_cancelled(self):
-        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
 
 
 @pytest.fixture(scope="module")

@@ -1,35 +1,22 @@
 """Cancel reaches every post-search phase of tipping: once the robustness re-runs or the band
 probes have begun (the controls: tests/jobs/test_tipping.py), the next simulation does not run
 and no later phase starts. The convergence check reuses the dt_half robustness run."""
-import copy
 
 import pytest
+from cancel_support import PhaseCtx
 
 from app.jobs import registry
-from app.jobs.base import Cancelled, MemoryContext
+from app.jobs.base import Cancelled
 from app.jobs.tipping import run as tipping_run
 
 
-class Ctx(MemoryContext):
+class Ctx(PhaseCtx):
     """Raises the cancel flag once progress has entered `cancel_in`; records every phase."""
 
-    def __init__(self, ckpt=None, cancel_in=None):
-        super().__init__()
-        self._ckpt = copy.deepcopy(ckpt)
-        self.cancel_in = cancel_in
-        self.phases = []
-
-    def progress(self, done, total, info):
+    def phase_of(self, info):
         if "evidence" in info:
-            self.phases.append(info["evidence"].split(":")[0])
-        elif "run" in info:
-            self.phases.append("run")
-
-    def save_checkpoint(self, state):
-        self._ckpt = copy.deepcopy(state)
-
-    def is_cancelled(self):
-        return self.cancel_in is not None and bool(self.phases) and self.phases[-1] == self.cancel_in
+            return info["evidence"].split(":")[0]
+        return "run" if "run" in info else None
 
 
 @pytest.mark.parametrize("phase", ["robust", "band"])
