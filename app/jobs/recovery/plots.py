@@ -23,36 +23,34 @@ def convergence(history: list[dict], out: Path) -> list[Path]:
     return _save(fig, out, "convergence")
 
 
-def orientation(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
-    """``style``: trace name -> (label, colour), the replay's (app/colors.py)."""
+def _three_rows(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None, rows, title: str,
+                name: str) -> list[Path]:
+    """Three stacked time series per trace; ``rows(trace)`` gives [(values, y label)] x 3."""
     fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
-    for name, tr in traces.items():
-        label, color = (style or {}).get(name, (name, None))
-        for ax, key in zip(axes, ("roll_deg", "pitch_deg", "yaw_deg")):
-            ax.plot(tr["time_s"], tr[key], label=label, color=color)
-            ax.set_ylabel(key.replace("_deg", " (deg)"))
-    axes[0].set_title("Body orientation (ZYX; roll about y, pitch about x)")
+    for trace_name, tr in traces.items():
+        label, color = (style or {}).get(trace_name, (trace_name, None))
+        for ax, (y, ylabel) in zip(axes, rows(tr)):
+            ax.plot(tr["time_s"], y, label=label, color=color)
+            ax.set_ylabel(ylabel)
+    axes[0].set_title(title)
     axes[-1].set_xlabel("time (s)")
     axes[0].legend()
     for ax in axes:
         ax.grid(alpha=0.3)
-    return _save(fig, out, "orientation")
+    return _save(fig, out, name)
+
+
+def orientation(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
+    """``style``: trace name -> (label, colour), the replay's (app/colors.py)."""
+    return _three_rows(traces, out, style,
+                       lambda tr: [(tr[k], k.replace("_deg", " (deg)")) for k in ("roll_deg", "pitch_deg", "yaw_deg")],
+                       "Body orientation (ZYX; roll about y, pitch about x)", "orientation")
 
 
 def com_position(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
-    fig, axes = plt.subplots(3, 1, figsize=(6, 6), sharex=True)
-    for name, tr in traces.items():
-        label, color = (style or {}).get(name, (name, None))
-        c = np.asarray(tr["com_m"])
-        for i, ax in enumerate(axes):
-            ax.plot(tr["time_s"], c[:, i], label=label, color=color)
-            ax.set_ylabel(f"CoM {'xyz'[i]} (m)")
-    axes[0].set_title("Centre of mass (forward is +y)")
-    axes[-1].set_xlabel("time (s)")
-    axes[0].legend()
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    return _save(fig, out, "com")
+    return _three_rows(traces, out, style,
+                       lambda tr: [(np.asarray(tr["com_m"])[:, i], f"CoM {'xyz'[i]} (m)") for i in range(3)],
+                       "Centre of mass (forward is +y)", "com")
 
 
 def gait_diagram(trace: dict, out: Path, name: str = "gait_diagram", seconds: float = 2.4) -> list[Path]:
