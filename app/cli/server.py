@@ -57,6 +57,20 @@ def _database_exists(settings: Settings) -> bool:
         return False
 
 
+def _token_database(settings: Settings, init: bool | None = None) -> str:
+    """The database the token commands use, as printable text. Where there is none: create it
+    when ``init`` is True (token create --init), else exit 2 creating nothing (``init`` False:
+    the command offers --init; None: it does not, as list and revoke have nothing to do in a
+    new database)."""
+    where = _safe_url(settings.db_url)
+    if not _database_exists(settings):
+        if not init:
+            fail(f"no gaitmend database at {where} (GAITMEND_DATA_DIR / GAITMEND_DATABASE_URL: run this where the "
+                 "server runs" + (")" if init is None else ", or pass --init to create a new database here)"))
+        _upgrade(settings)
+    return where
+
+
 # -- server side ----------------------------------------------------------------------------
 
 class EmbeddedWorker:
@@ -250,12 +264,7 @@ def token_create(name: str = typer.Argument(..., help="owner name of the token's
     if not re.fullmatch(r"[A-Za-z0-9_.-]{1,64}", name):
         fail(f"NAME: 1-64 letters, digits, '-', '_' or '.', got {name!r}")
     settings = settings_or_exit()
-    where = _safe_url(settings.db_url)
-    if not _database_exists(settings):
-        if not init:
-            fail(f"no gaitmend database at {where} (GAITMEND_DATA_DIR / GAITMEND_DATABASE_URL: run this where the "
-                 "server runs, or pass --init to create a new database here)")
-        _upgrade(settings)
+    where = _token_database(settings, init=init)
     try:
         with session_scope(settings.db_url) as s:
             token = repo.create_token(s, name)
@@ -272,9 +281,11 @@ def token_list(as_json: bool = typer.Option(False, "--json")):
     from app.store.db import session_scope
 
     settings = settings_or_exit()
+    where = _token_database(settings)
     with session_scope(settings.db_url, readonly=True) as s:
         rows = [{"name": t.name, "created_at": t.created_at.isoformat(),
                  "last_used_at": t.last_used_at.isoformat() if t.last_used_at else None} for t in repo.list_tokens(s)]
+    err.print(f"{len(rows)} token{'' if len(rows) == 1 else 's'} in {where}", highlight=False)
     if as_json:
         print(json.dumps(rows))
     else:
@@ -289,7 +300,8 @@ def token_revoke(name: str):
     from app.store.db import session_scope
 
     settings = settings_or_exit()
+    where = _token_database(settings)
     with session_scope(settings.db_url) as s:
         if not repo.revoke_token(s, name):
-            fail(f"no token named {name!r}", code=1)
-    print(f"revoked {name}")
+            fail(f"no token named {name!r} in {where}", code=1)
+    print(f"revoked {name} in {where}")

@@ -101,6 +101,11 @@ def test_public_bind_needs_a_token(tmp_path, served):
     r = gaitmend(env, "token", "create", "alice")  # no database here yet: refused, saying where it looked
     assert r.returncode == 2 and "no gaitmend database at sqlite:///" in r.stderr and "--init" in r.stderr
     assert not (tmp_path / "data" / "gaitmend.db").exists()
+    for args in (["list"], ["list", "--json"], ["revoke", "alice"]):  # nor do list and revoke create one
+        r = gaitmend(env, "token", *args)
+        assert r.returncode == 2 and "no gaitmend database at sqlite:///" in r.stderr, (args, r.stderr)
+        assert "Traceback" not in r.stderr + r.stdout and not r.stdout
+    assert not (tmp_path / "data" / "gaitmend.db").exists()
     r = gaitmend(env, "token", "create", "alice", "--init")
     assert r.returncode == 0, r.stderr
     assert f"stored in sqlite:///{(tmp_path / 'data' / 'gaitmend.db').resolve()}" in " ".join(r.stderr.split())
@@ -117,8 +122,16 @@ def test_public_bind_needs_a_token(tmp_path, served):
     assert gaitmend(env_c, "submit", str(tmp_path / "spec.json")).returncode == 1  # 401: not a usage error
     r = gaitmend(env_c | {"GAITMEND_TOKEN": token}, "submit", str(tmp_path / "spec.json"), "--json")
     assert r.returncode == 0 and json.loads(r.stdout)["owner"] == "alice"
-    listed = json.loads(gaitmend(env, "token", "list", "--json").stdout)
+    r = gaitmend(env, "token", "list", "--json")
+    listed = json.loads(r.stdout)
     assert [t["name"] for t in listed] == ["alice"] and token not in json.dumps(listed)
+    db = f"sqlite:///{(tmp_path / 'data' / 'gaitmend.db').resolve()}"
+    assert f"1 token in {db}" in " ".join(r.stderr.split())  # says which database it read
+    r = gaitmend(env, "token", "revoke", "alice")
+    assert r.returncode == 0 and f"revoked alice in {db}" in " ".join(r.stdout.split())
+    assert httpx.get(f"{base}/api/jobs", headers={"Authorization": f"Bearer {token}"}).status_code == 401
+    r = gaitmend(env, "token", "revoke", "alice")
+    assert r.returncode == 1 and f"no token named 'alice' in {db}" in " ".join(r.stderr.split())
 
 
 def test_bad_settings_and_db_commands(tmp_path):
