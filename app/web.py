@@ -368,7 +368,7 @@ def install_dashboard(app: FastAPI) -> None:
                 if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
                     figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
             out.update({k: v[k] for k in ("headline", "panels", "evidence", "replay")}, files=files,
-                       figures=[f for f in figs.values() if "png" in f])
+                       figures=list(figs.values()))  # SVG, PNG or both: the contract asks for either
         elif job.summary and kind is not None:
             try:
                 out["headline"] = _jsonable(list(kind.headline(job.summary)))

@@ -163,14 +163,15 @@
         el("td", { class: "num small", text: sizeText(f.size) }), el("td", { class: "small", text: f.what || "" }))))));
   }
 
+  // a kind writes each figure as SVG, PNG or both (plots/<stem>.svg|png): the PNG is drawn
+  // where there is one, else the SVG; each format present downloads on its own
   function figures(list) {
     $("figures-card").hidden = !list.length;
     $("figures").replaceChildren(...list.map((f) => el("figure", { class: "bundle-figure" },
       el("a", { href: f.svg || f.png, target: "_blank", rel: "noopener" },
-         el("img", { src: f.png, alt: `bundle figure ${f.name.replace(/_/g, " ")}` })),
-      el("figcaption", { class: "small" }, `${f.name.replace(/_/g, " ")} · `,
-         el("a", { href: f.png, download: `${f.name}.png`, text: "PNG" }),
-         f.svg ? " · " : null, f.svg ? el("a", { href: f.svg, download: `${f.name}.svg`, text: "SVG" }) : null))));
+         el("img", { src: f.png || f.svg, alt: `bundle figure ${f.name.replace(/_/g, " ")}` })),
+      el("figcaption", { class: "small" }, `${f.name.replace(/_/g, " ")}`,
+         ...["png", "svg"].filter((x) => f[x]).flatMap((x) => [" · ", el("a", { href: f[x], download: `${f.name}.${x}`, text: x.toUpperCase() })])))));
   }
 
   function replay(list, tracks) {
