@@ -200,12 +200,28 @@ def _budget(spec) -> dict[str, Any]:
     return {"evaluations": int(spec.evaluations_budget), "formula": formula}
 
 
+def _form_schema(spec_cls) -> dict[str, Any]:
+    """A Spec's JSON schema with every default in it, those made by a default factory too
+    (pydantic leaves them out): the form shows what an untouched field runs, e.g. the damage
+    a kind assumes when the spec names none."""
+    from pydantic.json_schema import GenerateJsonSchema
+
+    class WithFactoryDefaults(GenerateJsonSchema):
+        def get_default_value(self, schema):
+            factory = schema.get("default_factory")
+            if factory is not None and not schema.get("default_factory_takes_data"):
+                return factory()
+            return super().get_default_value(schema)
+
+    return spec_cls.model_json_schema(schema_generator=WithFactoryDefaults)
+
+
 @functools.lru_cache(maxsize=1)
 def _kinds() -> list[dict]:
     from app.jobs.registry import KINDS
 
     return [{"name": name, "title": kind.title, "paper": getattr(kind, "paper", ""),
-             "description": kind.title, "schema": kind.Spec.model_json_schema(),
+             "description": kind.title, "schema": _form_schema(kind.Spec),
              "open": list(getattr(kind, "form_open", []) or [])} for name, kind in KINDS.items()]
 
 

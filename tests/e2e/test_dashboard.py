@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import time
 import zipfile
 
@@ -40,16 +41,17 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     page.goto(server.url + "/")
     expect(page.locator("#kind option")).not_to_have_count(0)
     page.select_option("#kind", "recovery")
-    # lock leg 2's femur at 20 degrees on the drawing; the request carries it
+    # lock leg 2's femur at 20 degrees on the drawing (legs 1 and 6 are lost from the start:
+    # the default damage); the request carries the drawing as it is
     page.check("input[name=mode][value=lock]")
     page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')
-    expect(page.locator("#damage-summary")).to_have_text("Damage: leg 2 femur locked.")
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 1, 6; leg 2 femur locked.")
     page.fill("#angle-2-femur", "20")
     page.fill("#f-search-population", "2")
     with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
         page.click("#submit")
     sent = req.value.post_data_json
-    assert sent["damage"] == {"locked_joints": [{"leg": 2, "joint": "femur", "angle_deg": 20}]}  # no lost leg: left out
+    assert sent["damage"] == {"lost_legs": [1, 6], "locked_joints": [{"leg": 2, "joint": "femur", "angle_deg": 20}]}
     assert sent["search"]["population"] == 2
     err = page.locator("#form-error")
     expect(err).to_be_visible()
@@ -64,9 +66,9 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     page.fill("#f-search-population", "6")
     page.click('.leg[data-leg="2"] .seg[data-joint="femur"]')  # unlock again
     page.check("input[name=mode][value=lost]")
-    page.click('.leg[data-leg="1"]')
-    page.click('.leg[data-leg="3"]')
+    page.click('.leg[data-leg="3"]')  # with 1 and 6: one leg left on the left side
     expect(page.locator('.leg[data-leg="3"]')).to_have_attribute("aria-pressed", "true")
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 1, 3, 6.")
     page.click("#submit")
     expect(err).to_contain_text("infeasible morphology")
     # no input names the damage field: the message itself takes the focus
@@ -77,12 +79,62 @@ def test_bad_form_input_shows_the_api_message_and_submits_nothing(page, server):
     expect(page.locator("#jobs-body tr")).to_have_count(len(before))
 
 
+def test_form_shows_the_damage_an_untouched_form_runs(page, server):
+    """The drawing starts at the spec's default damage (recovery: legs 1 and 6 lost), and that
+    is what an untouched form runs; an emptied drawing runs the intact robot, it does not fall
+    back to the default. Every kind's untouched form is its default spec."""
+    from app.jobs.registry import KINDS
+
+    page.goto(server.url + "/")
+    expect(page.locator("#kind option")).not_to_have_count(0)
+    for name, kind in KINDS.items():  # the defaults every field shows read back as the defaults
+        with page.expect_request(lambda r: r.url.endswith("/api/web/check")
+                                 and (r.post_data_json or {}).get("kind") == name) as req:
+            page.select_option("#kind", name)
+        sent = req.value.post_data_json
+        assert kind.Spec.parse(sent).model_dump() == kind.Spec.parse({"kind": name}).model_dump(), (name, sent)
+
+    page.select_option("#kind", "recovery")
+    default = KINDS["recovery"].Spec.parse({"kind": "recovery"}).damage.lost_legs
+    assert default == [1, 6]
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 1, 6.")
+    for leg in range(1, 7):
+        expect(page.locator(f'.leg[data-leg="{leg}"]')).to_have_attribute("aria-pressed", str(leg in default).lower())
+    expect(page.locator('.leg[data-leg="1"]')).to_have_class(re.compile(r"\blost\b"))  # drawn as lost
+
+    def submitted() -> tuple[dict, dict]:
+        """What the form sent and the spec the job stored; the job is cancelled (the full
+        default budget would hold the worker for minutes)."""
+        with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
+            page.click("#submit")
+        expect(page.locator("#form-ok")).to_be_visible()
+        jid = page.locator("#form-ok a").get_attribute("href").rsplit("/", 1)[1]
+        with server.client() as c:
+            assert c.post(f"/api/jobs/{jid}/cancel").status_code == 202
+            return req.value.post_data_json, c.get(f"/api/jobs/{jid}").json()["spec"]
+
+    sent, spec = submitted()  # untouched
+    assert sent == {"kind": "recovery", "robot": "jethexa", "damage": {"lost_legs": [1, 6]}}
+    assert spec["damage"]["lost_legs"] == [1, 6] and not spec["damage"]["locked_joints"]
+
+    page.click('.leg[data-leg="1"]')
+    page.click('.leg[data-leg="6"]')
+    expect(page.locator("#damage-summary")).to_have_text("No damage.")
+    sent, spec = submitted()  # emptied: the intact robot, not the default damage
+    assert sent["damage"] == {"lost_legs": []}
+    assert spec["damage"]["lost_legs"] == [] and not spec["damage"]["locked_joints"]
+
+
 def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     page.goto(server.url + "/")
     page.select_option("#kind", "recovery")
     expect(page.locator("#damage-picker")).to_be_visible()
     page.screenshot(path=shots / "jobs-empty-1280.png")
-    # legs 2 and 5 lost, by keyboard on one and mouse on the other
+    # the default damage (legs 1 and 6) cleared; legs 2 and 5 lost, by keyboard on one and mouse on the other
+    expect(page.locator("#damage-summary")).to_have_text("Damage: lost legs 1, 6.")
+    page.click('.leg[data-leg="1"]')
+    page.click('.leg[data-leg="6"]')
+    expect(page.locator("#damage-summary")).to_have_text("No damage.")
     page.focus('.leg[data-leg="2"]')
     page.keyboard.press("Enter")
     expect(page.locator("#damage-summary")).to_have_text("Damage: lost leg 2.")  # one leg: singular

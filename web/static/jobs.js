@@ -18,6 +18,26 @@
   const kindOf = () => kinds.find((k) => k.name === $("kind").value) || kinds[0];
   const props = (k) => (k && k.schema.properties) || {};
   const damageSchema = (k) => (props(k).damage ? SpecForm.unwrap(props(k).damage, k.schema) : null);
+  const same = (a, b) => JSON.stringify(a) === JSON.stringify(b);
+
+  // The damage an untouched form runs: the damage field's default (the schema carries it),
+  // else each drawn field's own default.
+  function damageDefault(k) {
+    const dmg = damageSchema(k);
+    const whole = props(k).damage.default;
+    const d = whole && typeof whole === "object" ? whole : {};
+    const field = (name) => {
+      if (d[name] !== undefined) return d[name];
+      const s = dmg.properties[name] ? SpecForm.unwrap(dmg.properties[name], k.schema) : {};
+      return s.default ?? [];
+    };
+    return { lost_legs: field("lost_legs"), locked_joints: field("locked_joints") };
+  }
+  // a drawn field's default within a damage section the spec states ([] here: "none")
+  function innerDefault(k, name) {
+    const s = damageSchema(k).properties[name];
+    return (s && SpecForm.unwrap(s, k.schema).default) ?? [];
+  }
 
   function describeDamage(d) {
     const parts = [];
@@ -74,7 +94,7 @@
     drawDamage = !!(r && r.hips_m && dmg && dmg.properties && dmg.properties.lost_legs);
     $("damage-picker").hidden = !drawDamage;
     if (drawDamage) {
-      picker = RobotPicker.create($("robot-drawing"), r, describeDamage);
+      picker = RobotPicker.create($("robot-drawing"), r, describeDamage, damageDefault(k));
       picker.setMode(document.querySelector("input[name=mode]:checked").value);
     } else picker = null;
     const skip = ["robot"].concat(drawDamage ? ["damage.lost_legs", "damage.locked_joints"] : []);
@@ -87,11 +107,14 @@
     const spec = form.read();
     if (!$("robot-field").hidden && !$("robot").disabled) spec.robot = $("robot").value;
     if (drawDamage && picker) {
+      // The drawing's damage is always sent, as drawn: an emptied drawing is the intact robot
+      // ({"lost_legs": []}), never "no damage section", which would run the kind's default damage.
+      const k = kindOf();
       const d = picker.damage();
-      spec.damage = Object.assign({}, spec.damage || {});
-      if (d.lost_legs.length) spec.damage.lost_legs = d.lost_legs;
-      if (d.locked_joints.length) spec.damage.locked_joints = d.locked_joints;
-      if (!Object.keys(spec.damage).length) delete spec.damage;
+      spec.damage = Object.assign({}, spec.damage || {}, { lost_legs: d.lost_legs });
+      if (damageSchema(k).properties.locked_joints && !same(d.locked_joints, innerDefault(k, "locked_joints"))) {
+        spec.damage.locked_joints = d.locked_joints;
+      }
     }
     return spec;
   }

@@ -1,6 +1,7 @@
 // Top view of a robot from /api/robots: click a leg to mark it lost, or a leg segment to
 // lock that joint. Keyboard: every leg is a button (Enter/Space); in "locked joint" mode
-// Enter steps through coxa, femur, tibia, none.
+// Enter steps through coxa, femur, tibia, none. It starts from `initial` ({lost_legs,
+// locked_joints}, the spec's default damage), so it shows what an untouched form runs.
 "use strict";
 
 const RobotPicker = (() => {
@@ -14,10 +15,16 @@ const RobotPicker = (() => {
     return e;
   }
 
-  function create(container, robot, onChange) {
-    const state = { lost: new Set(), locked: new Map(), mode: "lost" };
+  function create(container, robot, onChange, initial = {}) {
     const hips = robot.hips_m;
     const legs = robot.legs;
+    const mine = (leg) => legs.includes(Number(leg));
+    const state = {
+      lost: new Set((initial.lost_legs || []).map(Number).filter(mine)),
+      locked: new Map((initial.locked_joints || []).filter((j) => mine(j.leg) && JOINTS.includes(j.joint))
+        .map((j) => [`${Number(j.leg)}.${j.joint}`, j.angle_deg ?? 0])),
+      mode: "lost",
+    };
     const [l1, l2, l3] = robot.link_lengths_m;
     const seg = [l1, l2 * 0.95, l3 * 0.6]; // lengths seen from above at the nominal stance
     const reach = seg.reduce((a, b) => a + b, 0);
