@@ -100,6 +100,33 @@ def test_multigait_run_prints_its_coverage_table(tmp_path):
     assert "reuse column_opposite: distance" in text
 
 
+def test_summary_tables_through_a_narrow_pipe_cut_nothing(tmp_path):
+    """`gaitmend run | cat` with COLUMNS=60: a pipe has no width to fit, so no cell, header or
+    number is cut to "…" (issue 16: `no_re…`, `thresh…` in logs)."""
+    import os
+
+    from app.jobs.registry import KINDS
+
+    kind = KINDS["recovery"]  # the widest tables: Table II, the controls and the robustness cases
+    spec = tmp_path / "smoke.json"
+    spec.write_text(json.dumps(kind.smoke_spec()))
+    out = tmp_path / "out"
+    p = subprocess.run([sys.executable, "-m", "app", "run", str(spec), "--out", str(out), "--quiet"],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=600,
+                       env=os.environ | {"COLUMNS": "60", "LINES": "20"})
+    assert p.returncode == 0, p.stderr
+    assert "…" not in p.stdout and "..." not in p.stdout, p.stdout
+    (folder,) = [d for d in out.iterdir() if d.is_dir()]
+    tables = kind.summary_tables(json.loads((folder / "result.json").read_text()))
+    assert tables and sum(len(t["rows"]) for t in tables) >= 3
+    for t in tables:
+        for name in [t["title"], *map(str, t["columns"])]:
+            assert name in p.stdout, f"{name!r} is not whole in:\n{p.stdout}"
+        for row in t["rows"]:
+            for v in row:
+                assert ("-" if v is None else str(v)) in p.stdout, f"cell {v!r} is not whole in:\n{p.stdout}"
+
+
 def test_version_and_replay_of_a_missing_path(tmp_path):
     from app import __version__
 
