@@ -11,22 +11,19 @@ import typer
 
 from app.cli.client import JsonOpt, ServerOpt, TokenOpt, _call, _client
 from app.cli.common import cli, err, fail, out_console
+from app.studies.catalog import builtin_studies, builtin_study, kind_studies
 
 study_cli = typer.Typer(no_args_is_help=True, help="Studies: one spec that fans out into many jobs.")
 cli.add_typer(study_cli, name="study")
-
-BUILTIN = ("recovery_table2", "recovery_atlas", "tipping_directions", "multigait_table1", "energy_speeds",
-           "freegait_densities")
+BUILTIN_NAMES = ", ".join(builtin_studies())  # for the help texts: every kind's, in registry order
 
 
 def _load(path: Path) -> dict:
-    from importlib import resources
-
     from app.api.body import BodyError, parse_json
     from app.studies.bundle import load_study_file
 
-    if not path.exists() and str(path) in BUILTIN:
-        return json.loads(resources.files("app.studies").joinpath(f"builtin/{path}.json").read_text())
+    if not path.exists() and (study := builtin_study(str(path))) is not None:
+        return study
     try:
         return load_study_file(parse_json(path.read_bytes()))
     except OSError as e:
@@ -56,7 +53,7 @@ def _print_aggregate(agg: dict, title: str, infeasible: list[dict]) -> None:
 
 @study_cli.command("run")
 def run(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON, a study bundle's manifest.json, "
-                                          f"or a built-in name: {', '.join(BUILTIN)}"),
+                                          f"or a built-in name: {BUILTIN_NAMES}"),
         out: Path = typer.Option(Path("results"), "--out", help="folder for the study's files"),
         workers: Optional[int] = typer.Option(None, "--workers", min=1, max=256, help="processes (default: all cores)"),
         bundles: bool = typer.Option(False, "--bundles", help="also write every point's job bundle "
@@ -90,7 +87,8 @@ def run(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON
 
 
 @study_cli.command("submit")
-def submit(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON or a built-in name"),
+def submit(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON or a built-in name: "
+                                             f"{BUILTIN_NAMES}"),
            server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt,
            wait: bool = typer.Option(False, "--wait", help="wait until every point has finished"),
            as_json: bool = JsonOpt):
@@ -143,15 +141,6 @@ def cancel(study_id: str, server: Optional[str] = ServerOpt, token: Optional[str
 
 # -- gaitmend reproduce <kind>-study: the kind's paper study, here or on a server ---------------
 
-def builtin_studies(kind: str) -> list[str]:
-    """The built-in studies whose base is a job of ``kind``, in BUILTIN's order (the
-    paper's own table first)."""
-    from importlib import resources
-
-    folder = resources.files("app.studies").joinpath("builtin")
-    return [n for n in BUILTIN if json.loads(folder.joinpath(f"{n}.json").read_text())["base"]["kind"] == kind]
-
-
 def _study_command(kind: str, names: list[str]):
     def command(name: str = typer.Argument(names[0], help=f"one of: {', '.join(names)}"),
                 server: Optional[str] = typer.Option(None, "--server",
@@ -180,7 +169,7 @@ def _register_reproduce_studies() -> None:
     from app.jobs.registry import KINDS
 
     for kind in KINDS:
-        if names := builtin_studies(kind):
+        if names := kind_studies(kind):
             reproduce_app.command(f"{kind}-study")(_study_command(kind, names))
 
 

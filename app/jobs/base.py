@@ -9,7 +9,9 @@ import abc
 import dataclasses
 import importlib
 import json
+import sys
 from collections.abc import Callable
+from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar, Literal, Protocol, TypedDict
 
@@ -25,7 +27,13 @@ class SpecError(ValueError):
         super().__init__("; ".join(f"{e['field']}: {e['message']}" for e in errors))
 
     @classmethod
-    def from_validation(cls, exc: ValidationError) -> SpecError:
+    def from_validation(cls, exc: ValidationError, model: type[BaseModel] | None = None) -> SpecError:
+        """The errors of a failed validation of ``model`` (default: the StrictModel the error
+        is titled after, when one has that name); a range error states the field's whole
+        allowed range (app/jobs/ranges.py)."""
+        from app.jobs.ranges import explain_error
+
+        model = model if model is not None else _model_named(exc.title)
         out = []
         for e in exc.errors():
             loc = ".".join(str(p) for p in e["loc"] if p not in ("function-after",)) or "spec"
@@ -34,8 +42,20 @@ class SpecError(ValueError):
                 msg = "unknown field"
             if msg.startswith("Value error, "):
                 msg = msg[len("Value error, "):]
-            out.append({"field": loc, "message": msg})
+            out.append({"field": loc, "message": explain_error(model, e, msg)})
         return cls(out)
+
+
+def _model_named(title: str) -> type[BaseModel] | None:
+    """The one StrictModel class named ``title`` (a ValidationError names the model it
+    validated, not its class), or None when no class or several have that name."""
+    found, stack = [], list(StrictModel.__subclasses__())
+    while stack:
+        c = stack.pop()
+        stack.extend(c.__subclasses__())
+        if c.__name__ == title and c not in found:
+            found.append(c)
+    return found[0] if len(found) == 1 else None
 
 
 class Cancelled(Exception):
@@ -132,7 +152,7 @@ class SpecBase(StrictModel):
         try:
             return cls.model_validate_json(text)
         except ValidationError as e:
-            raise SpecError.from_validation(e) from None
+            raise SpecError.from_validation(e, cls) from None
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kw: Any) -> None:
@@ -338,6 +358,13 @@ class Kind(abc.ABC):
         the Spec's to reject: return None for it."""
         return None
 
+    def builtin_studies(self) -> dict[str, dict[str, Any]]:
+        """The kind's built-in studies: {name: study spec (JSON)}, the paper's table first.
+        A name is unique over all kinds; each study's base is a job of this kind.
+        app/studies/catalog.py gathers them over the registry (`gaitmend study run NAME`,
+        `gaitmend reproduce <kind>-study`, /api/studies/builtin). Default: none."""
+        return {}
+
     # -- reproduction, benchmarks, dashboard ----------------------------------------------
     def experiments(self) -> list[Experiment]:
         return []
@@ -381,7 +408,13 @@ class PackageKind(Kind):
     smoke spec ...). Where: ``run.run``; ``present``: headline, summary_tables, figures,
     damage_text(spec), replay_style, progress_text; ``views`` (or ``present``): views,
     history_axis, study_views; ``experiments.EXPERIMENTS``; ``bench.BENCH`` (or
-    ``experiments.BENCH``). An optional one that is missing keeps the Kind default."""
+    ``experiments.BENCH``). An optional one that is missing keeps the Kind default.
+
+    ``builtin_studies`` reads the package's ``studies/<name>.json`` (package data, so they
+    ship in the wheel): those named in ``study_order`` first, in that order (the paper's
+    table first), then the rest sorted by name."""
+
+    study_order: ClassVar[tuple[str, ...]] = ()  # built-in studies listed first, in this order
 
     def _find(self, *places: str) -> Any:
         pkg = type(self).__module__
@@ -438,6 +471,18 @@ class PackageKind(Kind):
 
     def bench(self) -> list[BenchEntry]:
         return self._find("bench.BENCH", "experiments.BENCH") or []
+
+    def builtin_studies(self) -> dict[str, dict[str, Any]]:
+        module = sys.modules[type(self).__module__]
+        package = module.__name__ if hasattr(module, "__path__") else module.__name__.rpartition(".")[0]
+        folder = resources.files(package).joinpath("studies")
+        files = {f.name[:-len(".json")]: f for f in folder.iterdir()
+                 if f.name.endswith(".json") and f.is_file()} if folder.is_dir() else {}
+        missing = [n for n in self.study_order if n not in files]
+        if missing:
+            raise ValueError(f"{type(self).__name__}.study_order names no file {package}/studies/<name>.json: {missing}")
+        names = [*self.study_order, *sorted(n for n in files if n not in self.study_order)]
+        return {n: json.loads(files[n].read_text()) for n in names}
 
 
 def form_fields(spec_cls: type[BaseModel]) -> list[dict[str, Any]]:

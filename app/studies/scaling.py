@@ -5,8 +5,9 @@ one thread, each writing its job bundle as a worker does (`gaitmend study run --
 broker and database, in one run. Prints both wall times, their ratio and whether the two
 aggregates are equal.
 
-    python -m app.studies.scaling recovery_table2 --workers 2 --base '{"search": {"generations": 5}}'
-(GAITMEND_* variables choose the deployment: Redis + PostgreSQL for the issue's figure.)"""
+    python -m app.studies.scaling STUDY --workers 2 --base '{"search": {"generations": 5}}'
+(STUDY: a study JSON or a built-in study's name, app/studies/catalog.py; GAITMEND_* variables
+choose the deployment: Redis + PostgreSQL for the issue's figure.)"""
 
 from __future__ import annotations
 
@@ -31,12 +32,13 @@ def merge(a: dict, b: dict) -> dict:
 
 
 def load_study(name_or_path: str, base: dict) -> dict:
-    from importlib import resources
+    from app.studies.catalog import builtin_studies
 
     p = Path(name_or_path)
-    text = p.read_text() if p.is_file() else \
-        resources.files("app.studies").joinpath(f"builtin/{name_or_path}.json").read_text()
-    study = json.loads(text)
+    if p.is_file():
+        study = json.loads(p.read_text())
+    elif (study := builtin_studies().get(name_or_path)) is None:
+        raise SystemExit(f"{name_or_path}: neither a file nor a built-in study ({', '.join(builtin_studies())})")
     if base:
         study["base"] = merge(study["base"], base)
         study["name"] = (study["name"].split(" (")[0] + " (base changed)")[:200]

@@ -1,7 +1,8 @@
 """The built-in studies against real runs of their kinds: every metric a study reports is
 a finite number (or a bool) in the summary of a real job of the study's first point, run
-at its kind's smoke budget; and `gaitmend reproduce <kind>-study` offers each kind's
-built-in studies."""
+at its kind's smoke budget; each kind ships its own (app/jobs/<kind>/studies/, gathered by
+app/studies/catalog.py); and `gaitmend reproduce <kind>-study` offers each kind's built-in
+studies."""
 
 from __future__ import annotations
 
@@ -13,16 +14,12 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.cli.study import BUILTIN, builtin_studies
 from app.jobs.base import MemoryContext, dumps
 from app.jobs.registry import KINDS, get_kind, parse_spec
 from app.studies.aggregate import aggregate
+from app.studies.catalog import builtin_studies, builtin_study, kind_studies
 from app.studies.spec import expand, get_path, set_path
 from app.studies.views import study_views
-
-
-def _builtin(name: str) -> dict:
-    return json.loads(resources.files("app.studies").joinpath(f"builtin/{name}.json").read_text())
 
 
 def _merge(a: dict, b: dict) -> dict:
@@ -32,9 +29,9 @@ def _merge(a: dict, b: dict) -> dict:
     return out
 
 
-@pytest.mark.parametrize("name", BUILTIN)
+@pytest.mark.parametrize("name", list(builtin_studies()))
 def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name, tmp_path):
-    study = _builtin(name)
+    study = builtin_study(name)
     point = expand(study).points[0]
     kind = get_kind(point["kind"])
     spec = _merge(point["spec"], kind.smoke_spec())  # the smoke budget ...
@@ -60,13 +57,31 @@ def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name
         assert polar[1]["r"][0] == 100.0 * summary["runs"]["no_recovery"]["tipped"]
 
 
+def test_each_kind_ships_its_studies_in_its_package_paper_table_first():
+    catalog = builtin_studies()
+    assert list(catalog) == [n for k in KINDS.values() for n in k.builtin_studies()]  # registry order
+    for kind in KINDS.values():
+        studies = kind.builtin_studies()
+        assert studies, f"{kind.name} has no paper study"
+        assert all(s["base"]["kind"] == kind.name for s in studies.values())
+        assert list(studies) == kind_studies(kind.name)
+        folder = resources.files(type(kind).__module__).joinpath("studies")
+        assert sorted(studies) == sorted(f.name.removesuffix(".json") for f in folder.iterdir()
+                                         if f.name.endswith(".json"))
+        order = getattr(kind, "study_order", ())
+        assert list(studies) == [*order, *sorted(set(studies) - set(order))]
+    assert kind_studies("recovery")[:2] == ["recovery_table2", "recovery_atlas"]  # Table II, then the atlas
+    assert kind_studies("nope") == [] and builtin_study("nope") is None
+    assert builtin_study("recovery_table2") is not builtin_study("recovery_table2")  # a fresh copy each call
+
+
 def test_reproduce_offers_each_kinds_builtin_studies_and_names_a_bad_one():
     runner = CliRunner()
-    kinds = {_builtin(n)["base"]["kind"] for n in BUILTIN}
+    kinds = {s["base"]["kind"] for s in builtin_studies().values()}
     assert kinds == set(KINDS)  # every kind has a paper study
     for kind in kinds:
-        names = builtin_studies(kind)
-        assert names and all(_builtin(n)["base"]["kind"] == kind for n in names)
+        names = kind_studies(kind)
+        assert names and all(builtin_study(n)["base"]["kind"] == kind for n in names)
         r = runner.invoke(cli, ["reproduce", f"{kind}-study", "--help"])
         assert r.exit_code == 0 and names[0] in r.output, r.output
     r = runner.invoke(cli, ["reproduce", "recovery-study", "tipping_directions"])

@@ -16,7 +16,7 @@ from app.dispatch import send
 from app.jobs.base import SpecError
 from app.store import repo
 from app.store.db import session_scope
-from app.studies import store
+from app.studies import catalog, store
 from app.studies.bundle import load_study_file, study_files, zip_bytes
 from app.studies.spec import expand
 
@@ -126,14 +126,12 @@ async def list_studies(request: Request, who: Principal = Depends(principal),
 
 @router.get("/builtin/{name}", responses=ERRORS)
 async def builtin_study(name: Annotated[str, PathParam(pattern=r"^[a-z0-9_]{1,64}$")]):
-    """A built-in study spec shipped with gaitmend (app/studies/builtin/NAME.json)."""
-    import json
-    from importlib import resources
-
-    f = resources.files("app.studies").joinpath(f"builtin/{name}.json")
-    if not f.is_file():
-        raise ApiError(404, f"no built-in study {name!r}", field="name")
-    return json.loads(f.read_text())
+    """A built-in study spec shipped with gaitmend (its kind's app/jobs/<kind>/studies/NAME.json)."""
+    study = catalog.builtin_study(name)
+    if study is None:
+        raise ApiError(404, f"no built-in study {name!r}; allowed: {', '.join(catalog.builtin_studies())}",
+                       field="name")
+    return study
 
 
 @router.get("/{study_id}", responses=ERRORS)

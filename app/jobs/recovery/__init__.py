@@ -23,6 +23,7 @@ class RecoveryKind(PackageKind):
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
     form_open = FORM_OPEN  # form groups the dashboard opens first
+    study_order = ("recovery_table2", "recovery_atlas")  # the paper's Table II first
 
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
