@@ -61,6 +61,24 @@ def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp
     assert differ.returncode == 1 and "DIFFERENT: best.fitness" in differ.stdout, differ.stdout + differ.stderr
 
 
+def test_verify_compares_a_bundle_null_with_a_fresh_nan():
+    """A bundle writes a number that is not finite as null (JSON has none), a fresh run holds
+    the float: the same number to `gaitmend verify`; NaN is the same as NaN."""
+    from app.cli.local import first_difference
+
+    nan, inf = float("nan"), float("inf")
+    fresh = {"best": {"fitness": 1.5, "sm_m": nan, "tip_s": inf, "low": -inf}, "history": [[0, nan], [1, 2.0]]}
+    bundle = {"best": {"fitness": 1.5, "sm_m": None, "tip_s": None, "low": None}, "history": [[0, None], [1, 2.0]]}
+    assert first_difference(bundle, fresh) is None
+    assert first_difference(fresh, fresh) is None  # NaN == NaN (a bundle written before nulls)
+    assert first_difference({"a": None}, {"a": None}) is None
+    assert first_difference(bundle | {"best": bundle["best"] | {"fitness": None}}, fresh) == \
+        "best.fitness: bundle None, new run 1.5"  # null stands only for a number that is not finite
+    assert first_difference({"h": [nan]}, {"h": [1.0]}) == "h.0: bundle nan, new run 1.0"
+    assert first_difference({"h": [nan]}, {"h": [inf]}) == "h.0: bundle nan, new run inf"
+    assert first_difference({"h": [None]}, {"h": [0]}) == "h.0: bundle None, new run 0"
+
+
 @pytest.mark.parametrize("patch,needle", [
     ({"robot": "atlas"}, "robot: unknown robot 'atlas'"),
     ({"damage": {"lost_legs": [2, 4]}}, "damage.lost_legs: infeasible morphology"),

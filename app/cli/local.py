@@ -6,6 +6,7 @@ import contextlib
 import hashlib
 import inspect
 import json
+import math
 import time
 import zipfile
 from pathlib import Path
@@ -16,7 +17,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from app.cli.common import cli, err, fail, load_spec, out_console, print_tables
-from app.jobs.base import MemoryContext, dumps
+from app.jobs.base import MemoryContext, SpecError, dumps
 from app.jobs.registry import KINDS, get_kind
 
 
@@ -114,9 +115,22 @@ def first_difference(a: Any, b: Any, path: str = "") -> str | None:
             if (d := first_difference(x, y, f"{path}.{i}")) is not None:
                 return d
         return None
-    if a != b and not (isinstance(a, float) and isinstance(b, float) and a != a and b != b):
+    if not _same_number(a, b):
         return f"{path}: bundle {a!r}, new run {b!r}"
     return None
+
+
+def _same_number(a: Any, b: Any) -> bool:
+    """Equal, where a number that is not finite is the same as itself (NaN == NaN) and as the
+    null a bundle writes in its place (JSON has no NaN or Infinity: app/bundle.py)."""
+    def unwritable(v: Any) -> bool:
+        return v is None or (isinstance(v, float) and not math.isfinite(v))
+
+    if a == b:
+        return True
+    if isinstance(a, float) and isinstance(b, float) and a != a and b != b:
+        return True
+    return unwritable(a) and unwritable(b) and (a is None or b is None)
 
 
 def _bundle_files(path: Path) -> tuple[dict, dict]:
@@ -235,8 +249,10 @@ def _experiment_command(experiment):
                 moved.append(f"--{name.replace('_', '-')} {kw[name]}")
         try:
             p = experiment.Params(**kw)
-        except ValidationError as e:
-            fail("; ".join(f"--{'.'.join(map(str, x['loc'])).replace('_', '-')}: {x['msg']}" for x in e.errors()))
+        except ValidationError as e:  # the spec's messages: a range error states the whole range
+            messages = [x["message"] for x in SpecError.from_validation(e, experiment.Params).errors]
+            fail("; ".join(f"--{'.'.join(map(str, x['loc'])).replace('_', '-')}: {m}"
+                           for x, m in zip(e.errors(), messages)))
         if moved:
             err.print(f"writing {', '.join(moved)} (docs/ is left as published; --write-docs to update it)",
                       highlight=False)
