@@ -1,7 +1,8 @@
 // A job-spec form generated from a kind's JSON schema (GET /api/web/kinds): every field of
 // every kind, with its bounds as the browser's hints; the API still validates and its
 // message is shown inline. The kind may name the groups to open first ("open"); the rest sit
-// in collapsed groups. An empty field means "the default" and is left out of the spec.
+// in collapsed groups. Each field starts at its default (the schema carries those made by a
+// default factory too); a field left at it, or emptied, is left out of the spec.
 "use strict";
 
 const SpecForm = (() => {
