@@ -47,6 +47,8 @@ def test_wheel_installs_and_serves_in_a_fresh_venv(tmp_path):
     wheel = next(dist.glob("gaitmend-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "app/_assets/migrations/env.py" in names and "app/_assets/web/templates/index.html" in names
+    studies = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "app" / "jobs").glob("*/studies/*.json"))
+    assert studies and set(studies) <= set(names), sorted(set(studies) - set(names))  # each kind's built-in studies
 
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
@@ -77,6 +79,8 @@ def test_wheel_installs_and_serves_in_a_fresh_venv(tmp_path):
         assert wait_for(up, 90, "the installed gaitmend serve") is True, (tmp_path / "serve.log").read_text()[-3000:]
         assert "gaitmend" in httpx.get(f"{url}/", timeout=10).text  # dashboard templates from the wheel
         assert httpx.get(f"{url}/docs", timeout=10).status_code == 200
+        listed = httpx.get(f"{url}/api/studies/builtin", timeout=10).json()["items"]  # read from the wheel's kinds
+        assert sorted(i["name"] for i in listed) == sorted(Path(f).stem for f in studies), listed
         job = httpx.post(f"{url}/api/jobs", json=SPEC, timeout=30).json()
         t0 = time.monotonic()
         done = wait_for(lambda: (j := httpx.get(f"{url}/api/jobs/{job['id']}", timeout=10).json())["status"]

@@ -167,3 +167,15 @@ def spec_json_schema() -> tuple[dict, dict]:
         if "kind" in branch.get("properties", {}):
             branch["required"] = ["kind", *[f for f in branch.get("required", []) if f != "kind"]]
     return schema, defs
+
+
+class BuiltinStudyOut(BaseModel):
+    name: str = Field(description="what GET /api/studies/builtin/{name} and `gaitmend study run NAME` take")
+    kind: str = Field(description="the job kind of the study's base spec (the kind that ships it)")
+    title: str = Field(description="the study spec's own name")
+
+
+class BuiltinStudyList(BaseModel):
+    """Every registered kind's built-in studies, in registry order, each kind's paper table first."""
+
+    items: list[BuiltinStudyOut]

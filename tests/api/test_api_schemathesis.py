@@ -60,4 +60,5 @@ def test_openapi_document_holds_under_every_check(tmp_path):
                 assert mode is GenerationMode.NEGATIVE, op.label
     print(f"\nschemathesis: {len(ran)} requests over {len(set(ran))} operations, {len(checks)} checks")
     assert {"POST /api/jobs", "GET /api/jobs", "DELETE /api/jobs/{job_id}", "GET /api/jobs/{job_id}/files/{path}",
-            "GET /api/jobs/{job_id}/file-link", "GET /api/jobs/{job_id}/views", "POST /api/web/check", "GET /api/health"} <= set(ran)
+            "GET /api/jobs/{job_id}/file-link", "GET /api/jobs/{job_id}/views", "POST /api/web/check", "GET /api/health",
+            "GET /api/studies/builtin", "GET /api/studies/builtin/{name}"} <= set(ran)

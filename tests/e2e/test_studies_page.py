@@ -35,3 +35,31 @@ def test_study_list_page_and_cancel(page, server):
     with server.client("alice") as c:
         c.post(f"/api/studies/{sid}/cancel")
         assert c.get(f"/api/studies/{sid}").json()["spec"]["name"] == "e2e seeds"
+
+
+def test_builtin_select_lists_every_kinds_studies_and_submits_the_chosen_one(page, server):
+    """The page names no built-in study: its select is filled from GET /api/studies/builtin,
+    and Submit posts the chosen study's spec (the POST is answered here: no study runs)."""
+    with server.client("alice") as c:
+        items = c.get("/api/studies/builtin").json()["items"]
+        chosen = items[-1]["name"]
+        spec = c.get(f"/api/studies/builtin/{chosen}").json()
+    assert len({i["kind"] for i in items}) >= 2
+    posted = []
+
+    def answer(route):
+        if route.request.method != "POST":
+            return route.continue_()
+        posted.append(route.request.post_data_json)
+        route.fulfill(status=201, json={"id": "0123abcd"})
+
+    page.route("**/api/studies", answer)
+    page.goto(f"{server.url}/studies")
+    page.locator("#builtin-form button[type=submit]:not([disabled])").wait_for()
+    options = page.locator("#builtin option")
+    assert options.evaluate_all("os => os.map((o) => o.value)") == [i["name"] for i in items]
+    assert options.evaluate_all("os => os.map((o) => o.title)") == [i["title"] for i in items]
+    page.select_option("#builtin", chosen)
+    page.get_by_role("button", name="Submit").click()
+    page.wait_for_url("**/studies/0123abcd")
+    assert posted == [spec]

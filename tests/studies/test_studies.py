@@ -196,12 +196,24 @@ def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study
 
 
 def test_study_pages_and_builtin_specs_are_served(tmp_path):
+    from app.jobs.registry import KINDS
+    from app.studies.catalog import builtin_studies
+
     settings = migrated(deployment(tmp_path))
     client = TestClient(create_app(settings))
     spec = client.get("/api/studies/builtin/recovery_table2").json()
     assert len(expand(spec).points) == 40
     r = client.get("/api/studies/builtin/nope")
     assert r.status_code == 404 and r.json()["errors"][0]["field"] == "name", r.text
+    # the list: every registered kind's studies, in registry order, each kind's paper table first
+    items = client.get("/api/studies/builtin").json()["items"]
+    assert [i["name"] for i in items] == list(builtin_studies())
+    assert [i["name"] for i in items] == [n for k in KINDS.values() for n in k.builtin_studies()]
+    assert {i["kind"] for i in items} == {k.name for k in KINDS.values() if k.builtin_studies()}
+    for i in items:
+        served = client.get(f"/api/studies/builtin/{i['name']}").json()
+        assert served == builtin_studies()[i["name"]] and served["base"]["kind"] == i["kind"]
+        assert i["title"] == served["name"]
     for path in ("/studies", "/studies/0123abcd"):
         r = client.get(path)
         assert r.status_code == 200 and "/static/studies.js" in r.text

@@ -39,13 +39,24 @@
     if (s.status === "running" || s.status === "queued") setTimeout(() => one().catch(showError), 3000);
   }
 
+  // The built-in studies come from the kinds (GET /api/studies/builtin): the page names none.
+  const builtin = document.getElementById("builtin");
+  const submitBuiltin = document.querySelector("#builtin-form button[type=submit]");
+  async function builtins() {
+    const r = await api("/api/studies/builtin");
+    builtin.replaceChildren(...r.items.map((b) => el("option", { value: b.name, title: b.title, text: b.name })));
+    submitBuiltin.disabled = !r.items.length;
+  }
+
   document.getElementById("builtin-form").addEventListener("submit", async (ev) => {
     ev.preventDefault();
+    if (!builtin.value) return;
     try {
-      const spec = await api(`/api/studies/builtin/${document.getElementById("builtin").value}`);
+      const spec = await api(`/api/studies/builtin/${encodeURIComponent(builtin.value)}`);
       const s = await api("/api/studies", { method: "POST", json: spec });
       location.href = `/studies/${s.id}`;
     } catch (e) { showError(e); }
   });
+  builtins().catch(showError);
   (id ? one() : list()).catch(showError);
 })();

@@ -11,6 +11,7 @@ from fastapi.concurrency import run_in_threadpool
 from app.api.auth import Principal, principal
 from app.api.body import BodyError, parse_json
 from app.api.errors import ApiError
+from app.api.schemas import BuiltinStudyList
 from app.api.routes.jobs import ERRORS, _read_body, _require_json, _settings
 from app.dispatch import send
 from app.jobs.base import SpecError
@@ -122,6 +123,13 @@ async def list_studies(request: Request, who: Principal = Depends(principal),
         return {"items": [_out(r, c[r.id]) for r in rows]}
 
     return await _db(request, fn, readonly=True)
+
+
+@router.get("/builtin", response_model=BuiltinStudyList, responses=ERRORS)
+async def builtin_studies():
+    """The built-in studies every registered kind ships (app/jobs/<kind>/studies/), in
+    registry order, each kind's paper table first: name, kind and title."""
+    return {"items": catalog.listing()}
 
 
 @router.get("/builtin/{name}", responses=ERRORS)
