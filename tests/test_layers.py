@@ -101,3 +101,22 @@ def test_kinds_are_reached_through_the_registry_only():
             continue
         kinds = sorted(i for i in imports if _group(i) == "jobs.<kind>")
         assert not kinds, f"{f.relative_to(ROOT)} imports a kind directly: {kinds}"
+
+
+def test_builtin_studies_are_named_only_in_their_kinds_package():
+    """A built-in study belongs to its kind (app/jobs/<kind>/studies/): outside the kinds'
+    packages and the registry, app/ and web/ reach them only through app/studies/catalog.py
+    and /api/studies/builtin, never by name."""
+    from app.studies.catalog import builtin_studies
+
+    names = list(builtin_studies())
+    assert names
+    kinds = {p for p in (ROOT / "app" / "jobs").iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    hits = []
+    for f in sorted([*(ROOT / "app").rglob("*"), *(ROOT / "web").rglob("*")]):
+        if not f.is_file() or "__pycache__" in f.parts or f == ROOT / "app" / "jobs" / "registry.py" \
+                or any(k in f.parents for k in kinds):
+            continue
+        text = f.read_text(errors="replace")
+        hits += [f"{f.relative_to(ROOT)}: {n}" for n in names if n in text]
+    assert not hits, "built-in study names outside their kind's package:\n" + "\n".join(hits)
