@@ -83,8 +83,12 @@ def test_verify_compares_a_bundle_null_with_a_fresh_nan():
     ({"robot": "atlas"}, "robot: unknown robot 'atlas'"),
     ({"damage": {"lost_legs": [2, 4]}}, "damage.lost_legs: infeasible morphology"),
     ({"bounds": {"step_length_m": [0.05, 0.02]}}, "step_length_m: lower bound 0.05 exceeds upper bound 0.02"),
-    ({"search": {"population": 2}}, "search.population: Input should be greater than or equal to 4"),
-    ({"sim": {"duration_s": -1}}, "sim.duration_s: Input should be greater than or equal to 0.5"),
+    ({"search": {"population": 2}},
+     "search.population: Input should be greater than or equal to 4; allowed: 4 <= population <= 1000"),
+    ({"sim": {"duration_s": -1}},
+     "sim.duration_s: Input should be greater than or equal to 0.5; allowed: 0.5 <= duration_s <= 120 (in s)"),
+    ({"damage": {"lost_legs": [7]}}, "damage.lost_legs.0: Input should be less than or equal to 6; "
+                                     "allowed: 1 <= lost_legs[0] <= 6"),
     ({"gravity": 3}, "gravity: unknown field"),
 ])
 def test_bad_specs_exit_2_name_the_field_and_write_nothing(tmp_path, patch, needle):

@@ -19,6 +19,8 @@ import math
 import re
 import sys
 
+from app.jobs.ranges import allowed, explain
+
 MAX_DEPTH = 32
 MAX_INT_DIGITS = 20  # beyond int64; every integer a spec takes is far smaller
 MAX_NUMBER_CHARS = 64
@@ -37,10 +39,12 @@ class BodyError(ValueError):
 
 
 class _Bad:
-    """A value the parser hooks could not accept; reported with its path afterwards."""
+    """A value the parser hooks could not accept; reported with its path afterwards.
+    ``finite``: a non-finite number, whose error states the field's allowed range."""
 
-    def __init__(self, message: str):
+    def __init__(self, message: str, finite: bool = False):
         self.message = message
+        self.finite = finite
 
 
 class _Pairs(dict):
@@ -71,14 +75,14 @@ def _float(s: str):
         return _Bad(f"number written with {len(s)} characters; at most {MAX_NUMBER_CHARS} are accepted")
     v = float(s)
     if not math.isfinite(v):
-        return _Bad(f"{s} is out of range (a finite number is required)")
+        return _Bad(f"{s} is out of range (a finite number is required)", finite=True)
     if v != 0.0 and abs(v) < sys.float_info.min:  # subnormal: no physical quantity in a spec is this small
         return _Bad(f"{s} is too small to be a physical quantity (write 0, or at least {sys.float_info.min:.1e})")
     return v
 
 
 def _constant(s: str):
-    return _Bad(f"{s} is not JSON (numbers must be finite)")
+    return _Bad(f"{s} is not JSON (numbers must be finite)", finite=True)
 
 
 def _depth(text: str) -> int:
@@ -97,13 +101,40 @@ def _has_surrogate(s: str) -> bool:
     return any("\ud800" <= c <= "\udfff" for c in s)
 
 
+def _spec_range(doc, path: tuple) -> str | None:
+    """The allowed range of the spec field at ``path`` in a job spec, or in a study (its
+    ``base``, and the overrides of its ``points`` and ``grid``: dotted paths into the base);
+    None for any other document."""
+    from app.jobs.registry import KINDS  # here: the kinds load only for such an error
+
+    def spec_of(d):
+        kind = KINDS.get(d.get("kind")) if isinstance(d, dict) and isinstance(d.get("kind"), str) else None
+        return kind.Spec if kind is not None else None
+
+    if (spec := spec_of(doc)) is not None:
+        return allowed(spec, path, "finite_number")
+    if (spec := spec_of(doc.get("base") if isinstance(doc, dict) else None)) is None or not path:
+        return None
+    if path[0] == "base":
+        loc = path[1:]
+    elif path[0] == "points" and len(path) >= 3:
+        loc = (*str(path[2]).split("."), *path[3:])
+    elif path[0] == "grid" and len(path) >= 3:
+        loc = (*str(path[1]).split("."), *path[3:])
+    else:
+        return None
+    return allowed(spec, loc, "finite_number")
+
+
 def _check(value) -> list[dict[str, str]]:
-    """Every rejected value in the parsed tree, with its path (iterative: no recursion)."""
+    """Every rejected value in the parsed tree, with its path (iterative: no recursion); a
+    non-finite number's message states the allowed range of its field."""
     errors, stack = [], [((), value)]
     while stack:
         path, v = stack.pop()
         if isinstance(v, _Bad):
-            errors.append({"field": _path(path), "message": v.message})
+            errors.append({"field": _path(path),
+                           "message": explain(v.message, _spec_range(value, path)) if v.finite else v.message})
         elif isinstance(v, str):
             if _has_surrogate(v):
                 errors.append({"field": _path(path), "message": "a string with an unpaired surrogate is not text"})

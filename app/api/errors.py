@@ -8,6 +8,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from app.jobs.ranges import RANGE_TYPES, allowed_in_schema, explain
+
 
 class ApiError(Exception):
     def __init__(self, status: int, message: str, field: str | None = None, errors: list[dict] | None = None,
@@ -34,7 +36,7 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def _validation(_req: Request, exc: RequestValidationError):
-        errors = [{"field": _loc(e["loc"]), "message": e["msg"].removeprefix("Value error, ")} for e in exc.errors()]
+        errors = [{"field": _loc(e["loc"]), "message": _message(_req, e)} for e in exc.errors()]
         return JSONResponse(error_body("; ".join(f"{e['field']}: {e['message']}" for e in errors), errors),
                             status_code=422)
 
@@ -49,6 +51,30 @@ def install(app: FastAPI) -> None:
             headers = (headers or {}) | {"Allow": ", ".join(allowed)}
             errors = [{"field": "method", "message": f"{req.method} is not allowed here; allowed: {', '.join(allowed)}"}]
         return JSONResponse(error_body(str(exc.detail), errors), status_code=exc.status_code, headers=headers)
+
+
+def _message(req: Request, e: dict) -> str:
+    """A request parameter's error; a range error states the parameter's allowed range, as
+    the OpenAPI schema gives it (e.g. limit: "...; allowed: 1 <= limit <= 500")."""
+    msg = e["msg"].removeprefix("Value error, ")
+    if e.get("type") not in RANGE_TYPES:
+        return msg
+    loc = tuple(e.get("loc") or ())
+    if len(loc) < 2 or loc[0] not in ("query", "path", "header", "cookie"):
+        return msg
+    try:
+        paths = req.app.openapi()["paths"]
+    except Exception:  # no schema to read a range from: pydantic's message as it is
+        return msg
+    parts = req.url.path.split("/")
+    for template, ops in paths.items():  # "/api/jobs/{job_id}" matches "/api/jobs/abc"
+        t = template.split("/")
+        if len(t) != len(parts) or any(a != b and not (a.startswith("{") and a.endswith("}")) for a, b in zip(t, parts)):
+            continue
+        for p in (ops.get(req.method.lower()) or {}).get("parameters", []):
+            if p.get("in") == loc[0] and str(p.get("name", "")).lower() == str(loc[1]).lower():
+                return explain(msg, allowed_in_schema(p.get("schema") or {}, loc[2:], e["type"], name=p["name"]))
+    return msg
 
 
 def _methods_for(req: Request) -> list[str]:

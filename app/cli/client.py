@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 
 from app.cli.common import cli, err, fail, load_spec, out_console, settings_or_exit
 
@@ -39,7 +40,7 @@ def _call(client, method: str, url: str, **kw):
         except ValueError:
             msgs = [r.text]
         for m in msgs:
-            err.print(f"[bold red]error:[/] {m}", highlight=False)
+            err.print("[bold red]error:[/] " + escape(str(m)), highlight=False)  # the API's text, not markup
         raise typer.Exit(2 if r.status_code in (400, 404, 409, 413, 422) else 1)
     return r
 

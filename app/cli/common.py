@@ -11,6 +11,7 @@ from typing import Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
@@ -40,7 +41,7 @@ def _root(version: bool = typer.Option(False, "--version", callback=_version, is
 
 
 def fail(msg: str, code: int = 2) -> None:
-    err.print(f"[bold red]error:[/] {msg}", highlight=False)
+    err.print(f"[bold red]error:[/] {escape(msg)}", highlight=False)  # a message's "[...]" is text, not markup
     raise typer.Exit(code)
 
 
@@ -66,7 +67,7 @@ def load_spec(path: Optional[Path]):
         fail(f"{path} is a folder; give a spec JSON, a bundle's manifest.json or a bundle zip")
     except BodyError as e:
         for item in e.errors:
-            err.print(f"[bold red]error:[/] {path}: {item['field']}: {item['message']}", highlight=False)
+            err.print("[bold red]error:[/] " + escape(f"{path}: {item['field']}: {item['message']}"), highlight=False)
         raise typer.Exit(2) from None
     except (json.JSONDecodeError, zipfile.BadZipFile, KeyError, UnicodeDecodeError) as e:
         fail(f"cannot read spec {path}: {e}")
@@ -74,7 +75,7 @@ def load_spec(path: Optional[Path]):
         return parse_spec(data)
     except SpecError as e:
         for item in e.errors:
-            err.print(f"[bold red]error:[/] {item['field']}: {item['message']}", highlight=False)
+            err.print("[bold red]error:[/] " + escape(f"{item['field']}: {item['message']}"), highlight=False)
         raise typer.Exit(2) from None
 
 

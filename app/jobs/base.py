@@ -27,7 +27,13 @@ class SpecError(ValueError):
         super().__init__("; ".join(f"{e['field']}: {e['message']}" for e in errors))
 
     @classmethod
-    def from_validation(cls, exc: ValidationError) -> SpecError:
+    def from_validation(cls, exc: ValidationError, model: type[BaseModel] | None = None) -> SpecError:
+        """The errors of a failed validation of ``model`` (default: the StrictModel the error
+        is titled after, when one has that name); a range error states the field's whole
+        allowed range (app/jobs/ranges.py)."""
+        from app.jobs.ranges import explain_error
+
+        model = model if model is not None else _model_named(exc.title)
         out = []
         for e in exc.errors():
             loc = ".".join(str(p) for p in e["loc"] if p not in ("function-after",)) or "spec"
@@ -36,8 +42,20 @@ class SpecError(ValueError):
                 msg = "unknown field"
             if msg.startswith("Value error, "):
                 msg = msg[len("Value error, "):]
-            out.append({"field": loc, "message": msg})
+            out.append({"field": loc, "message": explain_error(model, e, msg)})
         return cls(out)
+
+
+def _model_named(title: str) -> type[BaseModel] | None:
+    """The one StrictModel class named ``title`` (a ValidationError names the model it
+    validated, not its class), or None when no class or several have that name."""
+    found, stack = [], list(StrictModel.__subclasses__())
+    while stack:
+        c = stack.pop()
+        stack.extend(c.__subclasses__())
+        if c.__name__ == title and c not in found:
+            found.append(c)
+    return found[0] if len(found) == 1 else None
 
 
 class Cancelled(Exception):
@@ -134,7 +152,7 @@ class SpecBase(StrictModel):
         try:
             return cls.model_validate_json(text)
         except ValidationError as e:
-            raise SpecError.from_validation(e) from None
+            raise SpecError.from_validation(e, cls) from None
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kw: Any) -> None:

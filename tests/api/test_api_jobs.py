@@ -75,6 +75,25 @@ def test_bad_input_is_a_4xx_naming_the_field_and_writes_nothing(client, settings
     assert job_count(settings) == 0 and messages(settings) == []
 
 
+def test_a_range_error_names_the_field_and_its_whole_range(client, settings):
+    r = client.post("/api/jobs", json={"kind": "recovery", "search": {"population": 2}})
+    assert r.status_code == 422, r.text
+    body = r.json()
+    assert body["errors"] == [{"field": "search.population", "message": "Input should be greater than or equal to 4; "
+                                                                        "allowed: 4 <= population <= 1000"}]
+    assert "search.population" in body["detail"] and "4 <= population <= 1000" in body["detail"]
+    r = client.post("/api/jobs", json={**SMALL, "sim": {"duration_s": 1000}})
+    assert r.json()["errors"] == [{"field": "sim.duration_s", "message": "Input should be less than or equal to 120; "
+                                                                      "allowed: 0.5 <= duration_s <= 120 (in s)"}]
+    r = client.post("/api/jobs", content=b'{"kind":"recovery","sim":{"duration_s":1e400}}',
+                    headers={"content-type": "application/json"})
+    assert r.status_code == 422 and "allowed: 0.5 <= duration_s <= 120" in r.json()["errors"][0]["message"]
+    assert job_count(settings) == 0
+    r = client.get("/api/jobs", params={"limit": 0})  # a query parameter's range comes from the OpenAPI schema
+    assert r.status_code == 422 and r.json()["errors"] == [
+        {"field": "limit", "message": "Input should be greater than or equal to 1; allowed: 1 <= limit <= 500"}]
+
+
 def test_not_json_and_too_large_bodies(client, settings):
     r = client.post("/api/jobs", content=b"{not json", headers={"content-type": "application/json"})
     assert r.status_code == 422 and r.json()["errors"][0]["field"] == "body"
