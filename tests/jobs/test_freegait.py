@@ -80,9 +80,9 @@ def test_short_job_has_controls_robustness_and_no_zone_footholds(short_result):
     for c in s["controls"]:
         assert c["evaluations"] == 1 and set(c["metrics"]) >= {"footholds_in_zones", "finished", "min_sm_m"}
     rb = s["robustness"]
-    assert rb["total"] == 6 and len(rb["cases"]) == 6
+    assert rb["total"] == 7 and len(rb["cases"]) == 7
     assert all(c["metrics"]["footholds_in_zones"] == 0 for c in rb["cases"])
-    assert short_result.evaluations == KIND.Spec.parse(SHORT).evaluations_budget == 10
+    assert short_result.evaluations == KIND.Spec.parse(SHORT).evaluations_budget == 11
     json.loads(dumps(s))  # JSON-clean
     assert {"walk", "unaware"} <= set(short_result.traces) and "qpos" in short_result.traces["walk"]
     assert short_result.history and {"tripod", "ev", "sm_t", "transfer_s"} <= set(short_result.history[-1])

@@ -36,6 +36,7 @@ ROBUST_LABELS = {
     "friction_1.3": "friction x1.3",
     "mass_+10pct": "every mass +10 %",
     "dt_half": "physics timestep halved (1 ms)",
+    "dt_quarter": "physics timestep quartered (0.5 ms)",
 }
 METRICS = ("finished", "footholds_in_zones", "footholds_in_safe_areas", "closest_zone_m", "min_sm_m", "min_k_r_m",
            "stop_time_s", "mean_speed_m_s", "tracking_error_max_m", "foothold_error_max_m", "transfers",
@@ -68,7 +69,8 @@ def unit_configs(spec: FreegaitSpec) -> list[tuple[str, str, WalkConfig]]:
         half = spec.terrain.roughness_m / 2
         kws = {"ground_error_+": {"ground_bias": half}, "ground_error_-": {"ground_bias": -half},
                "friction_0.7": {"friction_scale": 0.7}, "friction_1.3": {"friction_scale": 1.3},
-               "mass_+10pct": {"mass_scale": 1.1}, "dt_half": {"timestep": 0.001}}
+               "mass_+10pct": {"mass_scale": 1.1}, "dt_half": {"timestep": 0.001},
+               "dt_quarter": {"timestep": 0.0005}}
         units += [("robustness", n, config(spec, **kws[n])) for n in ROBUSTNESS_CASES]
     return units
 

@@ -192,4 +192,5 @@ class FreegaitSpec(SpecBase):
         return self.planner.build()
 
 
-ROBUSTNESS_CASES = ("ground_error_+", "ground_error_-", "friction_0.7", "friction_1.3", "mass_+10pct", "dt_half")
+ROBUSTNESS_CASES = ("ground_error_+", "ground_error_-", "friction_0.7", "friction_1.3", "mass_+10pct", "dt_half",
+                    "dt_quarter")
