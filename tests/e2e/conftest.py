@@ -33,16 +33,14 @@ class Server:
                             headers={"Authorization": f"Bearer {self.tokens[owner]}"} if owner else {})
 
 
-@pytest.fixture(scope="session")
-def server(tmp_path_factory):
+def serve(tmp: Path, env: dict, settings, owners: tuple[str, ...]):
+    """Runs `gaitmend serve` (env as given) until the generator is closed; yields the Server
+    once /api/health answers, with a token per owner in the migrated database."""
     from app.store import repo
     from app.store.db import session_scope
 
-    tmp = tmp_path_factory.mktemp("e2e")
-    env = deployment(tmp, auth="on", lease_s=30, redispatch_after_s=120)
-    settings = migrated(env)
     with session_scope(settings.db_url) as s:
-        tokens = {name: repo.create_token(s, name) for name in ("alice", "bob", "carol")}
+        tokens = {name: repo.create_token(s, name) for name in owners}
     port = free_port()
     proc = Proc(["serve", "--host", "127.0.0.1", "--port", str(port)], env, tmp / "serve.log")
     url = f"http://127.0.0.1:{port}"
@@ -58,6 +56,13 @@ def server(tmp_path_factory):
         yield Server(url, settings, tokens, proc)
     finally:
         proc.stop()
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("e2e")
+    env = deployment(tmp, auth="on", lease_s=30, redispatch_after_s=120)
+    yield from serve(tmp, env, migrated(env), ("alice", "bob", "carol"))
 
 
 @pytest.fixture(scope="session")

@@ -13,12 +13,11 @@ import os
 import zipfile
 from pathlib import Path
 
-import httpx
 import pytest
 from playwright.sync_api import expect
-from service_support import Proc, deployment, free_port, migrated, wait_for
+from service_support import deployment, migrated
 
-from tests.e2e.conftest import Server
+from tests.e2e.conftest import serve
 from tests.e2e.test_kinds import open_group, open_kind, replay_drawn, submit, wait_done
 
 KINDS_DIR = str(Path(__file__).resolve().parents[1] / "kinds")
@@ -33,29 +32,10 @@ def _pythonpath() -> str:
 def server(tmp_path_factory):
     """`gaitmend serve` (tokens on, embedded worker) whose process alone registers the
     ballistic kind: this module's page / new_page fixtures talk to it."""
-    from app.store import repo
-    from app.store.db import session_scope
-
     tmp = tmp_path_factory.mktemp("e2e-extra-kind")
     env = deployment(tmp, auth="on", lease_s=30, redispatch_after_s=120) | EXTRA | {"PYTHONPATH": _pythonpath()}
     settings = migrated({k: v for k, v in env.items() if k.startswith("GAITMEND_") and k != "GAITMEND_EXTRA_KINDS"})
-    with session_scope(settings.db_url) as s:
-        tokens = {"alice": repo.create_token(s, "alice")}
-    port = free_port()
-    proc = Proc(["serve", "--host", "127.0.0.1", "--port", str(port)], env, tmp / "serve.log")
-    url = f"http://127.0.0.1:{port}"
-
-    def up():
-        try:
-            return httpx.get(f"{url}/api/health", timeout=2).status_code == 200
-        except httpx.HTTPError:
-            return False
-
-    try:
-        wait_for(up, 90, "gaitmend serve to answer /api/health", interval=0.3, proc=proc)
-        yield Server(url, settings, tokens, proc)
-    finally:
-        proc.stop()
+    yield from serve(tmp, env, settings, ("alice",))
 
 
 def test_a_kind_registered_outside_app_through_the_dashboard(page, new_page, server, shots):
