@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery.run import run
@@ -477,10 +477,21 @@ class RobustParams(BaseModel):
     out: Path = Field(Path("docs/recovery_robust.md"), description="markdown table to write")
     raw: Path = Field(Path("docs/recovery_robust.json"), description="per-run rows; runs already there are not run again")
 
+    @field_validator("weights")
+    @classmethod
+    def _weights_within_the_specs_bounds(cls, v: str) -> str:
+        if v:
+            from app.jobs.base import SpecError
+
+            try:
+                RecoverySpec.parse({"objective": {"weights": [float(w) for w in v.split(",")]}})
+            except SpecError as e:
+                raise ValueError("; ".join(f"{x['field']}: {x['message']}" for x in e.errors)) from None
+        return v
+
 
 def _robust(p: RobustParams, log: Callable[[str], None]) -> str:
     weights = [float(w) for w in p.weights.split(",")] if p.weights else list(RecoverySpec().objective.weights)
-    RecoverySpec(objective={"weights": weights})  # the spec's own bounds, with its message, before any run
     rows = run_robust_comparison(p.generations, p.population, p.seed, p.aggregate, log=log, raw_path=p.raw,
                                  weights=weights)
     rows = [r for r in rows if r.get("weights", weights) == weights]
@@ -509,24 +520,31 @@ class ConvergenceParams(BaseModel):
                       description="the verdicts with every answer's parameters; a step's earlier verdict is replaced")
 
 
+SET_ORDER = {"searched": 0, "paper_damages": 1, "documented": 2}
+
+
 def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
-    def merge(new: list[dict]) -> None:  # a (step, set) verdict replaces the earlier one
+    def merge(new: list[dict]) -> list[dict]:  # a (step, set) verdict replaces the earlier one
         old = json.loads(p.raw.read_text()) if p.raw.exists() else []
         keys = {(r["timestep_s"], r["set"]) for r in new}
-        _save_rows(sorted([r for r in old if (r["timestep_s"], r.get("set")) not in keys] + new,
-                          key=lambda r: (-r["timestep_s"], r.get("set") or "")), p.raw)
+        rows = sorted([r for r in old if (r["timestep_s"], r.get("set")) not in keys] + new,
+                      key=lambda r: (-r["timestep_s"], SET_ORDER.get(r.get("set"), 3)))
+        _save_rows(rows, p.raw)
+        return rows
 
     reps = [convergence_study(float(t), seeds=p.seeds, log=log) for t in p.timesteps.split(",")]
     merge(reps)
     # The rule on everything the docs report at each step (Table II, the robust comparisons'
-    # nominal answers and these searches): the verdict the docs and tests quote.
-    documented = []
+    # nominal answers and these searches), and on those for the paper's four damages: the
+    # verdicts the docs and tests quote.
+    more = []
     for r in reps:
         answers = documented_answers(r["timestep_s"], p.raw.parent)
         if len(answers) > r["answers"]:
-            documented.append(convergence_report(answers, r["timestep_s"]) | {"set": "documented"})
-    merge(documented)
-    md = convergence_markdown(reps + documented)
+            more.append(convergence_report(answers, r["timestep_s"]) | {"set": "documented"})
+            paper = [a for a in answers if tuple(a["lost_legs"]) in SCENARIOS]
+            more.append(convergence_report(paper, r["timestep_s"]) | {"set": "paper_damages"})
+    md = convergence_markdown(merge(more))
     p.out.parent.mkdir(parents=True, exist_ok=True)
     p.out.write_text(md)
     return md
