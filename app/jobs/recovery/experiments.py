@@ -417,10 +417,17 @@ def documented_answers(timestep: float, docs: Path = Path("docs")) -> list[dict]
     return answers
 
 
+# What each verdict's answers are (a verdict's "set"): the table's words, and the per-answer
+# list's heading adds "at that step" and, for the searches, their budget.
+SET_WORDS = {"searched": "searched at the step", "documented": "every answer the docs report",
+             "paper_damages": "the docs' answers for Table II's four damages"}
+
+
 def which_text(r: dict) -> str:
-    return {"searched": "searched at that step (DE 16 x 12, the four Table II damages, seeds 0 and 1)",
-            "documented": "every answer the docs report at that step",
-            "paper_damages": "the docs' answers for Table II's four damages at that step"}.get(r.get("set"), "")
+    words = SET_WORDS.get(r.get("set"), "")
+    if r.get("set") == "searched":
+        return "searched at that step (DE 16 x 12, the four Table II damages, seeds 0 and 1)"
+    return f"{words} at that step" if words else ""
 
 
 def convergence_markdown(reports: list[dict]) -> str:
@@ -430,9 +437,8 @@ def convergence_markdown(reports: list[dict]) -> str:
            "| step | answers | forward: max change | drift: median / max change (cm) | yaw: median / max change (deg) "
            "| answers within drift and yaw bands | passes |", "|---|---|---|---|---|---|---|"]
     for r in reports:
-        which = {"searched": "searched at the step", "documented": "every answer the docs report",
-                 "paper_damages": "the docs' answers for Table II's four damages"}.get(r.get("set"), "")
-        out.append(f"| {1000 * r['timestep_s']:g} ms -> {500 * r['timestep_s']:g} ms | {r['answers']} ({which}) | "
+        out.append(f"| {1000 * r['timestep_s']:g} ms -> {500 * r['timestep_s']:g} ms | {r['answers']} "
+                   f"({SET_WORDS.get(r.get('set'), '')}) | "
                    f"{100 * r['max_forward_rel']:.1f} % | {100 * r['median_lateral_m']:.1f} / {100 * r['max_lateral_m']:.1f} | "
                    f"{r['median_yaw_deg']:.1f} / {r['max_yaw_deg']:.1f} | {100 * r['share_within']:.0f} % | "
                    f"{'yes' if r['passes'] else '**no**'} |")
