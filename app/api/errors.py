@@ -66,6 +66,8 @@ def _message(req: Request, e: dict) -> str:
         paths = req.app.openapi()["paths"]
     except Exception:  # no schema to read a range from: pydantic's message as it is
         return msg
+    # Matched by hand: scope["route"] is the router's own route, whose path lacks the
+    # include_router prefix ("/jobs", not "/api/jobs"), so it does not key the OpenAPI paths.
     parts = req.url.path.split("/")
     for template, ops in paths.items():  # "/api/jobs/{job_id}" matches "/api/jobs/abc"
         t = template.split("/")
