@@ -1,6 +1,6 @@
 """Metadata lives in pyproject.toml. This file only makes the wheel carry what the code
 needs beside the app package - web/ (dashboard) and migrations/ (Alembic) - as
-app/_assets/ (found by app/assets.py); a plain `pip install .` then runs `gaitmend serve`."""
+app/_assets/ (found by app/core/assets.py); a plain `pip install .` then runs `gaitmend serve`."""
 
 import json
 import shutil

@@ -1,4 +1,4 @@
-"""Alembic environment: the URL comes from app.settings (or the caller's config)."""
+"""Alembic environment: the URL comes from app.core.settings (or the caller's config)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ config = context.config
 def _url() -> str:
     url = config.get_main_option("sqlalchemy.url")
     if not url:
-        from app.settings import get_settings
+        from app.core.settings import get_settings
 
         url = get_settings().db_url
     return url

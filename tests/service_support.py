@@ -14,7 +14,7 @@ import time
 import uuid
 from pathlib import Path
 
-from app.settings import Settings, load_settings
+from app.core.settings import Settings, load_settings
 from app.store.db import session_scope
 from app.store.migrate import upgrade
 from app.store.models import Job

@@ -1,4 +1,4 @@
-"""The worker's Celery app (its configuration: app/broker.py) and its signal handlers:
+"""The worker's Celery app (its configuration: app/service/broker.py) and its signal handlers:
 a fresh database engine per pool process, the broker folder, the housekeeping thread."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import threading
 
 from celery import signals
 
-from app.broker import ensure_broker_folder, make_celery
-from app.settings import get_settings
+from app.service.broker import ensure_broker_folder, make_celery
+from app.core.settings import get_settings
 
 log = logging.getLogger("gaitmend.worker")
 
@@ -34,7 +34,7 @@ def _preload(**_):
     """Import in the main process what every job's finish needs (bundle, replay, plots) and
     read the versions a bundle records, before the pool forks: each pool process (a new one
     when one is replaced) then starts with them instead of paying ~2 s of
-    imports and two git calls in its first job (measured with `python -m app.studies.bench`,
+    imports and two git calls in its first job (measured with `python -m app.cli.study_bench`,
     docs/studies.md)."""
     import matplotlib
 
@@ -42,20 +42,20 @@ def _preload(**_):
     import matplotlib.pyplot  # noqa: F401
     import viser  # noqa: F401  (replay.record imports it lazily: 0.18 s)
 
-    from app import bundle, replay  # noqa: F401
+    from app.results import bundle, replay  # noqa: F401
 
     bundle.versions()
 
 
 @signals.worker_ready.connect
 def _start_housekeeping(sender=None, **_):
-    from app.housekeeping import Housekeeper
+    from app.service.housekeeping import Housekeeper
 
     hk = Housekeeper(get_settings(), worker_name=_name(sender))
     threading.Thread(target=hk.loop, name="housekeeping", daemon=True).start()
 
 
 def _name(sender) -> str:
-    from app.runner import worker_name
+    from app.service.runner import worker_name
 
     return getattr(sender, "hostname", None) or worker_name()

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from app.runner import run_job as _run_job
-from app.settings import get_settings
+from app.service.runner import run_job as _run_job
+from app.core.settings import get_settings
 from workers.celery_app import celery_app
 
 
@@ -20,7 +20,7 @@ def _refill(settings) -> None:
     """A slot is free: send the owners' next queued jobs (fair dispatch, app/studies/fair.py)."""
     import logging
 
-    from app.dispatch import refill
+    from app.service.dispatch import refill
 
     try:
         refill(settings)

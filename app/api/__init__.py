@@ -15,7 +15,7 @@ from app.api import errors
 from app.api.auth import auth_required
 from app.api.routes import jobs, meta
 from app.api.schemas import spec_json_schema
-from app.settings import Settings, get_settings
+from app.core.settings import Settings, get_settings
 
 
 class BodyLimit:
@@ -64,7 +64,7 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     async def lifespan(app: FastAPI):
         keeper = None
         if housekeeping:
-            from app.housekeeping import Housekeeper
+            from app.service.housekeeping import Housekeeper
 
             keeper = Housekeeper(settings)
             threading.Thread(target=keeper.loop, name="housekeeping", daemon=True).start()
@@ -85,9 +85,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
     install_docs(app)
-    from app.web import install_dashboard
+    from app.api.routes.dashboard import install_dashboard
 
-    install_dashboard(app)  # the browser dashboard at / (app/web.py)
+    install_dashboard(app)  # the browser dashboard at / (app/api/routes/dashboard.py)
 
     def openapi():
         if app.openapi_schema is None:

@@ -258,7 +258,7 @@ def replay(
     import mujoco
     import numpy as np
 
-    from app.replay import replay_tracks, serve_live
+    from app.results.replay import replay_tracks, serve_live
 
     path = Path(target)
     if not path.exists() and (path.suffix == ".zip" or "/" in target or "\\" in target or target.startswith(".")):

@@ -47,7 +47,7 @@ def fail(msg: str, code: int = 2) -> None:
 
 def load_spec(path: Optional[Path]):
     """Parse a spec file (spec JSON, bundle manifest or bundle zip); exit 2 if it is bad."""
-    from app.bundle import read_spec_file
+    from app.results.bundle import read_spec_file
 
     from app.api.body import BodyError, parse_json
 
@@ -80,7 +80,7 @@ def load_spec(path: Optional[Path]):
 
 
 def settings_or_exit():
-    from app.settings import SettingsError, load_settings
+    from app.core.settings import SettingsError, load_settings
 
     try:
         return load_settings()

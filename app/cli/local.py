@@ -51,7 +51,7 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run one job locally, with no server, and write its result bundle."""
-    from app.bundle import write_bundle
+    from app.results.bundle import write_bundle
 
     spec = load_spec(spec_path)
     kind = get_kind(spec.kind)
@@ -122,7 +122,7 @@ def first_difference(a: Any, b: Any, path: str = "") -> str | None:
 
 def _same_number(a: Any, b: Any) -> bool:
     """Equal, where a number that is not finite is the same as itself (NaN == NaN) and as the
-    null a bundle writes in its place (JSON has no NaN or Infinity: app/bundle.py)."""
+    null a bundle writes in its place (JSON has no NaN or Infinity: app/results/bundle.py)."""
     def unwritable(v: Any) -> bool:
         return v is None or (isinstance(v, float) and not math.isfinite(v))
 
@@ -179,12 +179,12 @@ def bench(
                                  "a real worker on the configured broker and database (200 tiny points; --quick 20)"),
 ):
     """Measure every kind's hot paths (rollout and evaluator throughput, paper-size runs, peers)."""
-    from app.bench import run_bench
+    from app.cli.bench import run_bench
 
     for k in kind or []:
         get_kind_or_exit(k)
     if studies:
-        from app.studies.bench import dispatch_overhead, tiny_spec
+        from app.cli.study_bench import dispatch_overhead, tiny_spec
 
         figures = {"study_dispatch": dispatch_overhead(tiny_spec(), 20 if quick else 200, log=err.print)}
     else:

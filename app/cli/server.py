@@ -15,7 +15,7 @@ from typing import Optional
 import typer
 
 from app.cli.common import cli, err, fail, settings_or_exit
-from app.settings import Settings
+from app.core.settings import Settings
 
 db_app = typer.Typer(no_args_is_help=True, help="Database schema (Alembic migrations).")
 token_app = typer.Typer(no_args_is_help=True, help="API tokens (stored hashed).")
@@ -181,7 +181,7 @@ def worker(concurrency: Optional[int] = typer.Option(None, min=1, max=64,
         fail(f"cannot reach the database {settings.db_url.split('@')[-1]}: {e}", code=1)
     if not ok:
         fail("the database schema is not up to date: run `gaitmend db upgrade` (or `gaitmend serve`)", code=1)
-    from app.dispatch import broker_ok
+    from app.service.dispatch import broker_ok
 
     reachable, why = broker_ok(settings)
     if not reachable:

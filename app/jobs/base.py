@@ -199,7 +199,7 @@ def table(title: str, columns: list[str], rows: list[list[Any]], notes: list[str
 @dataclasses.dataclass(frozen=True)
 class ReplayTrack:
     """How the replay (and the plots) show one trace: its label and its colour role in
-    app/colors.py; ``order``: smaller first (the first is the one the camera frames)."""
+    app/core/colors.py; ``order``: smaller first (the first is the one the camera frames)."""
 
     name: str
     label: str
@@ -208,7 +208,7 @@ class ReplayTrack:
 
     @property
     def color(self) -> str:
-        from app.colors import hex_color
+        from app.core.colors import hex_color
 
         return hex_color(self.role, self.order)
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from app.colors import PALETTE, ROLES
+from app.core.colors import PALETTE, ROLES
 
 # Roles from the one colour table: the method's answer and its control keep one colour
 # everywhere (plots, tables, replay), so "recovered" never swaps colour with "baseline".

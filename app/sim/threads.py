@@ -24,7 +24,7 @@ def sim_threads() -> int:
     v = os.environ.get(ENV, "").strip()
     if not v:
         return available_cpus()
-    try:  # a service checks it at start (app.settings); a local run meets it here
+    try:  # a service checks it at start (app.core.settings); a local run meets it here
         n = int(v)
     except ValueError:
         n = 0

@@ -1,5 +1,5 @@
 """Apply and inspect the Alembic migrations in migrations/ (next to the app package, or
-inside it in a wheel: app/assets.py)."""
+inside it in a wheel: app/core/assets.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from alembic.config import Config
 from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 
-from app.assets import asset_dir
+from app.core.assets import asset_dir
 from app.store.db import get_engine
 
 MIGRATIONS = asset_dir("migrations")

@@ -1,6 +1,6 @@
 """The built-in studies, gathered from every registered kind (``Kind.builtin_studies``): the
 one place outside the kinds' packages that knows which exist. `gaitmend study run NAME`,
-`gaitmend reproduce <kind>-study`, /api/studies/builtin and app/studies/scaling.py ask here."""
+`gaitmend reproduce <kind>-study`, /api/studies/builtin and app/cli/study_scaling.py ask here."""
 
 from __future__ import annotations
 

@@ -26,7 +26,7 @@ def run_point(spec_dict: dict, bundle: str | None = None) -> tuple[str, dict | N
         with tempfile.TemporaryDirectory() as tmp:
             res = get_kind(spec.kind).run(spec, MemoryContext(Path(tmp)))
         if bundle is not None:
-            from app.bundle import write_bundle
+            from app.results.bundle import write_bundle
 
             write_bundle(Path(bundle), Path(bundle).stem, spec, res)
         return "succeeded", json.loads(dumps(res.summary)), None

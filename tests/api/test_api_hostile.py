@@ -161,7 +161,7 @@ def test_signed_links_bound_exp_and_die_with_their_token(settings, tmp_path):
 
 
 def test_submit_does_not_wait_for_an_unreachable_redis(tmp_path, monkeypatch):
-    from app import dispatch
+    from app.service import dispatch
 
     settings = migrated(deployment(tmp_path, broker=("redis://127.0.0.1:1/0", "gmtest-down:")))
     client = TestClient(create_app(settings))

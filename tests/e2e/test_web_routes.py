@@ -1,4 +1,4 @@
-"""The dashboard's own routes (app/web.py) against the running server: bundle members with
+"""The dashboard's own routes (app/api/routes/dashboard.py) against the running server: bundle members with
 owner checks, signed links for viser's playbackPath, the trace summary the plots use, and
 the jobs list staying fast with thousands of jobs (keyset pages, live refresh)."""
 

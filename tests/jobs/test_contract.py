@@ -207,7 +207,7 @@ def test_cancel_stops_within_one_generation_or_run(kind):
 # -- presentation ---------------------------------------------------------------------------------
 
 def test_the_bundle_readme_lists_exactly_the_files_it_holds(kind, tmp_path):
-    from app.bundle import write_bundle
+    from app.results.bundle import write_bundle
 
     spec, res, _ = smoke(kind)
     path = write_bundle(tmp_path / "b.zip", "job-1", spec, res)

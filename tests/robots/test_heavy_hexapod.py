@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from app.robots.heavy_hexapod import HEAVY, JOINT_NAMES, LEG_IDS, build_cliff_spec, build_tilt_spec, joint_name
-from app.stability.foothold import leg_fk
+from app.jobs.tipping.stability.foothold import leg_fk
 
 
 def test_mass_and_layout():

@@ -5,14 +5,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from app.gaits.sequences import plan_hexapod
+from app.jobs.recovery.sequences import plan_hexapod
 from app.jobs.recovery.run import nominal_params
 from app.robots.catalog import JETHEXA
 from app.robots.damage import DamageSpec
-from app.sim.evaluate import GaitEvaluator, SimConfig
+from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
 from app.sim.perturb import (NOMINAL, Perturbation, case_by_name, edit_model, perturbed_model, robustness_block,
                              same_signature, walking_cases)
-from app.sim.robust import MultiModelEvaluator, aggregate, case_models
+from app.jobs.recovery.robust import MultiModelEvaluator, aggregate, case_models
 
 CASES = walking_cases(JETHEXA.geometry.total_mass)
 SHORT = SimConfig(duration_s=1.0, settle_s=0.3)

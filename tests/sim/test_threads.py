@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from app.settings import SettingsError, load_settings
+from app.core.settings import SettingsError, load_settings
 from app.sim.threads import ENV, available_cpus, sim_threads
 
 

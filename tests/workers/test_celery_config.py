@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from service_support import deployment, settings_of
 
-from app.settings import SettingsError, load_settings
-from app.broker import broker_options, make_celery
+from app.core.settings import SettingsError, load_settings
+from app.service.broker import broker_options, make_celery
 
 
 def test_reliability_settings_on_redis(tmp_path, redis_url):

@@ -34,8 +34,8 @@ def test_compose_file_describes_the_distributed_mode():
 def test_passwords_with_at_and_slash_reach_the_servers_intact():
     from sqlalchemy.engine import make_url
 
-    from app.settings import load_settings
-    from app.broker import broker_options
+    from app.core.settings import load_settings
+    from app.service.broker import broker_options
 
     pw = "p@ss/w:rd%?#"
     s = load_settings(database_url="postgresql://gaitmend@db:5432/gaitmend", database_password=pw,

@@ -1,5 +1,5 @@
 """A worker's main process forks pool processes while its housekeeper thread uses SQLite.
-Without the fork guard (app/housekeeping.py) a child forked mid-query inherits SQLite's
+Without the fork guard (app/service/housekeeping.py) a child forked mid-query inherits SQLite's
 lock held and hangs on its first query; with it none does. The CI failure this came from:
 a pool process replaced after a kill never claimed its job (tests/workers/
 test_worker_jobs.py, 'attempt 3 running' timed out)."""
@@ -14,7 +14,7 @@ import time
 from service_support import deployment, migrated
 from sqlalchemy import text
 
-from app.housekeeping import Housekeeper
+from app.service.housekeeping import Housekeeper
 from app.store.db import session_scope
 
 FORKS = 40

@@ -10,7 +10,7 @@ import pytest
 from service_support import SMALL, deployment, job_row, migrated
 from sqlalchemy import update
 
-from app.runner import DbRunContext, JobTimeout, LeaseLost, run_job
+from app.service.runner import DbRunContext, JobTimeout, LeaseLost, run_job
 from app.store import repo
 from app.store.db import session_scope
 from app.store.models import Job, utcnow

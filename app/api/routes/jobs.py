@@ -18,10 +18,10 @@ from app.api.auth import Principal, principal
 from app.api.body import BodyError, parse_json
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, JobList, JobOut, Status
-from app.dispatch import send
+from app.service.dispatch import send
 from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
-from app.settings import Settings
+from app.core.settings import Settings
 from app.store import repo
 from app.store.db import session_scope
 from app.store.models import FINAL, utcnow

@@ -9,7 +9,7 @@ from sqlalchemy import text
 from app.api.auth import principal
 from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
-from app.dispatch import broker_ok
+from app.service.dispatch import broker_ok
 from app.jobs.registry import KINDS, robots as all_robots
 from app.store import repo
 from app.store.db import session_scope

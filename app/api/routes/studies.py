@@ -13,7 +13,7 @@ from app.api.body import BodyError, parse_json
 from app.api.errors import ApiError
 from app.api.schemas import BuiltinStudyList
 from app.api.routes.jobs import ERRORS, _read_body, _require_json, _settings
-from app.dispatch import send
+from app.service.dispatch import send
 from app.jobs.base import SpecError
 from app.store import repo
 from app.store.db import session_scope

@@ -104,8 +104,8 @@ class KnotsParams(BaseModel):
 
 
 def _knots(params: KnotsParams, log: Callable[[str], None]) -> str:
-    from app.dynamics.gait import Task, trot
-    from app.dynamics.pipeline import EvalConfig, evaluate
+    from app.jobs.energy.dynamics.gait import Task, trot
+    from app.jobs.energy.dynamics.pipeline import EvalConfig, evaluate
     from app.robots.quadruped import QUADRUPED25
 
     rows = []
@@ -132,8 +132,8 @@ def bench_energy(quick: bool = False, log: Callable[[str], None] = print) -> dic
     """(a) one fitness evaluation (IK + inverse dynamics + NLP + QP + forward check) on one
     core, median of several (target <= 0.5 s); (b) the default GA (40 x (40 + 1)) on two
     worker processes, without the controls (target <= 300 s; quick: 8 x (2 + 1))."""
-    from app.dynamics.gait import Task, trot
-    from app.dynamics.pipeline import EvalConfig, evaluate
+    from app.jobs.energy.dynamics.gait import Task, trot
+    from app.jobs.energy.dynamics.pipeline import EvalConfig, evaluate
     from app.jobs.energy.run import run
     from app.jobs.energy.spec import EnergySpec
     from app.robots.quadruped import QUADRUPED25

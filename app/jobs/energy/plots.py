@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.plots import _save, plt
+from app.core.plots import _save, plt
 from app.robots.quadruped import LEGS
 
-from app.colors import hex_color  # noqa: E402
+from app.core.colors import hex_color  # noqa: E402
 
 NLP_STYLE = dict(color=hex_color("baseline"), lw=1.2, ls="--", label="NLP (SRB + dummy legs)")
 FINAL_STYLE = dict(color=hex_color("method"), lw=1.8, label="final (QP)")

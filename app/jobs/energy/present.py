@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from app.colors import hex_color
+from app.core.colors import hex_color
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 from app.robots.quadruped import LEGS
 

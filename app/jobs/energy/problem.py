@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from app.dynamics.gait import Gait, Task
-from app.dynamics.pipeline import EvalConfig, evaluate
+from app.jobs.energy.dynamics.gait import Gait, Task
+from app.jobs.energy.dynamics.pipeline import EvalConfig, evaluate
 from app.robots.quadruped import QUADRUPED25, QuadrupedGeometry
 from app.sim.threads import sim_threads
 

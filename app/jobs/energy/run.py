@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from app.dynamics.gait import Gait
-from app.dynamics.physics import PhysicsConfig, reference_from, simulate
-from app.dynamics.pipeline import PERIODICITY_TOL, evaluate
+from app.jobs.energy.dynamics.gait import Gait
+from app.jobs.energy.dynamics.physics import PhysicsConfig, reference_from, simulate
+from app.jobs.energy.dynamics.pipeline import PERIODICITY_TOL, evaluate
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.loop import Generation, Phases, run_search
 from app.jobs.energy.problem import (PopulationEvaluator, decode, encode_nominal, eval_config, geometry,

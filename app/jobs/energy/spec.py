@@ -142,7 +142,7 @@ class Physics(BaseModel):
     model_config = Strict
     periods: int = Field(10, ge=1, le=100)
     timestep_s: float = Field(0.001, ge=0.0001, le=0.004)
-    # Raibert foot placement, gain as a fraction of the stance time (0 = off); see app/dynamics/physics.py
+    # Raibert foot placement, gain as a fraction of the stance time (0 = off); see app/jobs/energy/dynamics/physics.py
     foot_placement: float = Field(0.5, ge=0.0, le=2.0)
     balance: bool = False  # trunk velocity/rate damping spread over the stance feet
 

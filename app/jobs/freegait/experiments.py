@@ -17,13 +17,13 @@ from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
 from app.jobs.freegait.run import target_met
-from app.planning.freegait.geometry import Motion, kinematic_margin
-from app.planning.freegait.params import GaitParams, nominal_re, r1
-from app.planning.freegait.route import Change, Route
-from app.planning.freegait.search import SearchInput, candidate_grid, search
-from app.planning.freegait.walk import WalkConfig, stand_pose, walk
+from app.jobs.freegait.planner.geometry import Motion, kinematic_margin
+from app.jobs.freegait.planner.params import GaitParams, nominal_re, r1
+from app.jobs.freegait.planner.route import Change, Route
+from app.jobs.freegait.planner.search import SearchInput, candidate_grid, search
+from app.jobs.freegait.planner.walk import WalkConfig, stand_pose, walk
 from app.robots.silo6 import SILO6, TRIPODS
-from app.sim.terrain import Minefield, make_minefield, make_terrain
+from app.jobs.freegait.terrain import Minefield, make_minefield, make_terrain
 
 KEVS = (0.0, 0.02, 0.04, 0.06, 0.08, 0.1)
 
@@ -217,7 +217,7 @@ def _crab_figure(r, t_change, during, nxt, stem: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from app.plots import _save
+    from app.core.plots import _save
 
     s = r.steps
     t = s["t"]

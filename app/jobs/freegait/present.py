@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table  # noqa: E402
-from app.plots import _save  # noqa: E402
+from app.core.plots import _save  # noqa: E402
 
 HISTORY_COLUMNS = {
     "transfer": "transfer number, from 0",

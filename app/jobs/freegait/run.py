@@ -1,6 +1,6 @@
 """Run a ``freegait`` job: the walk, its controls on the same field, its robustness cases.
 
-Every unit is one MuJoCo walk (``app.planning.freegait.walk``). Controls: the planner with
+Every unit is one MuJoCo walk (``app.jobs.freegait.planner.walk``). Controls: the planner with
 the zones ignored (or known, when the job's planner ignores them), a periodic alternating
 tripod with fixed footholds (no foothold planner at all), and Ev replaced by a uniformly
 random valid tripod (so what Eq. 24 earns is measured). Robustness: the same walk with the
@@ -18,9 +18,9 @@ import numpy as np
 
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.freegait.spec import ROBUSTNESS_CASES, FreegaitSpec
-from app.planning.freegait.walk import STOP_CAUSES, WalkConfig, WalkResult, stand_pose, walk, zones_near_route
+from app.jobs.freegait.planner.walk import STOP_CAUSES, WalkConfig, WalkResult, stand_pose, walk, zones_near_route
 from app.robots.silo6 import SILO6
-from app.sim.terrain import Minefield, Terrain, make_minefield, make_terrain
+from app.jobs.freegait.terrain import Minefield, Terrain, make_minefield, make_terrain
 
 TARGET = "finishes the route, 0 footholds in forbidden zones, SM > SM_min throughout"
 CONTROL_LABELS = {

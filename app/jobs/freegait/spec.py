@@ -9,9 +9,9 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from app.jobs.base import SpecBase, SpecError, StrictModel
-from app.planning.freegait.params import GaitParams
-from app.planning.freegait.route import Change, Route
-from app.planning.freegait.search import MAX_TRIPODS
+from app.jobs.freegait.planner.params import GaitParams
+from app.jobs.freegait.planner.route import Change, Route
+from app.jobs.freegait.planner.search import MAX_TRIPODS
 from app.robots.silo6 import SILO6
 
 START_X = 1.0  # the robot starts this far from the terrain's rear edge (x = 0 is its start)

@@ -23,10 +23,10 @@ from pydantic import BaseModel, Field
 
 from app.optim.pso import PRESETS, ParticleSwarm
 from app.optim.random_search import RandomSearch
-from app.planning.costs import evaluate
-from app.planning.evidence import CASES, gait_metrics, heldout_values
-from app.planning.maps import get_map
-from app.planning.primitives import ModularSim
+from app.jobs.multigait.planner.costs import evaluate
+from app.jobs.multigait.evidence import CASES, gait_metrics, heldout_values
+from app.jobs.multigait.planner.maps import get_map
+from app.jobs.multigait.planner.primitives import ModularSim
 from app.robots.modular import get_shape
 
 
@@ -148,8 +148,8 @@ def ruggedness(robot: str = "lizard", n: int = 40, seed: int = 1, streams: int =
     ``streams`` other draw streams (planner noise) and (b) perturbed by Gaussian steps of
     ``eps`` x the box width per coordinate and simulated again (physics). Correlations of
     the cost between the originals and their re-plans / perturbations."""
-    from app.planning.costs import _root_pose, cost_value, planner_draws
-    from app.planning.rrt import composed_expander, rrt_mp
+    from app.jobs.multigait.planner.costs import _root_pose, cost_value, planner_draws
+    from app.jobs.multigait.planner.rrt import composed_expander, rrt_mp
 
     shape, pmap, sim = _problem(robot, gait_s)
     radius = shape.radius_mu()
@@ -186,7 +186,7 @@ def ruggedness(robot: str = "lizard", n: int = 40, seed: int = 1, streams: int =
 
 def robustness_of_bests(rows: list[dict], log: Callable[[str], None] = print) -> list[dict]:
     """Every arm's best of every seed re-simulated under the job's robustness cases."""
-    from app.planning.evidence import robustness_cases
+    from app.jobs.multigait.evidence import robustness_cases
 
     out = []
     for r in rows:

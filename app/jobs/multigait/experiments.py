@@ -168,7 +168,7 @@ EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and dista
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
-    from app.planning.bench import bench_multigait
+    from app.jobs.multigait.bench import bench_multigait
 
     return bench_multigait(quick=quick)
 

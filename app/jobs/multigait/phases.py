@@ -15,7 +15,7 @@ import numpy as np
 
 from app.jobs.base import Cancelled, RunContext
 from app.jobs.loop import Generation, run_search
-from app.planning.costs import evaluate
+from app.jobs.multigait.planner.costs import evaluate
 
 
 class Budget:

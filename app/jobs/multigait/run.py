@@ -15,11 +15,11 @@ from app.jobs.base import JobResult, RunContext
 from app.jobs.multigait.phases import Budget, controls_block, search_phase
 from app.jobs.multigait.spec import MultigaitSpec
 from app.optim.registry import make_optimizer
-from app.planning.costs import cost_value, evaluate, planner_draws, verify_tree
-from app.planning.evidence import CHUNK, heldout_values, robustness_cases
-from app.planning.maps import PlanMap, get_map
-from app.planning.primitives import ModularSim, Primitives
-from app.planning.rrt import composed_expander, path_to, rrt_mp
+from app.jobs.multigait.planner.costs import cost_value, evaluate, planner_draws, verify_tree
+from app.jobs.multigait.evidence import CHUNK, heldout_values, robustness_cases
+from app.jobs.multigait.planner.maps import PlanMap, get_map
+from app.jobs.multigait.planner.primitives import ModularSim, Primitives
+from app.jobs.multigait.planner.rrt import composed_expander, path_to, rrt_mp
 from app.robots.modular import MU, get_shape
 from app.sim.perturb import robustness_block
 
@@ -281,6 +281,6 @@ def robustness_target(cost: str, nominal: dict):
 
 
 def _names(sim: ModularSim) -> list[str]:
-    from app.gaits.cpg import param_names
+    from app.jobs.multigait.cpg import param_names
 
     return param_names(sim.joints)

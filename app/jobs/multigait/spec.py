@@ -14,8 +14,8 @@ from pydantic import Field, field_validator, model_validator
 from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
 from app.optim.pso import PRESETS
-from app.planning.evidence import CASES
-from app.planning.maps import MAPS
+from app.jobs.multigait.evidence import CASES
+from app.jobs.multigait.planner.maps import MAPS
 from app.robots.modular import SHAPES
 
 MAX_BUDGET = 2_000_000
@@ -92,7 +92,7 @@ class Controls(StrictModel):
 
 class Robustness(StrictModel):
     """The best gait set re-simulated with the timestep halved and quartered, friction x 0.7
-    and x 1.3, module masses -10 % and +10 % (app/planning/evidence.py: CASES)."""
+    and x 1.3, module masses -10 % and +10 % (app/jobs/multigait/evidence.py: CASES)."""
 
     enabled: bool = True
 

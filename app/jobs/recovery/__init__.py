@@ -38,7 +38,7 @@ class RecoveryKind(PackageKind):
         return {"damage.lost_legs": {"all_feasible_1_and_2": losses}}
 
     def infeasible_reason(self, data):
-        from app.gaits.sequences import InfeasibleMorphology, check_feasible
+        from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
 
         lost = (data.get("damage") or {}).get("lost_legs") if isinstance(data.get("damage"), dict) else None
         if not isinstance(lost, list) or not all(isinstance(l, int) and not isinstance(l, bool) for l in lost):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.sim.convergence import RULE_TEXT, check, halving_deltas
+from app.jobs.recovery.convergence import RULE_TEXT, check, halving_deltas
 
 
 def load_points(src: Path) -> tuple[dict, list[dict]]:

@@ -21,9 +21,9 @@ from app.jobs.recovery.spec import RecoverySpec
 
 
 def _setup(spec: RecoverySpec):
-    from app.gaits.sequences import plan_hexapod
+    from app.jobs.recovery.sequences import plan_hexapod
     from app.robots.catalog import get_robot
-    from app.sim.evaluate import GaitEvaluator
+    from app.jobs.recovery.evaluate import GaitEvaluator
 
     robot = get_robot(spec.robot)
     _, model = robot.model(damage_spec(spec))
@@ -58,7 +58,7 @@ def throughput(spec: RecoverySpec, repeats: int = 3) -> dict:
 def scipy_peer(spec: RecoverySpec) -> dict:
     from scipy.optimize import differential_evolution
 
-    from app.sim.metrics import fitness
+    from app.jobs.recovery.metrics import fitness
 
     robot, ev = _setup(spec)
     lower, upper = search_bounds(spec, robot)

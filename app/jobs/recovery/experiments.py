@@ -17,7 +17,7 @@ from pydantic import BaseModel, Field, field_validator
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
-from app.sim.metrics import TARGET_TEXT, meets_target
+from app.jobs.recovery.metrics import TARGET_TEXT, meets_target
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]
 # Table II of the paper (real robot, mean of 10 best solutions): x, y in cm, yaw in deg.
@@ -185,7 +185,7 @@ ROBUST_MODELS = ["friction_0.7", "friction_1.3", "payload"]  # trained on; the o
 def feasible_losses() -> list[tuple[int, ...]]:
     import itertools
 
-    from app.gaits.sequences import InfeasibleMorphology, check_feasible
+    from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
 
     out = []
     for lost in [(l,) for l in range(1, 7)] + list(itertools.combinations(range(1, 7), 2)):
@@ -251,10 +251,10 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
 def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10.0) -> dict[str, np.ndarray]:
     """Re-simulates answers ({"lost_legs", "best_params"}) at ``timestep``; metrics (N,)
     in the answers' order. Answers of one damage run as one batch."""
-    from app.gaits.sequences import plan_hexapod
+    from app.jobs.recovery.sequences import plan_hexapod
     from app.jobs.recovery.run import sim_config, sim_model
     from app.robots.catalog import get_robot
-    from app.sim.evaluate import GaitEvaluator
+    from app.jobs.recovery.evaluate import GaitEvaluator
 
     out: dict[str, np.ndarray] = {}
     groups: dict[tuple, list[int]] = {}
@@ -275,7 +275,7 @@ def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10
 
 
 def convergence_report(answers: list[dict], timestep: float) -> dict:
-    from app.sim.convergence import check, halving_deltas
+    from app.jobs.recovery.convergence import check, halving_deltas
 
     a, b = answers_metrics(answers, timestep), answers_metrics(answers, timestep / 2)
     d = halving_deltas(a, b)
@@ -345,10 +345,10 @@ PARTIAL_DAMAGES = [
 def baselines_markdown(log: Callable[[str], None] = print) -> str:
     """The nominal tripod (no recovery) on every feasible 1- and 2-leg loss and a few
     partial damages: does it fall, does it already meet the target? One batch per damage."""
-    from app.gaits.sequences import nominal_tripod
+    from app.jobs.recovery.sequences import nominal_tripod
     from app.jobs.recovery.run import functional_legs, nominal_params, sim_config, sim_model
     from app.robots.catalog import get_robot
-    from app.sim.evaluate import GaitEvaluator
+    from app.jobs.recovery.evaluate import GaitEvaluator
 
     damages = [{"lost_legs": list(l)} for l in feasible_losses()] + PARTIAL_DAMAGES
     spec0 = RecoverySpec()
@@ -431,7 +431,7 @@ def which_text(r: dict) -> str:
 
 
 def convergence_markdown(reports: list[dict]) -> str:
-    from app.sim.convergence import RULE_TEXT
+    from app.jobs.recovery.convergence import RULE_TEXT
 
     out = [f"Rule: {RULE_TEXT}.", "",
            "| step | answers | forward: max change | drift: median / max change (cm) | yaw: median / max change (deg) "

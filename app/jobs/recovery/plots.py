@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.plots import _save, plt
+from app.core.plots import _save, plt
 
 
 def convergence(history: list[dict], out: Path) -> list[Path]:
@@ -41,7 +41,7 @@ def _three_rows(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, 
 
 
 def orientation(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None = None) -> list[Path]:
-    """``style``: trace name -> (label, colour), the replay's (app/colors.py)."""
+    """``style``: trace name -> (label, colour), the replay's (app/core/colors.py)."""
     return _three_rows(traces, out, style,
                        lambda tr: [(tr[k], k.replace("_deg", " (deg)")) for k in ("roll_deg", "pitch_deg", "yaw_deg")],
                        "Body orientation (ZYX; roll about y, pitch about x)", "orientation")

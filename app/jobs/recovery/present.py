@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
-from app.sim.metrics import TARGET  # the target for a recovered gait (forward is +y)
+from app.jobs.recovery.metrics import TARGET  # the target for a recovered gait (forward is +y)
 
 HISTORY_COLUMNS = {
     "generation": "0 = the initial population",

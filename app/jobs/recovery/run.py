@@ -6,18 +6,18 @@ import time
 
 import numpy as np
 
-from app.gaits.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
-from app.gaits.trajectory import param_names
+from app.jobs.recovery.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
+from app.jobs.recovery.trajectory import param_names
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.loop import Generation, Phases, run_search
 from app.jobs.recovery.spec import RecoverySpec
 from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
-from app.sim.evaluate import GaitEvaluator, SimConfig
-from app.sim.metrics import TARGET_TEXT, fitness, meets_target, objective_terms
+from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
+from app.jobs.recovery.metrics import TARGET_TEXT, fitness, meets_target, objective_terms
 from app.sim.perturb import case_by_name, robustness_block, walking_cases
-from app.sim.robust import MultiModelEvaluator, case_models, robust_fitness
+from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
 
 # -- problem setup -------------------------------------------------------------------------
 

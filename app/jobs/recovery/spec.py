@@ -7,13 +7,13 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from app.gaits.sequences import InfeasibleMorphology, check_feasible
+from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
 from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
 from app.robots.catalog import ROBOTS
 from app.robots.hexapod import DEFAULT_TIMESTEP
 from app.sim.perturb import walking_cases
-from app.sim.robust import AGGREGATES
+from app.jobs.recovery.robust import AGGREGATES
 
 Leg = Annotated[int, Field(ge=1, le=6)]
 JointName = Literal["coxa", "femur", "tibia"]

@@ -11,7 +11,7 @@ import numpy as np
 from app.jobs import viewkit as kit
 from app.jobs.recovery.present import HISTORY_COLUMNS, TARGET as _TARGET, replay_style
 
-# labels and colours as the replay shows them (present.replay_style, app/colors.py roles)
+# labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
 RUNS = {t.name: (t.label, t.color) for t in replay_style(["best", "baseline"])}
 # The walking target (present.TARGET): forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg.
 TARGET = {"forward_cm": 100 * _TARGET["y_min_m"], "lateral_cm": 100 * _TARGET["x_abs_max_m"],

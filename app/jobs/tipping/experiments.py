@@ -16,8 +16,8 @@ from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
 from app.robots.heavy_hexapod import HEAVY
-from app.stability.evidence import CONVERGENCE_TOL, EvidencePlan, Setup, convergence_row, outcome, run_evidence, simulate
-from app.stability.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
+from app.jobs.tipping.evidence import CONVERGENCE_TOL, EvidencePlan, Setup, convergence_row, outcome, run_evidence, simulate
+from app.jobs.tipping.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
     ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
@@ -234,7 +234,7 @@ EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec.
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
-    from app.stability.bench import bench_tipping
+    from app.jobs.tipping.bench import bench_tipping
 
     return bench_tipping(steps=100 if quick else 500)
 

@@ -12,11 +12,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from app.colors import ROLES  # noqa: E402
-from app.plots import _save  # noqa: E402
-from app.stability.scenario import edge_name  # noqa: E402
+from app.core.colors import ROLES  # noqa: E402
+from app.core.plots import _save  # noqa: E402
+from app.jobs.tipping.scenario import edge_name  # noqa: E402
 
-# the colours of the replay and the dashboard (app/colors.py): the answer and its control
+# the colours of the replay and the dashboard (app/core/colors.py): the answer and its control
 STYLE = {"no_recovery": (ROLES["baseline"], "without recovery"), "recovery": (ROLES["method"], "with recovery")}
 
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from app.jobs.base import Cancelled, JobResult, RunContext
 from app.jobs.tipping.spec import TippingSpec
-from app.stability.evidence import CONVERGENCE_TOL, Setup, convergence_row, outcome, run_evidence, simulate
-from app.stability.scenario import TiltScenario, first_catch, run_summary
+from app.jobs.tipping.evidence import CONVERGENCE_TOL, Setup, convergence_row, outcome, run_evidence, simulate
+from app.jobs.tipping.scenario import TiltScenario, first_catch, run_summary
 
 # -- runs -------------------------------------------------------------------------------------
 

@@ -10,8 +10,8 @@ from pydantic import Field, field_validator, model_validator
 
 from app.jobs.base import SpecBase, StrictModel
 from app.robots.heavy_hexapod import HEAVY, TRIPODS
-from app.stability.evidence import ROBUSTNESS_CASES, EvidencePlan
-from app.stability.scenario import CliffScenario, ControllerConfig, TiltScenario, paper_direction
+from app.jobs.tipping.evidence import ROBUSTNESS_CASES, EvidencePlan
+from app.jobs.tipping.scenario import CliffScenario, ControllerConfig, TiltScenario, paper_direction
 
 Tripod = Annotated[list[Annotated[int, Field(ge=1, le=6)]], Field(max_length=6)]
 

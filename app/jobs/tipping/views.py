@@ -13,7 +13,7 @@ import numpy as np
 from app.jobs import viewkit as kit
 from app.jobs.tipping.present import replay_style
 
-# labels and colours as the replay shows them (present.replay_style, app/colors.py roles)
+# labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
 RUNS = {t.name: (t.label, t.color) for t in sorted(replay_style(["no_recovery", "recovery"]), key=lambda t: -t.order)}
 CLIP = (-45.0, 90.0)  # once the robot has gone over, the margin is meaningless (-180 deg)
 

@@ -1,0 +1,393 @@
+"""The browser dashboard: pages, static files, and the few read routes the pages need.
+
+Everything the browser loads comes from this project (web/) or from installed Python
+packages (plotly's plotly.min.js, viser's client build), so the dashboard works offline.
+The routes here reuse the job service's auth dependency and repository functions, so a
+token holder sees exactly the jobs the REST API shows them.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import hmac
+import io
+import json
+import math
+import os
+import secrets
+import time
+import zipfile
+from pathlib import Path
+from typing import Annotated, Any
+
+from fastapi import Depends, FastAPI, Path as PathParam, Query, Request
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+
+from app.api.auth import LOCAL_OWNER, Principal, principal
+from app.api.errors import ApiError
+from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
+from app.core.assets import asset_dir
+from app.store import repo
+from app.store.db import session_scope
+
+WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
+# page name -> (template, title, the nav link marked as the current page)
+PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
+         "compare": ("compare.html", "compare", "/compare"),
+         "studies": ("studies.html", "studies", None)}  # app/studies
+NAV = (("/", "Jobs"), ("/compare", "Compare"), ("/docs", "API"))
+HEADER_MARK = "<!-- gaitmend: header -->"
+LINK_TTL_S = 3600
+
+JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
+
+
+def _plotly_js() -> Path:
+    import plotly
+
+    return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+
+def _viser_client() -> Path:
+    import viser
+
+    return Path(viser.__file__).parent / "client" / "build"
+
+
+# -- signed links ------------------------------------------------------------------------------
+# viser's client fetches ?playbackPath= with a plain GET and a browser download cannot send
+# an Authorization header, so a token holder asks (with the header) for a short-lived link
+# signed for one job and one file; the key lives in this process only.
+
+# The link names the token it was made for (its row id; 0 without auth), so revoking the
+# token kills its links too; `exp` is bounded before it is read as a number.
+
+def _sign(key: bytes, job_id: str, path: str, exp: int, token_id: int) -> str:
+    return hmac.new(key, f"{job_id}\n{path}\n{exp}\n{token_id}".encode(), hashlib.sha256).hexdigest()
+
+
+def signed_url(key: bytes, job_id: str, path: str, token_id: int | None = None,
+               ttl_s: int = LINK_TTL_S) -> tuple[str, int]:
+    exp, tid = int(time.time()) + ttl_s, token_id or 0
+    return f"/api/jobs/{job_id}/files/{path}?exp={exp}&sig={tid}.{_sign(key, job_id, path, exp, tid)}", exp
+
+
+def _link_token(key: bytes, job_id: str, path: str, exp: str | None, sig: str | None) -> int | None:
+    """The token id a valid, unexpired link was signed for (0: no token), else None."""
+    if not exp or not sig or not (exp.isascii() and exp.isdigit()) or len(exp) > 12:
+        return None
+    tid, _, mac = sig.partition(".")
+    if not (tid.isascii() and tid.isdigit() and len(tid) <= 12 and str(int(tid)) == tid and len(mac) == 64):
+        return None
+    now = time.time()
+    if not now <= int(exp) <= now + LINK_TTL_S + 60:
+        return None
+    if not hmac.compare_digest(_sign(key, job_id, path, int(exp), int(tid)).encode(), mac.encode()):
+        return None
+    return int(tid)
+
+
+# -- bundle members ----------------------------------------------------------------------------
+
+def _member_name(path: str) -> str:
+    parts = path.split("/")
+    if not path or path.startswith("/") or any(p in ("", ".", "..") for p in parts) or "\\" in path:
+        raise ApiError(422, f"not a file path inside a bundle: {path!r}", field="path")
+    return path
+
+
+@functools.lru_cache(maxsize=16)
+def _members(bundle: str, mtime_ns: int) -> dict[str, int]:
+    with zipfile.ZipFile(bundle) as z:
+        return {i.filename: i.file_size for i in z.infolist() if not i.is_dir()}
+
+
+def _read_member(bundle: str, name: str) -> bytes:
+    with zipfile.ZipFile(bundle) as z:
+        return z.read(name)
+
+
+def _jsonable(x: Any) -> Any:
+    """numpy scalars to Python, NaN and infinities to None (JSON has neither)."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if hasattr(x, "tolist") and not isinstance(x, (str, bytes)):
+        return _jsonable(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _kind(name: str | None):
+    from app.jobs.registry import KINDS
+
+    return KINDS.get(name) if isinstance(name, str) else None
+
+
+def history_axis(kind, spec: dict) -> dict | None:
+    """What the history's columns mean for this job: x column, the objective with its
+    units and direction, and the series to draw. The kind says it (``history_axis``) or it
+    is read from ``history_columns``; None when the history has no objective."""
+    if kind is None:
+        return None
+    fn = getattr(kind, "history_axis", None)
+    if callable(fn):
+        return fn(spec)
+    cols = getattr(kind, "history_columns", {}) or {}
+    if "best" not in cols:
+        return None
+    series = {k: cols[k].split(";")[0] for k in ("best", "generation_best", "mean", "worst") if k in cols}
+    return {"x": kind.history_x, "x_note": cols.get(kind.history_x), "y": series["best"], "better": None, "series": series}
+
+
+def _panels_of_tables(tables: list[dict]) -> list[dict]:
+    return [{"id": f"table-{i}", "title": t.get("title", ""), "caption": " ".join(t.get("notes") or []),
+             "table": {"columns": list(t.get("columns", [])), "rows": [list(r) for r in t.get("rows", [])]}}
+            for i, t in enumerate(tables)]
+
+
+def _as_panel(item: dict, i: int) -> dict:
+    """A kind's view: a panel already, or a bare plotly figure dict ({"data", "layout"})."""
+    if "figure" in item or "table" in item:
+        return item
+    layout = dict(item.get("layout") or {})
+    title = layout.pop("title", None) or {}  # the card's heading says it; inside, it would sit on the legend
+    title = title.get("text", "") if isinstance(title, dict) else str(title)
+    return {"id": f"view-{i}", "title": title or f"Figure {i + 1}", "caption": "",
+            "figure": {"data": item.get("data", []), "layout": layout}}
+
+
+@functools.lru_cache(maxsize=16)
+def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
+    """What the kind shows of its result (headline rows, tables, plotly figures) plus the
+    shared evidence tables, computed once per bundle from result.json and the trajectories."""
+    import numpy as np
+
+    from app.jobs.viewkit import controls_panel, robustness_panel
+
+    with zipfile.ZipFile(bundle) as z:
+        names = [n for n in z.namelist() if not n.endswith("/")]
+        summary = json.loads(z.read("result.json"))
+        kind_name = json.loads(z.read("manifest.json")).get("kind") or summary.get("kind")
+        traces = {}
+        for n in names:
+            if n.startswith("trajectories/") and n.endswith(".npz"):
+                traces[n.removeprefix("trajectories/").removesuffix(".npz")] = np.load(io.BytesIO(z.read(n)))
+    kind = _kind(kind_name)
+    out: dict[str, Any] = {"kind": kind_name, "headline": [], "panels": [], "evidence": [], "describe": {}, "replay": []}
+    if kind is not None:
+        out["headline"] = list(kind.headline(summary))
+        out["panels"] = [_as_panel(v, i) for i, v in enumerate(kind.views(summary, traces))]
+        out["panels"] += _panels_of_tables(list(kind.summary_tables(summary)))
+        out["describe"] = dict(kind.bundle_rows(names))
+        replayable = [n for n, tr in traces.items() if "qpos" in tr.files]
+        out["replay"] = [{"name": t.name, "label": t.label, "color": t.color}
+                         for t in sorted(kind.replay_style(replayable), key=lambda t: t.order) if t.name in replayable]
+    out["evidence"] = [p for p in (controls_panel(summary), robustness_panel(summary)) if p]
+    return _jsonable(out)
+
+
+def _budget(spec) -> dict[str, Any]:
+    """The evaluation budget as the spec states it: one formula for the form and the compare page."""
+    formula = getattr(spec, "budget_formula", None)
+    if callable(formula):
+        formula = formula()
+    return {"evaluations": int(spec.evaluations_budget), "formula": formula}
+
+
+def _form_schema(spec_cls) -> dict[str, Any]:
+    """A Spec's JSON schema with every default in it, those made by a default factory too
+    (pydantic leaves them out): the form shows what an untouched field runs, e.g. the damage
+    a kind assumes when the spec names none."""
+    from pydantic.json_schema import GenerateJsonSchema
+
+    class WithFactoryDefaults(GenerateJsonSchema):
+        def get_default_value(self, schema):
+            factory = schema.get("default_factory")
+            if factory is not None and not schema.get("default_factory_takes_data"):
+                return factory()
+            return super().get_default_value(schema)
+
+    return spec_cls.model_json_schema(schema_generator=WithFactoryDefaults)
+
+
+@functools.lru_cache(maxsize=1)
+def _kinds() -> list[dict]:
+    from app.jobs.registry import KINDS
+
+    return [{"name": name, "title": kind.title, "paper": getattr(kind, "paper", ""),
+             "description": kind.title, "schema": _form_schema(kind.Spec),
+             "open": list(getattr(kind, "form_open", []) or [])} for name, kind in KINDS.items()]
+
+
+def render_page(path: Path, title: str, current: str | None) -> str:
+    """A page template with the shared head and header (``templates/_header.html``) put in
+    place of its first line's mark; the current page's nav link gets ``aria-current``."""
+    current_attr = ' aria-current="page"'
+    nav = "".join(f'<a href="{href}"{current_attr if href == current else ""}>{text}</a>' for href, text in NAV)
+    header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
+    return path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
+
+
+# -- routes ------------------------------------------------------------------------------------
+
+def install_dashboard(app: FastAPI) -> None:
+    """Pages at /, /jobs/{id}, /compare; static files; plotly and viser's client; the read
+    routes under /api/web and /api/jobs/{id}/files."""
+    link_key = secrets.token_bytes(32)
+    settings = app.state.settings
+
+    def page(name: str):
+        template, title, current = PAGES[name]
+        path = WEB_DIR / "templates" / template
+
+        async def handler():
+            if not path.is_file():
+                return HTMLResponse(f"<h1>gaitmend</h1><p>The dashboard files are missing ({path}); "
+                                    "the API is at <a href='/docs'>/docs</a>.</p>", status_code=503)
+            return HTMLResponse(render_page(path, title, current), headers={"Cache-Control": "no-cache"})
+
+        return handler
+
+    app.add_api_route("/", page("jobs"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/jobs/{job_id}", page("job"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/compare", page("compare"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/studies", page("studies"), include_in_schema=False, methods=["GET"])
+    app.add_api_route("/studies/{study_id}", page("studies"), include_in_schema=False, methods=["GET"])
+    if (WEB_DIR / "static").is_dir():
+        app.mount("/static", StaticFiles(directory=WEB_DIR / "static"), name="static")
+    app.mount("/viser", StaticFiles(directory=_viser_client(), html=True), name="viser-client")
+
+    plotly_js = _plotly_js()
+
+    @app.get("/vendor/plotly.min.js", include_in_schema=False)
+    async def plotly_min():
+        return FileResponse(plotly_js, media_type="text/javascript",
+                            headers={"Cache-Control": "public, max-age=86400"})
+
+    async def db(fn):
+        def call():
+            with session_scope(settings.db_url, readonly=True) as s:
+                return fn(s)
+
+        try:
+            return await run_in_threadpool(call)
+        except repo.NotFound as e:
+            raise ApiError(404, f"no job {str(e)!r}", field="id") from None
+        except repo.Conflict as e:  # an id prefix shared by several jobs
+            raise ApiError(409, str(e), field=e.field) from None
+
+    async def _link_principal(token_id: int | None) -> Principal | None:
+        if token_id is None:
+            return None
+        if token_id == 0:
+            return Principal(LOCAL_OWNER, restricted=False)
+        owner = await db(lambda s: repo.token_owner(s, token_id))
+        return Principal(owner, restricted=True, token_id=token_id) if owner else None  # revoked: dead link
+
+    async def bundle_of(job_id: str, who: Principal | None) -> str:
+        owner = who.owner_filter if who is not None else None
+        job = await db(lambda s: repo.get_job(s, job_id, owner))
+        if job.status != "succeeded" or not job.bundle_path:
+            raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
+        if not Path(job.bundle_path).is_file():
+            raise ApiError(410, f"the bundle file is gone from the data folder: {Path(job.bundle_path).name}")
+        return job.bundle_path
+
+    @app.get("/api/jobs/{job_id}/files", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def list_files(job_id: JobId, who: Principal = Depends(principal)) -> dict[str, int]:
+        """Members of the job's result bundle with their sizes in bytes."""
+        bundle = await bundle_of(job_id, who)
+        return _members(bundle, os.stat(bundle).st_mtime_ns)
+
+    @app.get("/api/jobs/{job_id}/file-link", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def file_link(job_id: JobId, path: Annotated[str, Query(max_length=200, pattern=MEMBER_PATTERN)],
+                        who: Principal = Depends(principal)):
+        """A link to one bundle member that works without the Authorization header for an
+        hour (for viser's ?playbackPath= and browser downloads)."""
+        name = _member_name(path)
+        bundle = await bundle_of(job_id, who)
+        if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
+            raise ApiError(404, f"the bundle has no file {name!r}", field="path")
+        url, exp = signed_url(link_key, job_id, name, who.token_id)
+        return {"url": url, "expires_at": exp}
+
+    @app.get("/api/jobs/{job_id}/files/{path:path}", tags=["dashboard"],
+             responses=ERROR_RESPONSES | {200: {"content": {"application/octet-stream": {}}}})
+    async def read_file(request: Request, job_id: JobId,
+                        path: Annotated[str, PathParam(max_length=200, pattern=MEMBER_PATTERN)], exp: str | None = None,
+                        sig: str | None = None):
+        """One member of the result bundle (replay.viser, trajectories/best.csv, plots/...).
+        Authorised like the other job routes, or by a link from /file-link."""
+        name = _member_name(path)
+        who = await _link_principal(_link_token(link_key, job_id, name, exp, sig)) or await principal(request)
+        bundle = await bundle_of(job_id, who)
+        if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
+            raise ApiError(404, f"the bundle has no file {name!r}", field="path")
+        data = await run_in_threadpool(_read_member, bundle, name)
+        media = {".json": "application/json", ".csv": "text/csv", ".svg": "image/svg+xml", ".png": "image/png",
+                 ".md": "text/markdown", ".xml": "application/xml"}.get(Path(name).suffix,
+                                                                          "application/octet-stream")
+        return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
+
+    @app.get("/api/web/kinds", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def kinds() -> list[dict]:
+        """Every registered job kind with the JSON schema of its spec (the form is built
+        from it) and the groups of fields the kind wants opened first."""
+        return await run_in_threadpool(_kinds)
+
+    @app.post("/api/web/check", tags=["dashboard"], responses=ERROR_RESPONSES,
+              openapi_extra={"requestBody": {"required": True, "content": {
+                  "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
+    async def check(request: Request, who: Principal = Depends(principal)):
+        """Validate a spec without queuing it: its evaluation budget (the spec's own
+        formula, the number the compare page shows) or the API's field errors."""
+        from app.api.routes.jobs import read_spec
+
+        spec = await read_spec(request, settings)  # the same edges as POST /api/jobs
+        return _budget(spec)
+
+    @app.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
+    async def views(job_id: JobId, who: Principal = Depends(principal)):
+        """What the job page shows, supplied by the job's kind: what its history columns mean
+        (units, which way is better), and once it succeeded its headline rows, tables and
+        plotly figures, the controls and robustness tables, and every bundle member with a
+        short-lived download link and what it is."""
+        owner = who.owner_filter if who is not None else None
+        job = await db(lambda s: repo.get_job(s, job_id, owner))
+        kind = _kind(job.kind)
+        conv = history_axis(kind, job.spec or {})
+        budget = None
+        try:
+            from app.jobs.registry import parse_spec
+
+            budget = _budget(parse_spec(job.spec))
+        except Exception:  # a spec stored by an older version: no budget shown, the rest still is
+            pass
+        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "budget": budget,
+                               "headline": [], "panels": [], "evidence": [], "files": [], "figures": [], "replay": []}
+        if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
+            bundle = job.bundle_path
+            mtime = os.stat(bundle).st_mtime_ns
+            v = await run_in_threadpool(_bundle_views, bundle, mtime)
+            members = _members(bundle, mtime)
+            files = [{"path": n, "size": size, "what": v["describe"].get(n, ""),
+                      "url": signed_url(link_key, job_id, n, who.token_id)[0]} for n, size in members.items()]
+            figs = {}
+            for f in files:
+                p = Path(f["path"])
+                if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
+                    figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
+            out.update({k: v[k] for k in ("headline", "panels", "evidence", "replay")}, files=files,
+                       figures=list(figs.values()))  # SVG, PNG or both: the contract asks for either
+        elif job.summary and kind is not None:
+            try:
+                out["headline"] = _jsonable(list(kind.headline(job.summary)))
+            except Exception:  # a failed job's partial summary: no headline
+                pass
+        return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})

@@ -1,0 +1,87 @@
+"""Dispatch overhead of a study: N tiny points through the real service (API in this
+process, one `gaitmend worker` process of concurrency 1, the configured broker and
+database). Overhead per point = (wall time from POST until the aggregate is complete
+- the sum of every job's own time (claim to finish, as the runner stored it)) / N, and
+also against the kinds' compute alone (summary.timing.wall_s).
+
+    python -m app.cli.study_bench BASE_SPEC.json --points 200
+(GAITMEND_* variables choose the deployment; the worker inherits them.)"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+
+def tiny_spec() -> dict:
+    """A job that runs in seconds, of a kind every installation has: the first registered
+    kind's smoke spec (the kind contract's)."""
+    from app.jobs.registry import KINDS
+
+    return next(k.smoke_spec() for k in KINDS.values() if k.smoke_spec() is not None)
+
+
+def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
+    """Run the study through a real worker and the API of this process; the figures."""
+    from fastapi.testclient import TestClient
+
+    from app.api import create_app
+    from app.core.settings import get_settings
+    from app.store.db import session_scope
+    from app.store.migrate import upgrade
+    from app.studies import store
+
+    settings = get_settings()
+    # the bench's points may exceed the per-owner queue limit (they are one owner's)
+    settings = settings.model_copy(update={"max_queued_per_owner": max(settings.max_queued_per_owner, points)})
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    upgrade(settings.db_url)
+    study = {"name": "bench", "base": base, "points": [{} for _ in range(points)],
+             "report": {"metrics": ["timing.wall_s"]}}
+    # points differ only by index: the same spec N times is N real, independent jobs
+    worker = subprocess.Popen([sys.executable, "-c", "from app.cli import main; main()", "worker", "--concurrency", "1"],
+                              env=os.environ | {"OMP_NUM_THREADS": "1"}, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        client = TestClient(create_app(settings))
+        time.sleep(8)  # the worker is up (imports) before the clock starts
+        log(f"{points} points through one worker ({settings.broker_url.split('@')[-1]}, "
+            f"{settings.db_url.split('@')[-1]}) ...")
+        t0 = time.monotonic()
+        r = client.post("/api/studies", json=study)
+        if r.status_code != 201:
+            raise RuntimeError(f"the bench study was refused: {r.status_code} {r.text}")
+        sid = r.json()["id"]
+        while (st := client.get(f"/api/studies/{sid}").json())["status"] in ("queued", "running"):
+            time.sleep(0.05)
+        wall = time.monotonic() - t0
+        with session_scope(settings.db_url, readonly=True) as s:
+            jobs = store.study_jobs(s, sid)
+            own = sum((j.finished_at - j.started_at).total_seconds() for j in jobs)
+            compute = sum(j.summary["timing"]["wall_s"] for j in jobs if j.summary)
+        n = len(jobs)
+        return {"points": n, "status": st["status"], "wall_s": round(wall, 2),
+                "jobs_claim_to_finish_s": round(own, 2), "kind_compute_s": round(compute, 2),
+                "overhead_per_point_ms": round(1000 * (wall - own) / n, 1),
+                "overhead_vs_kind_compute_ms": round(1000 * (wall - compute) / n, 1),
+                "target_ms": 50.0, "met": 1000 * (wall - own) / n <= 50.0}
+    finally:
+        os.killpg(worker.pid, 9)
+        worker.wait()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("base", nargs="?", help="base job spec JSON (make it tiny); default: a kind's smoke spec")
+    ap.add_argument("--points", type=int, default=200)
+    args = ap.parse_args()
+    base = json.load(open(args.base)) if args.base else tiny_spec()
+    print(json.dumps(dispatch_overhead(base, args.points, log=lambda s: print(s, file=sys.stderr))))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Leaf modules every layer may use: settings, asset paths, colours, plot helpers."""

@@ -1,0 +1,242 @@
+"""Batched evaluation of leg-tip gait candidates with native MuJoCo rollouts.
+
+A whole population is one ``mujoco.rollout`` call per chunk, a thread per core. Controls
+(PID position setpoints) for all candidates are computed at once: one gait period of tip
+targets (Eq. 3) and their IK, tiled over the run. The run is cut into chunks; after each
+chunk the candidates that fell are dropped, so a fallen candidate stops costing
+simulation time, and the survivors continue from their exact state.
+
+With ``variants`` (models of the same size signature and timestep, e.g. perturbed
+friction or masses), every candidate runs on each of them in the same rollout call, one
+model per batch element: ``evaluate_all`` returns metrics of shape (P, K).
+
+Fall test: the robot has fallen when its chassis, a coxa or a femur touches the ground
+(MuJoCo contact sensors ``*_ground``, see ``app.robots.hexapod.add_fall_sensors``), or
+when the body tilts past ``max_tilt_deg`` or sags below half its standing height.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from app.robots.ik import leg_ik
+from app.jobs.recovery.sequences import GaitSequence
+from app.jobs.recovery.trajectory import tip_positions
+from app.robots.catalog import RobotEntry
+from app.robots.hexapod import JOINT_NAMES
+from app.jobs.recovery.metrics import body_metrics, fallen
+from app.sim.perturb import same_signature
+from app.sim.threads import sim_threads
+
+_STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+@dataclasses.dataclass(frozen=True)
+class SimConfig:
+    duration_s: float = 10.0
+    settle_s: float = 0.5  # the robot stands on its first pose before the gait starts
+    chunk_s: float = 1.0
+    period_s: float = 0.6
+    stance_height_m: float = 0.10
+    step_depth_m: float = 0.0
+    max_tilt_deg: float = 60.0
+    nthread: int | None = None
+
+
+@dataclasses.dataclass
+class EvalResult:
+    metrics: dict[str, np.ndarray]
+    sim_steps: int  # steps actually simulated (fallen candidates stop early)
+
+
+class GaitEvaluator:
+    """Evaluates tip-trajectory parameter vectors for one (damaged) robot and sequence."""
+
+    def __init__(self, robot: RobotEntry, model: mujoco.MjModel, seq: GaitSequence, cfg: SimConfig,
+                 variants: list[mujoco.MjModel] | None = None):
+        self.robot, self.model, self.seq, self.cfg = robot, model, seq, cfg
+        self.variants = list(variants) if variants else [model]
+        for v in self.variants:
+            if not same_signature(v, model):
+                raise ValueError("variants must share the model's sizes and timestep (one rollout call)")
+        self.legs = seq.legs
+        self.dt = model.opt.timestep
+        self.n_settle = int(round(cfg.settle_s / self.dt))
+        self.n_walk = int(round(cfg.duration_s / self.dt))
+        self.n_period = int(round(cfg.period_s / self.dt))
+        self.nstep = self.n_settle + self.n_walk
+        self.nthread = cfg.nthread or sim_threads()
+        self._datas = [mujoco.MjData(model) for _ in range(self.nthread)]
+        self._runner = rollout.Rollout(nthread=self.nthread) if self.nthread > 1 else None
+
+        geom = robot.geometry
+        self.sides = np.array([geom.leg(l).side for l in self.legs])
+        # ctrl column of each (leg, joint), or -1 for a joint without an actuator (locked).
+        cols = np.full((len(self.legs), 3), -1)
+        for a in range(model.nu):
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
+            leg_s, joint_s, _ = name.split("_")
+            leg = int(leg_s[3:])
+            if leg in self.legs:
+                cols[self.legs.index(leg), JOINT_NAMES.index(joint_s)] = a
+        self.ctrl_cols = cols
+        # qpos address of each actuated joint, to start every candidate in its first pose.
+        self.qpos_adr = np.array([model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
+        d = mujoco.MjData(model)
+        self._nstate = mujoco.mj_stateSize(model, _STATE)
+        self._state0 = np.empty(self._nstate)
+        mujoco.mj_getState(model, d, self._state0, _STATE)
+        self._qpos_off = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)
+        self.torso_height0 = cfg.stance_height_m + geom.foot_radius + 0.002
+        self.min_height = 0.5 * (cfg.stance_height_m + geom.foot_radius)
+        self._sens = {n: (model.sensor_adr[i], model.sensor_dim[i])
+                      for i in range(model.nsensor)
+                      for n in [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)]}
+        self._ground = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                                 if model.sensor_type[i] == mujoco.mjtSensor.mjSENS_CONTACT
+                                 and mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_ground")],
+                                dtype=int)
+        self._feet = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                               if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_foot_touch")],
+                              dtype=int)
+
+    # -- controls ---------------------------------------------------------------------
+    def joint_targets(self, params: np.ndarray) -> np.ndarray:
+        """Joint setpoints (P, n_period, nlegs, 3) over one gait period."""
+        t = np.arange(self.n_period) * self.dt
+        tips = tip_positions(params, self.legs, self.seq, t, self.n_period * self.dt,
+                             self.cfg.stance_height_m, self.cfg.step_depth_m)
+        tips[..., 1] *= self.sides  # hip frame (y forward) -> leg frame (left legs turned 180 deg)
+        return leg_ik(tips, self.robot.geometry.link_lengths)
+
+    def controls(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Control sequences (P, nstep, nu) and initial states (P, nstate)."""
+        q = self.joint_targets(params)
+        P = q.shape[0]
+        nu = self.model.nu
+        period = np.empty((P, self.n_period, nu))
+        mask = self.ctrl_cols >= 0
+        period[:, :, self.ctrl_cols[mask]] = q[:, :, mask]
+        reps = math.ceil(self.n_walk / self.n_period)
+        walk = np.tile(period, (1, reps, 1))[:, : self.n_walk]
+        ctrl = np.concatenate([np.repeat(period[:, :1], self.n_settle, axis=1), walk], axis=1)
+
+        state = np.repeat(self._state0[None], P, axis=0)
+        qpos = state[:, self._qpos_off : self._qpos_off + self.model.nq]
+        qpos[:, 0:3] = (0.0, 0.0, self.torso_height0)
+        qpos[:, 3:7] = (1.0, 0.0, 0.0, 0.0)
+        qpos[:, self.qpos_adr] = period[:, 0]
+        return ctrl, state
+
+    # -- simulation ---------------------------------------------------------------------
+    def _rollout(self, models, state: np.ndarray, ctrl: np.ndarray):
+        m = models[0] if len(self.variants) == 1 else models
+        if self._runner is not None:
+            return self._runner.rollout(m, self._datas, state, ctrl)
+        return rollout.rollout(m, self._datas[0], state, ctrl)
+
+    def simulate(self, params: np.ndarray, record: bool = False):
+        """Runs every candidate on every variant (batch element b = candidate b // K on
+        variant b % K); returns (sensordata (B, T, ns), alive-until step (B,), states
+        (B, T, nstate) if record else None, steps simulated)."""
+        ctrl, state = self.controls(params)
+        K = len(self.variants)
+        if K > 1:
+            ctrl, state = np.repeat(ctrl, K, axis=0), np.repeat(state, K, axis=0)
+        models = np.empty(ctrl.shape[0], dtype=object)
+        models[:] = self.variants * (ctrl.shape[0] // K)
+        P = ctrl.shape[0]
+        sens = np.zeros((P, self.nstep, self.model.nsensordata))
+        states = np.zeros((P, self.nstep, self._nstate)) if record else None
+        end = np.full(P, self.nstep)
+        alive = np.arange(P)
+        chunk = max(1, int(round(self.cfg.chunk_s / self.dt)))
+        steps = 0
+        for start in range(0, self.nstep, chunk):
+            if alive.size == 0:
+                break
+            stop = min(start + chunk, self.nstep)
+            st, sd = self._rollout(list(models[alive]), state[alive], ctrl[alive, start:stop])
+            sens[alive, start:stop] = sd
+            if record:
+                states[alive, start:stop] = st
+            steps += alive.size * (stop - start)
+            state[alive] = st[:, -1]
+            fell = self._fell(sd)
+            end[alive[fell]] = stop
+            alive = alive[~fell]
+        return sens, end, states, steps
+
+    def _sensor(self, sens: np.ndarray, name: str) -> np.ndarray:
+        adr, dim = self._sens[name]
+        return sens[..., adr : adr + dim]
+
+    def _fell(self, sens: np.ndarray) -> np.ndarray:
+        pos = self._sensor(sens, "torso_pos")
+        ground = sens[..., self._ground] if self._ground.size else None
+        return fallen(pos[..., 2], self._sensor(sens, "torso_quat"), self.min_height,
+                      math.radians(self.cfg.max_tilt_deg), ground)
+
+    def evaluate_all(self, params: np.ndarray) -> EvalResult:
+        """Metrics of shape (P, K): every candidate on every variant."""
+        params = np.atleast_2d(params)
+        sens, end, _, steps = self.simulate(params)
+        fell = end < self.nstep
+        walk = sens[:, self.n_settle - 1 :]
+        feet = walk[..., self._feet] if self._feet.size else None
+        m = body_metrics(self._sensor(walk, "com_pos"), self._sensor(walk, "torso_quat"), fell, feet)
+        K = len(self.variants)
+        return EvalResult(metrics={k: v.reshape(-1, K) for k, v in m.items()}, sim_steps=steps)
+
+    def evaluate(self, params: np.ndarray) -> EvalResult:
+        """Metrics of shape (P,) on the single model."""
+        if len(self.variants) != 1:
+            raise ValueError("this evaluator has several variants: use evaluate_all")
+        r = self.evaluate_all(params)
+        return EvalResult(metrics={k: v[:, 0] for k, v in r.metrics.items()}, sim_steps=r.sim_steps)
+
+    def trace(self, params: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-step record of one candidate (on the first variant) for plots, bundles and replay."""
+        if len(self.variants) != 1:
+            raise ValueError("trace runs on a single model")
+        params = np.atleast_2d(params)[:1]
+        sens, end, states, _ = self.simulate(params, record=True)
+        m = self.model
+        n = int(end[0])
+        qpos = states[0, :n, self._qpos_off : self._qpos_off + m.nq]
+        from app.jobs.recovery.metrics import euler_zyx
+
+        quat = self._sensor(sens[0, :n], "torso_quat")
+        ang = np.degrees(euler_zyx(quat))
+        d = mujoco.MjData(m)
+        foot_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"leg{l}_tip") for l in self.legs]
+        feet = np.empty((n, len(self.legs), 3))
+        for i in range(n):  # kinematics only, for one recorded trajectory (not a search path)
+            d.qpos[:] = qpos[i]
+            mujoco.mj_kinematics(m, d)
+            feet[i] = d.site_xpos[foot_ids]
+        contact = feet[..., 2] < self.robot.geometry.foot_radius + 0.003
+        t = np.arange(n) * self.dt - self.cfg.settle_s + self.dt
+        return {
+            "time_s": t,
+            "com_m": self._sensor(sens[0, :n], "com_pos"),
+            "torso_pos_m": self._sensor(sens[0, :n], "torso_pos"),
+            "torso_quat": quat,
+            "yaw_deg": np.degrees(np.unwrap(np.radians(ang[:, 0]))),
+            "roll_deg": ang[:, 1],
+            "pitch_deg": ang[:, 2],
+            "qpos": qpos,
+            "feet_m": feet,
+            "foot_contact": contact,
+            "legs": np.array(self.legs),
+        }
+
+    def close(self) -> None:
+        if self._runner is not None:
+            self._runner.close()
+            self._runner = None

@@ -1,0 +1,79 @@
+"""Gait candidates scored on several (perturbed) worlds at once.
+
+``MultiModelEvaluator`` runs every candidate on every model: models that share a size
+signature and timestep (friction, masses, payload edits) go into one native rollout call,
+one model per batch element; a model with another timestep or structure (finer step, rough
+floor) gets its own call. Used twice by the recovery job: the robust search (each
+candidate's fitness is the mean or the worst over the models) and the robustness block
+(the final answer re-simulated under every standard perturbation).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from app.jobs.recovery.sequences import GaitSequence
+from app.robots.catalog import RobotEntry
+from app.jobs.recovery.evaluate import EvalResult, GaitEvaluator, SimConfig
+from app.jobs.recovery.metrics import fitness
+from app.sim.perturb import Perturbation, perturbed_model, same_signature
+
+AGGREGATES = ("mean", "worst")
+
+
+class MultiModelEvaluator:
+    def __init__(self, robot: RobotEntry, models: Sequence[mujoco.MjModel], seq: GaitSequence, cfg: SimConfig):
+        self.models = list(models)
+        groups: list[list[int]] = []
+        for i, m in enumerate(self.models):
+            for g in groups:
+                if same_signature(self.models[g[0]], m):
+                    g.append(i)
+                    break
+            else:
+                groups.append([i])
+        self.groups = groups
+        self.evaluators = [GaitEvaluator(robot, self.models[g[0]], seq, cfg, variants=[self.models[i] for i in g])
+                           for g in groups]
+
+    def evaluate_all(self, params: np.ndarray) -> EvalResult:
+        """Metrics (P, K) in the order of ``models``."""
+        params = np.atleast_2d(params)
+        out: dict[str, np.ndarray] = {}
+        steps = 0
+        for g, ev in zip(self.groups, self.evaluators):
+            r = ev.evaluate_all(params)
+            steps += r.sim_steps
+            for k, v in r.metrics.items():
+                if k not in out:
+                    out[k] = np.empty((params.shape[0], len(self.models)), dtype=v.dtype)
+                out[k][:, g] = v
+        return EvalResult(metrics=out, sim_steps=steps)
+
+    def close(self) -> None:
+        for ev in self.evaluators:
+            ev.close()
+
+
+def aggregate(f: np.ndarray, how: str) -> np.ndarray:
+    """(P, K) fitness over models -> (P,)."""
+    if how == "mean":
+        return f.mean(axis=1)
+    if how == "worst":
+        return f.min(axis=1)
+    raise ValueError(f"aggregate must be one of {AGGREGATES}, got {how!r}")
+
+
+def robust_fitness(metrics: dict[str, np.ndarray], weights, units: str, how: str) -> tuple[np.ndarray, np.ndarray]:
+    """(aggregated (P,), per model (P, K)) Eq. 5 fitness."""
+    P, K = metrics["fell"].shape
+    flat = {k: v.reshape(-1) for k, v in metrics.items()}
+    f = fitness(flat, weights, units).reshape(P, K)
+    return aggregate(f, how), f
+
+
+def case_models(mspec: mujoco.MjSpec, model: mujoco.MjModel, cases: Sequence[Perturbation]) -> list[mujoco.MjModel]:
+    return [perturbed_model(mspec, c, model) for c in cases]

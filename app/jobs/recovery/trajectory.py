@@ -1,0 +1,72 @@
+"""Leg-tip trajectories of paper 000, Eq. 3, batched over candidates.
+
+Eq. 3 indexes one gait period by samples k = 1..N_g, swing first. With the phase
+phi = (k - 1) / N_g in [0, 1) the same curves read, for a leg whose swing starts at
+phase offset s / sigma:
+
+    swing   (u = sigma*phi in [0, 1)):           y = y0 - L_sl/2 cos(pi u)
+                                                 z = z0 - H0 + L_sh/2 (1 - cos(2 pi u))
+    support (v = (phi - 1/sigma)/(1 - 1/sigma)): y = y0 + L_sl/2 cos(pi v)
+                                                 z = z0 - H0 + L_sd/2 (1 - cos(2 pi v))
+
+which is exactly Eq. 3 at every sample but does not need N_g divisible by sigma.
+Positions are in a leg's hip frame: origin at the coxa axis, x outward, y forward, z up.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.jobs.recovery.sequences import GaitSequence
+
+
+def param_names(legs: list[int]) -> list[str]:
+    """Eq. 4 for the functional legs: [y0_i..., x0_i..., L_sl, L_sh]."""
+    return [f"y0_leg{l}" for l in legs] + [f"x0_leg{l}" for l in legs] + ["step_length", "step_height"]
+
+
+def leg_phase(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int]) -> np.ndarray:
+    """Phase (T, nlegs) in [0, 1) of each leg's own cycle, 0 = start of its swing."""
+    offsets = np.array([seq.swing_phase[l] / seq.sigma for l in legs])
+    return np.mod(t[:, None] / period - offsets[None, :], 1.0)
+
+
+def tip_positions(
+    params: np.ndarray,
+    legs: list[int],
+    seq: GaitSequence,
+    t: np.ndarray,
+    period: float,
+    stance_height: float,
+    step_depth: float = 0.0,
+    z0: float = 0.0,
+) -> np.ndarray:
+    """Tip targets (P, T, nlegs, 3) for candidates params (P, 2*nlegs + 2)."""
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    n = len(legs)
+    if params.shape[1] != 2 * n + 2:
+        raise ValueError(f"params has {params.shape[1]} columns, expected {2 * n + 2} for legs {legs}")
+    y0 = params[:, None, :n]  # (P, 1, n)
+    x0 = params[:, None, n : 2 * n]
+    step_len = params[:, None, None, 2 * n]  # (P, 1, 1)
+    step_h = params[:, None, None, 2 * n + 1]
+
+    sigma = seq.sigma
+    phi = leg_phase(t, period, seq, legs)[None]  # (1, T, n)
+    swing = phi < 1.0 / sigma
+    u = phi * sigma
+    v = (phi - 1.0 / sigma) / (1.0 - 1.0 / sigma)
+    y_rel = np.where(swing, -np.cos(np.pi * u), np.cos(np.pi * v))  # in [-1, 1]
+    z_rel = np.where(swing, 1.0 - np.cos(2 * np.pi * u), 0.0)
+    z_sup = np.where(swing, 0.0, 1.0 - np.cos(2 * np.pi * v))
+
+    out = np.empty((params.shape[0], t.shape[0], n, 3))
+    out[..., 0] = x0
+    out[..., 1] = y0 + 0.5 * step_len * y_rel
+    out[..., 2] = z0 - stance_height + 0.5 * step_h * z_rel + 0.5 * step_depth * z_sup
+    return out
+
+
+def swing_mask(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int]) -> np.ndarray:
+    """(T, nlegs) True while a leg swings."""
+    return leg_phase(t, period, seq, legs) < 1.0 / seq.sigma

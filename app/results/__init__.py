@@ -1,0 +1,1 @@
+"""Writing a finished job: the bundle, the replay recording, provenance."""

@@ -1,0 +1,274 @@
+"""3D replay of simulated trajectories with viser.
+
+The robot's geometry is taken from the MuJoCo model (one viser frame per body, its geoms
+as primitives under it) and sent once; every replay frame then only moves the body
+frames (poses, not meshes). ``record`` writes a ``.viser`` scene recording that viser's
+own client plays back with ``?playbackPath=``; ``serve_live`` opens a live server with a
+timeline slider, play/pause, speed and a recovered/baseline toggle.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import socket
+import threading
+from collections.abc import Mapping
+
+import mujoco
+import numpy as np
+
+from app.core.colors import rgb
+from app.jobs.base import ReplayTrack
+
+_G = mujoco.mjtGeom
+
+
+def replay_tracks(kind, names: list[str]) -> list[ReplayTrack]:
+    """The traces to replay, in the kind's order, with its labels and colour roles (the
+    colours of app/core/colors.py, as in the plots); ``kind`` None: every trace as it comes."""
+    if kind is None:
+        return [ReplayTrack(n, n, None, i) for i, n in enumerate(names)]
+    tracks = [t for t in kind.replay_style(list(names)) if t.name in names]
+    return sorted(tracks, key=lambda t: t.order)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _rgb(rgba) -> tuple[int, int, int]:
+    return tuple(int(255 * c) for c in rgba[:3])
+
+
+def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int, object]:
+    """One frame per body (world excluded) with its geoms; returns body id -> frame handle."""
+    frames = {}
+    for b in range(1, model.nbody):
+        frames[b] = scene.add_frame(f"{prefix}/body{b}", show_axes=False)
+    for g in range(model.ngeom):
+        b = int(model.geom_bodyid[g])
+        if b == 0 and int(model.geom_type[g]) == _G.mjGEOM_PLANE:
+            continue  # the ground is drawn as a grid
+        name = f"{prefix}/body{b}/geom{g}" if b else f"{prefix}/static/geom{g}"
+        t = int(model.geom_type[g])
+        size = model.geom_size[g]
+        pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
+        color = tint if tint is not None and t != _G.mjGEOM_SPHERE else _rgb(model.geom_rgba[g])
+        if t == _G.mjGEOM_BOX:
+            scene.add_box(name, color=color, dimensions=tuple(2 * size), position=pos, wxyz=quat)
+        elif t == _G.mjGEOM_SPHERE:
+            scene.add_icosphere(name, radius=float(size[0]), color=color, subdivisions=2, position=pos, wxyz=quat)
+        elif t in (_G.mjGEOM_CAPSULE, _G.mjGEOM_CYLINDER):
+            # MuJoCo's capsule/cylinder axis is the geom's local z, as is viser's cylinder.
+            scene.add_cylinder(name, radius=float(size[0]), height=float(2 * size[1]), color=color,
+                               radial_segments=12, position=pos, wxyz=quat)
+            if t == _G.mjGEOM_CAPSULE:  # caps are children: positions in the cylinder's frame
+                for k, sgn in enumerate((-1, 1)):
+                    scene.add_icosphere(f"{name}/cap{k}", radius=float(size[0]), color=color, subdivisions=1,
+                                        position=(0.0, 0.0, sgn * float(size[1])))
+        elif t == _G.mjGEOM_ELLIPSOID:
+            scene.add_icosphere(name, radius=1.0, scale=tuple(size), color=color, subdivisions=2, position=pos, wxyz=quat)
+        elif t == _G.mjGEOM_MESH:
+            m = int(model.geom_dataid[g])
+            va, vn = model.mesh_vertadr[m], model.mesh_vertnum[m]
+            fa, fn = model.mesh_faceadr[m], model.mesh_facenum[m]
+            scene.add_mesh_simple(name, vertices=model.mesh_vert[va : va + vn], faces=model.mesh_face[fa : fa + fn],
+                                  color=color, position=pos, wxyz=quat)
+    return frames
+
+
+def _root_body(model: mujoco.MjModel) -> int:
+    """The robot's floating base: the body of the first free joint (else body 1)."""
+    free = np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
+    return int(model.jnt_bodyid[free[0]]) if free.size else 1
+
+
+def _robot_size(model: mujoco.MjModel, root: int, xpos: np.ndarray, xquat: np.ndarray) -> float:
+    """Radius of the robot (its base's subtree) at the first frame."""
+    sub = [b for b in range(model.nbody) if b == root or _descends(model, b, root)]
+    return max(0.1, float(np.linalg.norm(xpos[0, sub] - xpos[0, root], axis=1).max()))
+
+
+def _descends(model: mujoco.MjModel, b: int, root: int) -> bool:
+    while b > 0:
+        b = int(model.body_parentid[b])
+        if b == root:
+            return True
+    return False
+
+
+def body_poses(model: mujoco.MjModel, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World poses (T, nbody, 3) and (T, nbody, 4) of every body along a qpos trajectory."""
+    data = mujoco.MjData(model)
+    T = qpos.shape[0]
+    xpos = np.empty((T, model.nbody, 3))
+    xquat = np.empty((T, model.nbody, 4))
+    for i in range(T):  # forward kinematics of already simulated frames, at replay rate
+        data.qpos[:] = qpos[i]
+        mujoco.mj_kinematics(model, data)
+        xpos[i], xquat[i] = data.xpos, data.xquat
+    return xpos, xquat
+
+
+def _frames(traces: Mapping[str, Mapping[str, np.ndarray]], fps: float):
+    """Common replay clock: sample indices per trace at `fps` from time 0 (gait start)."""
+    out = {}
+    for name, tr in traces.items():
+        t = np.asarray(tr["time_s"])
+        clock = np.arange(max(t[0], -0.5), t[-1] + 1e-9, 1.0 / fps)
+        out[name] = np.clip(np.searchsorted(t, clock), 0, len(t) - 1)
+    n = max(len(v) for v in out.values())
+    return {k: np.pad(v, (0, n - len(v)), mode="edge") for k, v in out.items()}, n
+
+
+class _Scene:
+    """Robots of several traces side by side (the second and later shifted along -x),
+    ground, body paths, foot contacts. Sizes scale with the robot (a JetHexa is 0.3 m, a
+    heavy-duty hexapod 5 m)."""
+
+    def __init__(self, server, model: mujoco.MjModel, traces, fps: float, tracks: list[ReplayTrack] | None = None):
+        self.server, self.model = server, model
+        scene = server.scene
+        scene.set_up_direction("+z")
+        idx, self.n = _frames(traces, fps)
+        self.fps = fps
+        poses = {name: body_poses(model, np.asarray(tr["qpos"])[idx[name]]) for name, tr in traces.items()}
+        root = _root_body(model)
+        size = _robot_size(model, root, *next(iter(poses.values())))
+        spacing = 3.2 * size
+        start = next(iter(poses.values()))[0][0, root]
+        self._frame_camera(server, poses, root, size, spacing)
+        row = spacing * (len(traces) - 1)  # the robots stand side by side along -x: the ground spans them all
+        scene.add_grid("/ground", width=16 * size + row, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
+                       position=(start[0] - row / 2, start[1] + 4 * size, 0.0))
+        self.robots = {}
+        style = {t.name: t for t in (tracks or replay_tracks(None, list(traces)))}
+        for k, (name, tr) in enumerate(traces.items()):
+            track = style.get(name, ReplayTrack(name, name, None, k))
+            color = rgb(track.color)
+            offset = np.array([-spacing * k, 0.0, 0.0])
+            node = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
+            frames = add_model(scene, f"/{name}", model, tint=color)
+            xpos, xquat = poses[name]
+            path = xpos[:, root, :2]
+            pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
+            pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
+            scene.add_line_segments(f"/{name}/path", points=pts, colors=color, thickness=0.015 * size)
+            # the label rides above the robot (show() moves it), named as the page names the trace
+            label = scene.add_label(f"/{name}/label", track.label, position=tuple(xpos[0, root] + np.array([0.0, 0.0, 1.3 * size])))
+            feet = self._feet(tr, idx[name])
+            contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
+                                             point_size=0.1 * size, point_shape="circle")
+            self.robots[name] = {"root": node, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
+                                 "contacts": contacts, "lift": 0.01 * size, "label": label, "root_body": root,
+                                 "label_up": 1.3 * size}
+        self.show(0)
+
+    @staticmethod
+    def _frame_camera(server, poses, root: int, size: float, spacing: float) -> None:
+        """Point the camera at the box the robots' bases sweep in the first tenth of the
+        replay (robots side by side, spaced along -x), from a distance at which that box, plus
+        a robot's size around it, fills the view: the robots are what one sees, not the grid.
+        (A plan that walks far would shrink everything if its whole path were framed.)"""
+        pts = np.concatenate([xpos[: max(1, len(xpos) // 10), root] + np.array([-spacing * k, 0.0, 0.0])
+                              for k, (xpos, _) in enumerate(poses.values())])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        centre = 0.5 * (lo + hi)
+        radius = 0.5 * float(np.linalg.norm((hi - lo)[:2])) + 1.2 * size
+        fov = 75.0 * np.pi / 180.0  # viser's default vertical field of view
+        dist = radius / np.tan(fov / 2) * 1.05
+        view = np.array([0.55, -0.65, 0.52])
+        server.initial_camera.look_at = tuple(centre)
+        server.initial_camera.position = tuple(centre + dist * view / np.linalg.norm(view))
+
+    @staticmethod
+    def _feet(tr, idx):
+        if "feet_m" not in tr or "foot_contact" not in tr:
+            return None
+        return np.asarray(tr["feet_m"])[idx], np.asarray(tr["foot_contact"])[idx]
+
+    def show(self, i: int) -> None:
+        for r in self.robots.values():
+            r["label"].position = tuple(r["xpos"][i, r["root_body"]] + np.array([0.0, 0.0, r["label_up"]]))
+            for b, h in r["frames"].items():
+                h.position = r["xpos"][i, b]
+                h.wxyz = r["xquat"][i, b]
+            if r["feet"] is not None:
+                feet, on = r["feet"][0][i], r["feet"][1][i]
+                pts = feet[on] if on.any() else np.zeros((0, 3))
+                pts = pts.copy()
+                if len(pts):
+                    pts[:, 2] += r["lift"]
+                r["contacts"].points = pts if len(pts) else np.full((1, 3), np.nan)
+
+
+def record(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]], fps: float = 25.0,
+           tracks: list[ReplayTrack] | None = None) -> bytes:
+    """A .viser scene recording of the traces playing in real time."""
+    import viser
+
+    quiet = io.StringIO()  # viser prints a banner even with verbose=False
+    with contextlib.redirect_stdout(quiet):
+        server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
+    try:
+        sc = _Scene(server, model, traces, fps, tracks)
+        ser = server.get_scene_serializer()
+        for i in range(sc.n):
+            sc.show(i)
+            ser.insert_sleep(1.0 / fps)
+        return ser.serialize()
+    finally:
+        with contextlib.redirect_stdout(quiet):
+            server.stop()
+
+
+def serve_live(model: mujoco.MjModel, traces, host: str = "127.0.0.1", port: int = 8081, fps: float = 25.0,
+               stop: threading.Event | None = None, tracks: list[ReplayTrack] | None = None):
+    """Live viser server: timeline slider, play/pause, speed, recovered/baseline toggle.
+    Blocks until ``stop`` is set (or forever)."""
+    import viser
+
+    server = viser.ViserServer(host=host, port=port, verbose=False)
+    sc = _Scene(server, model, traces, fps, tracks)
+    gui = server.gui
+    # Integer frames: the client drops the connection on float slider values pushed by
+    # the server at replay rate (viser 1.1.1), so time is shown as text beside it.
+    frame = gui.add_slider(f"frame ({fps:g}/s)", min=0, max=sc.n - 1, step=1, initial_value=0)
+    clock = gui.add_text("time (s)", initial_value="0.00", disabled=True)
+    playing = gui.add_checkbox("play", initial_value=True)
+    speed = gui.add_dropdown("speed", options=("0.25x", "0.5x", "1x", "2x", "4x"), initial_value="1x")
+    labels = {t.name: t.label for t in (tracks or [])}
+    toggles = {name: gui.add_checkbox(f"show {labels.get(name, name)}", initial_value=True) for name in sc.robots}
+
+    state = {"i": 0, "pos": 0.0, "own": False}
+
+    @frame.on_update
+    def _(_event) -> None:
+        if not state["own"]:  # the user dragged the slider
+            state["i"] = int(frame.value)
+            state["pos"] = float(state["i"])
+            sc.show(state["i"])
+            clock.value = f"{state['i'] / fps:.2f}"
+
+    for name, cb in toggles.items():
+        def _toggle(_event, name=name, cb=cb) -> None:
+            sc.robots[name]["root"].visible = cb.value  # hides the whole subtree
+        cb.on_update(_toggle)
+
+    stop = stop or threading.Event()
+    while not stop.wait(1.0 / fps):
+        if not playing.value:
+            continue
+        state["pos"] = (state["pos"] + float(speed.value[:-1])) % sc.n  # frames advance by the speed factor
+        state["i"] = int(state["pos"])
+        with server.atomic():
+            sc.show(state["i"])
+            state["own"] = True
+            frame.value = state["i"]
+            state["own"] = False
+            clock.value = f"{state['i'] / fps:.2f}"
+    server.stop()
+    return server
