@@ -20,10 +20,11 @@ RANK = {"core": 0, "app": 0, "robots": 1, "optim": 2, "sim": 2, "jobs": 3, "jobs
 LEAVES = {"core", "app"}  # import nothing of the ranked packages but themselves
 SCIENCE = ("robots", "optim", "sim", "jobs", "jobs.<kind>")
 SERVICE_LIBS = ("fastapi", "sqlalchemy", "celery", "starlette", "uvicorn", "alembic", "redis", "kombu")
-# Shared by declaration: the robot-model layer (every kind asks it for its robot, and
-# uploaded robots will be entries of the same form) and the optimisers (one ask/tell
-# interface any kind may pick from), even where one kind is today's only user.
-DECLARED_SHARED = ("app.robots", "app.optim")
+# Shared by declaration, even where one kind is today's only user: the robot-model layer
+# (every kind asks it for its robot, and uploaded robots will be entries of the same
+# form), the optimisers (one ask/tell interface any kind may pick from) and the
+# perturbation of a compiled MuJoCo world (any kind's robustness re-runs and robust search).
+DECLARED_SHARED = ("app.robots", "app.optim", "app.sim.perturb")
 
 
 def _group(mod: str) -> str | None:

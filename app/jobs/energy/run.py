@@ -14,7 +14,8 @@ from app.jobs.energy.dynamics.gait import Gait
 from app.jobs.energy.dynamics.physics import PhysicsConfig, reference_from, simulate
 from app.jobs.energy.dynamics.pipeline import PERIODICITY_TOL, evaluate
 from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.loop import Generation, Phases, run_search
+from app.jobs.evidence import Phases
+from app.jobs.loop import Generation, run_search
 from app.jobs.energy.problem import (PopulationEvaluator, decode, encode_nominal, eval_config, geometry,
                                      space, task_of)
 from app.jobs.energy.spec import ROBUSTNESS_CASES, EnergySpec

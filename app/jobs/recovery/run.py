@@ -9,7 +9,8 @@ import numpy as np
 from app.jobs.recovery.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.trajectory import param_names
 from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.loop import Generation, Phases, run_search
+from app.jobs.evidence import Phases
+from app.jobs.loop import Generation, run_search
 from app.jobs.recovery.spec import RecoverySpec
 from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
