@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from app.core.colors import PALETTE, ROLES
+from app.jobs.evidence import CaseResult, ControlRow, Robustness, controls_of, robustness_of
 
 # Roles from the one colour table: the method's answer and its control keep one colour
 # everywhere (plots, tables, replay), so "recovered" never swaps colour with "baseline".
@@ -143,12 +144,10 @@ def swing_intervals(t: np.ndarray, contact: np.ndarray) -> list[tuple[float, flo
 
 # -- the shared evidence: controls and robustness, as every kind's summary carries them --------
 
-def _metric_cols(items: list[dict]) -> list[str]:
+def _metric_cols(items: list[ControlRow] | list[CaseResult]) -> list[str]:
     cols: list[str] = []
     for it in items:
-        for k in (it.get("metrics") or {}):
-            if k not in cols:
-                cols.append(k)
+        cols += [k for k in it.metrics if k not in cols]
     return cols
 
 
@@ -169,39 +168,40 @@ def _metric_cell(v: Any) -> Any:
 
 
 def controls_panel(summary: dict) -> dict | None:
-    items = summary.get("controls")
-    if not isinstance(items, list) or not items:
+    items = controls_of(summary) if isinstance(summary.get("controls"), list) else []
+    if not items:
         return None
     cols = _metric_cols(items)
-    rows = [[cell(it.get("label") or _nice(str(it.get("name", ""))), note=it.get("note")), it.get("evaluations")]
-            + [_metric_cell((it.get("metrics") or {}).get(c)) for c in cols]
-            + [_met_cell(it.get("target_met"))] for it in items]
+    rows = [[cell(it.label or _nice(it.name), note=it.note or None), it.evaluations]
+            + [_metric_cell(it.metrics.get(c)) for c in cols] + [_met_cell(it.target_met)] for it in items]
     cap = ("Controls at the same evaluation budget as the method unless the note says otherwise: the baseline, a random "
            "search over the same space, and the method with each part switched off. They measure how much of the result "
            "the method earns.")
     return panel("controls", "Controls", cap,
-                     table=table(["control (and how it was run)", "evaluations"] + [_nice(c) for c in cols] + ["target"], rows))
+                 table=table(["control (and how it was run)", "evaluations"] + [_nice(c) for c in cols] + ["target"], rows))
+
+
+def _robustness_caption(rob: Robustness) -> str:
+    parts = [f"{rob.met} of {rob.total} cases meet the target"]
+    groups = [(g, *rob.count(g)) for g in ("physical", "numerics")]
+    if all(n for _, _, n in groups):
+        parts.append(", ".join(f"{met} of {n} {g}" for g, met, n in groups))
+    return (f"The final answer re-simulated under changed conditions (finer timestep, perturbed friction and masses, ...). "
+            f"Target checked: {rob.target or '–'}. " + "; ".join(parts) + ".")
 
 
 def robustness_panel(summary: dict) -> dict | None:
-    rob = summary.get("robustness")
-    if not isinstance(rob, dict) or not rob.get("cases"):
+    rob = robustness_of(summary)
+    if rob is None or not rob.cases:
         return None
-    cases = rob["cases"]
-    cols = _metric_cols(cases)
-    rows = [[c.get("label") or _nice(str(c.get("name", "")))] + [_metric_cell((c.get("metrics") or {}).get(k)) for k in cols]
-            + [_met_cell(c.get("target_met"))] for c in cases]
-    met, total = rob.get("met"), rob.get("total")
-    head = f"{met} of {total} cases meet the target" if met is not None and total is not None else ""
-    cap = (f"The final answer re-simulated under changed conditions (finer timestep, perturbed friction and masses, ...). "
-           f"Target checked: {rob.get('target') or '–'}." + (f" {head}." if head else ""))
-    p = panel("robustness", "Robustness", cap,
-                  table=table(["case"] + [_nice(c) for c in cols] + ["target"], rows))
-    spread = rob.get("spread")
-    if isinstance(spread, dict) and spread:
+    cols = _metric_cols(rob.cases)
+    rows = [[c.label or _nice(c.name)] + [_metric_cell(c.metrics.get(k)) for k in cols] + [_met_cell(c.target_met)]
+            for c in rob.cases]
+    p = panel("robustness", "Robustness", _robustness_caption(rob),
+              table=table(["case"] + [_nice(c) for c in cols] + ["target"], rows))
+    if rob.spread:
         p["table"]["foot"] = [[_nice(k), finite(v.get("nominal")), finite(v.get("min")), finite(v.get("max"))]
-                              for k, v in spread.items() if isinstance(v, dict)]
+                              for k, v in rob.spread.items() if isinstance(v, dict)]
         p["table"]["foot_columns"] = ["metric", "nominal", "min", "max"]
-    if met is not None and total:
-        p["summary"] = {"met": met, "total": total}
+    p["summary"] = {"met": rob.met, "total": rob.total}
     return p
