@@ -15,14 +15,15 @@ from __future__ import annotations
 import cma
 import numpy as np
 
+from app.optim.base import Optimizer, as_array, as_list
 
-class CMAES:
+
+class CMAES(Optimizer):
     def __init__(self, lower, upper, population: int = 30, seed: int = 0, sigma0: float = 0.25):
-        self.lower = np.asarray(lower, dtype=float)
-        self.upper = np.asarray(upper, dtype=float)
+        super().__init__(lower, upper, population)
         if population < 4:
             raise ValueError("population must be at least 4")
-        self.population, self.seed, self.sigma0 = int(population), int(seed), float(sigma0)
+        self.seed, self.sigma0 = int(seed), float(sigma0)
         self._new_strategy()
         self._asked: list[np.ndarray] | None = None
         self._told: list[list[float]] = []
@@ -39,10 +40,6 @@ class CMAES:
              "tolstagnation": 10**9, "maxiter": 10**9},
         )
 
-    @property
-    def dim(self) -> int:
-        return self.lower.size
-
     def _scale(self, z: np.ndarray) -> np.ndarray:
         return self.lower + np.clip(z, 0.0, 1.0) * (self.upper - self.lower)
 
@@ -51,9 +48,7 @@ class CMAES:
         return self._scale(np.asarray(self._asked))
 
     def tell(self, fitness) -> None:
-        fitness = np.asarray(fitness, dtype=float)
-        if self._asked is None or fitness.shape != (len(self._asked),):
-            raise ValueError("tell() needs one fitness per candidate of the last ask()")
+        fitness = self._fitness(fitness, None if self._asked is None else len(self._asked))
         self._es.tell(self._asked, (-fitness).tolist())
         self._told.append(fitness.tolist())
         self.population_fitness = fitness
@@ -69,7 +64,7 @@ class CMAES:
 
     def state(self) -> dict:
         return {"generation": self.generation, "seed": self.seed, "sigma0": self.sigma0, "told": self._told,
-                "best_x": None if self._best_x is None else self._best_x.tolist(),
+                "best_x": as_list(self._best_x),
                 "best_f": None if self._best_x is None else self._best_f}
 
     def restore(self, state: dict) -> None:
@@ -83,7 +78,7 @@ class CMAES:
             self.generation += 1
         self._asked = None
         self.population_fitness = np.asarray(self._told[-1]) if self._told else None
-        self._best_x = None if state["best_x"] is None else np.asarray(state["best_x"], dtype=float)
+        self._best_x = as_array(state["best_x"])
         self._best_f = -np.inf if state["best_f"] is None else float(state["best_f"])
         if self.generation != int(state["generation"]):
             raise ValueError("CMA-ES state: generation does not match the fitness values told")

@@ -10,25 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.optim.base import Optimizer, as_array, as_list
 
-class DifferentialEvolution:
+
+class DifferentialEvolution(Optimizer):
     def __init__(self, lower, upper, population: int = 30, cr: float = 0.6, f: float = 0.5, seed: int = 0):
-        self.lower = np.asarray(lower, dtype=float)
-        self.upper = np.asarray(upper, dtype=float)
-        if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
-            raise ValueError("lower and upper bounds must have the same shape with lower <= upper")
+        super().__init__(lower, upper, population)
         if population < 4:
             raise ValueError("population must be at least 4 (current-to-best/1 needs two other members)")
-        self.population, self.cr, self.f = int(population), float(cr), float(f)
+        self.cr, self.f = float(cr), float(f)
         self.rng = np.random.default_rng(seed)
-        self.generation = 0
         self.pop: np.ndarray | None = None
         self.fit: np.ndarray | None = None
         self._trial: np.ndarray | None = None
-
-    @property
-    def dim(self) -> int:
-        return self.lower.size
 
     def ask(self) -> np.ndarray:
         if self.pop is None:
@@ -51,9 +45,7 @@ class DifferentialEvolution:
         return self._trial.copy()
 
     def tell(self, fitness) -> None:
-        fitness = np.asarray(fitness, dtype=float)
-        if self._trial is None or fitness.shape != (self._trial.shape[0],):
-            raise ValueError("tell() needs one fitness per candidate of the last ask()")
+        fitness = self._fitness(fitness, None if self._trial is None else self._trial.shape[0])
         if self.pop is None:
             self.pop, self.fit = self._trial, fitness
         else:
@@ -76,14 +68,13 @@ class DifferentialEvolution:
     def state(self) -> dict:
         return {
             "generation": self.generation,
-            "pop": None if self.pop is None else self.pop.tolist(),
-            "fit": None if self.fit is None else self.fit.tolist(),
+            "pop": as_list(self.pop),
+            "fit": as_list(self.fit),
             "rng": self.rng.bit_generator.state,
         }
 
     def restore(self, state: dict) -> None:
         self.generation = int(state["generation"])
-        self.pop = None if state["pop"] is None else np.asarray(state["pop"], dtype=float)
-        self.fit = None if state["fit"] is None else np.asarray(state["fit"], dtype=float)
+        self.pop, self.fit = as_array(state["pop"]), as_array(state["fit"])
         self.rng.bit_generator.state = state["rng"]
         self._trial = None

@@ -13,27 +13,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.optim.base import Optimizer, as_array, as_list
 
-class GeneticAlgorithm:
+
+class GeneticAlgorithm(Optimizer):
+    maximises = False  # the energy kind minimises its cost of transport
+
     def __init__(self, lower, upper, population: int = 40, crossover: float = 0.9, eta_c: float = 15.0,
                  eta_m: float = 20.0, elite: int = 2, seed: int = 0):
-        self.lower = np.asarray(lower, dtype=float)
-        self.upper = np.asarray(upper, dtype=float)
-        if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
-            raise ValueError("lower and upper bounds must have the same shape with lower <= upper")
+        super().__init__(lower, upper, population)
         if population < 4 or population % 2:
             raise ValueError("population must be even and at least 4")
-        self.population, self.crossover, self.eta_c, self.eta_m = int(population), crossover, eta_c, eta_m
+        self.crossover, self.eta_c, self.eta_m = crossover, eta_c, eta_m
         self.elite = int(elite)
         self.rng = np.random.default_rng(seed)
-        self.generation = 0
         self.pop: np.ndarray | None = None
         self.fit: np.ndarray | None = None
         self._trial: np.ndarray | None = None
-
-    @property
-    def dim(self) -> int:
-        return self.lower.size
 
     def _tournament(self, n: int) -> np.ndarray:
         a = self.rng.integers(0, self.population, size=n)
@@ -71,9 +67,7 @@ class GeneticAlgorithm:
         return self._trial.copy()
 
     def tell(self, fitness) -> None:
-        fitness = np.asarray(fitness, dtype=float)
-        if self._trial is None or fitness.shape != (self._trial.shape[0],):
-            raise ValueError("tell() needs one fitness per candidate of the last ask()")
+        fitness = self._fitness(fitness, None if self._trial is None else self._trial.shape[0])
         self.pop, self.fit = self._trial, fitness
         self._trial = None
         self.generation += 1
@@ -85,13 +79,12 @@ class GeneticAlgorithm:
 
     def state(self) -> dict:
         return {"generation": self.generation,
-                "pop": None if self.pop is None else self.pop.tolist(),
-                "fit": None if self.fit is None else self.fit.tolist(),
+                "pop": as_list(self.pop),
+                "fit": as_list(self.fit),
                 "rng": self.rng.bit_generator.state}
 
     def restore(self, state: dict) -> None:
         self.generation = int(state["generation"])
-        self.pop = None if state["pop"] is None else np.asarray(state["pop"], dtype=float)
-        self.fit = None if state["fit"] is None else np.asarray(state["fit"], dtype=float)
+        self.pop, self.fit = as_array(state["pop"]), as_array(state["fit"])
         self.rng.bit_generator.state = state["rng"]
         self._trial = None

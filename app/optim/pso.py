@@ -32,37 +32,33 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.optim.base import Optimizer, as_array, as_list
+
 PRESETS = {
     "constriction": {"w": 0.7298, "phi1": 1.49618, "phi2": 1.49618, "vmax": 0.2},
     "paper": {"w": 0.1, "phi1": 2.0, "phi2": 2.0, "vmax": 1.0},
 }
 
 
-class ParticleSwarm:
+class ParticleSwarm(Optimizer):
+    unit = "particle"
+
     def __init__(self, lower, upper, population: int = 20, w: float = 0.1, phi1: float = 2.0, phi2: float = 2.0,
                  seed: int = 0, vmax: float = 1.0):
-        self.lower = np.asarray(lower, dtype=float)
-        self.upper = np.asarray(upper, dtype=float)
-        if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
-            raise ValueError("lower and upper bounds must have the same shape with lower <= upper")
+        super().__init__(lower, upper, population)
         if population < 2:
             raise ValueError("population must be at least 2 particles")
         if not 0.0 < vmax <= 1.0:
             raise ValueError("vmax is a fraction of the box width in (0, 1]")
-        self.population, self.w, self.phi1, self.phi2 = int(population), float(w), float(phi1), float(phi2)
+        self.w, self.phi1, self.phi2 = float(w), float(phi1), float(phi2)
         self.vmax = float(vmax)
         self.rng = np.random.default_rng(seed)
-        self.generation = 0
         self.x: np.ndarray | None = None
         self.v: np.ndarray | None = None
         self.pbest: np.ndarray | None = None
         self.pbest_f: np.ndarray | None = None
         self.last_f: np.ndarray | None = None
         self._asked = False
-
-    @property
-    def dim(self) -> int:
-        return self.lower.size
 
     def ask(self) -> np.ndarray:
         width = self.upper - self.lower
@@ -84,9 +80,7 @@ class ParticleSwarm:
         return self.x.copy()
 
     def tell(self, fitness) -> None:
-        f = np.asarray(fitness, dtype=float)
-        if not self._asked or f.shape != (self.population,):
-            raise ValueError("tell() needs one fitness per particle of the last ask()")
+        f = self._fitness(fitness, self.population if self._asked else None)
         if self.pbest is None:
             self.pbest, self.pbest_f = self.x.copy(), f.copy()
         else:
@@ -117,14 +111,12 @@ class ParticleSwarm:
         return {"at_bounds": float(at.mean()), "spread": float(np.mean(self.x.std(axis=0) / width))}
 
     def state(self) -> dict:
-        def l(a):
-            return None if a is None else a.tolist()
+        l = as_list
         return {"generation": self.generation, "x": l(self.x), "v": l(self.v), "pbest": l(self.pbest),
                 "pbest_f": l(self.pbest_f), "last_f": l(self.last_f), "rng": self.rng.bit_generator.state}
 
     def restore(self, state: dict) -> None:
-        def a(v):
-            return None if v is None else np.asarray(v, dtype=float)
+        a = as_array
         self.generation = int(state["generation"])
         self.x, self.v, self.pbest = a(state["x"]), a(state["v"]), a(state["pbest"])
         self.pbest_f, self.last_f = a(state["pbest_f"]), a(state["last_f"])
