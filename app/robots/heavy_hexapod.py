@@ -35,6 +35,7 @@ import mujoco
 import numpy as np
 
 from app.robots.pantograph import LegWorkspace, leg_ik
+from app.robots.mjcf import add_pid_servo, add_torso_sensors, describe_legs, new_spec
 
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 JOINT_NAMES = ("swing", "horizontal", "vertical")
@@ -147,11 +148,7 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
                        friction=[geom.friction, 0.005, 1e-4], rgba=[0.9, 0.3, 0.1, 1])
         shank.add_site(name=f"leg{leg}_tip", pos=[0, 0, 0])
         for jn, kp, kv, fl in zip(JOINT_NAMES, geom.kp, geom.kv, geom.force_limit):
-            act = spec.add_actuator(name=f"{joint_name(leg, jn)}_pid", target=joint_name(leg, jn),
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            act.set_to_pid(kp=kp, kv=kv, ki=0.0, inheritrange=1.0, ctrlspec=int(mujoco.mjtCtrlInput.mjINPUT_POS))
-            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-            act.forcerange = [-fl, fl]
+            add_pid_servo(spec, f"{joint_name(leg, jn)}_pid", joint_name(leg, jn), kp, kv, fl, ki=0.0)
     for leg in LEG_IDS:
         for jn, fl in zip(JOINT_NAMES, geom.force_limit):
             ff = spec.add_actuator(name=f"{joint_name(leg, jn)}_ff", target=joint_name(leg, jn),
@@ -159,22 +156,15 @@ def add_robot(spec: mujoco.MjSpec, geom: HeavyHexapodGeometry = HEAVY, pos=(0.0,
             ff.set_to_motor()
             ff.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             ff.ctrlrange = [-fl, fl]
-    spec.add_sensor(name="torso_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
-    spec.add_sensor(name="torso_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
-    spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    add_torso_sensors(spec)
 
 
 def base_spec(geom: HeavyHexapodGeometry = HEAVY) -> mujoco.MjSpec:
-    spec = mujoco.MjSpec()
-    spec.modelname = geom.name
-    spec.option.timestep = geom.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # the QP's pyramid is inscribed in this cone
+    spec = new_spec(geom.name, geom.timestep, "elliptic")  # the QP's pyramid is inscribed in this cone
     # Soft friction creeps under a sustained tangential load (a 5 t robot on a 40 deg slope);
     # a high impratio makes it stick, as the paper assumes ("no foot slipping").
     spec.option.impratio = geom.impratio
     spec.option.noslip_iterations = geom.noslip_iterations
-    spec.compiler.degree = False
     spec.worldbody.add_light(pos=[0, 0, 12], dir=[0, 0, -1])
     return spec
 
@@ -238,13 +228,9 @@ def joint_targets(geom: HeavyHexapodGeometry, feet_body: dict[int, np.ndarray]) 
 
 def describe(geom: HeavyHexapodGeometry = HEAVY) -> dict:
     """Catalog entry in the shape of ``RobotEntry.describe()`` (for /api/robots)."""
-    return {
-        "name": geom.name,
-        "description": "Heavy-duty 18-DoF hexapod (paper 002): 5 t, 4.7 m, pantograph legs as swing hinge + two slides",
-        "legs": list(LEG_IDS),
-        "joints": list(JOINT_NAMES),
-        "leg_sides": {str(l): ("left" if geom.side(l) > 0 else "right") for l in LEG_IDS},
-        "hips_m": {str(l): list(geom.hip(l)) for l in LEG_IDS},
+    return describe_legs(
+        geom.name, "Heavy-duty 18-DoF hexapod (paper 002): 5 t, 4.7 m, pantograph legs as swing hinge + two slides",
+        LEG_IDS, JOINT_NAMES, geom.side, geom.hip) | {
         "nominal_feet_m": {str(l): geom.nominal_foot(l).tolist() for l in LEG_IDS},
         "total_mass_kg": geom.total_mass,
         "parameters": {

@@ -31,6 +31,8 @@ import math
 import mujoco
 import numpy as np
 
+from app.robots.mjcf import add_pid_servo, add_torso_sensors, new_spec
+
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 # The recovery job's default step, chosen by the convergence rule (docs/recovery.md,
 # "Timestep"): recovered gaits, not only the nominal tripod, move less than the stated
@@ -102,12 +104,7 @@ def joint_name(leg: int, joint: str) -> str:
 
 def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
     """The intact robot on a flat floor. Damage is applied to the returned spec."""
-    spec = mujoco.MjSpec()
-    spec.modelname = geom.name
-    spec.option.timestep = geom.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
-    spec.compiler.degree = False
+    spec = new_spec(geom.name, geom.timestep, "pyramidal")
 
     # Only the floor has contype 1; feet, chassis, coxae and femurs have conaffinity 1, so
     # every robot-floor pair is tested and no link-link pair ever is (the collision phase
@@ -158,19 +155,10 @@ def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
         tibia.add_site(name=f"leg{n}_tip", pos=[L3, 0, 0])
 
         for jn in JOINT_NAMES:
-            act = spec.add_actuator(name=f"{joint_name(n, jn)}_pid", target=joint_name(n, jn),
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            act.set_to_pid(kp=geom.kp, kv=geom.kd, ki=geom.ki, inheritrange=1.0,
-                            ctrlspec=int(mujoco.mjtCtrlInput.mjINPUT_POS))
-            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-            act.forcerange = [-geom.torque_limit, geom.torque_limit]
+            add_pid_servo(spec, f"{joint_name(n, jn)}_pid", joint_name(n, jn), geom.kp, geom.kd, geom.torque_limit,
+                          ki=geom.ki)
 
-    spec.add_sensor(name="torso_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
-    spec.add_sensor(name="torso_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
-    spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="torso")
+    add_torso_sensors(spec)
     return spec
 
 

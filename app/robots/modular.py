@@ -50,6 +50,8 @@ import math
 import mujoco
 import numpy as np
 
+from app.robots.mjcf import add_frame_sensors, add_pid_servo, new_spec
+
 MU = 0.1  # metres per map unit: a module is a 10 cm cube
 
 
@@ -181,18 +183,13 @@ def build_spec(shape: Shape, stuck: tuple[int, ...] = (), terrain: Terrain = Ter
     for s in stuck:
         if not 0 <= s < shape.m:
             raise ValueError(f"stuck module {s} does not exist (modules 0..{shape.m - 1})")
-    spec = mujoco.MjSpec()
-    spec.modelname = f"modular_{shape.name}"
-    spec.option.timestep = physics.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.iterations = physics.iterations
-    spec.option.ls_iterations = physics.ls_iterations
-    spec.option.tolerance = physics.tolerance
     # Elliptic friction cones are isotropic: a pyramidal cone's edges follow the world axes,
     # so the same gait started at another heading would move differently, and cached gait
     # displacements could not be turned with the robot.
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.compiler.degree = False
+    spec = new_spec(f"modular_{shape.name}", physics.timestep, "elliptic")
+    spec.option.iterations = physics.iterations
+    spec.option.ls_iterations = physics.ls_iterations
+    spec.option.tolerance = physics.tolerance
     fr = [physics.friction, 0.005, 1e-4]
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
                             contype=1, conaffinity=0, friction=fr, rgba=[0.82, 0.84, 0.86, 1])
@@ -238,16 +235,9 @@ def build_spec(shape: Shape, stuck: tuple[int, ...] = (), terrain: Terrain = Ter
     for i in range(shape.m):
         if i in stuck:
             continue
-        act = spec.add_actuator(name=f"hinge{i}_pd", target=f"hinge{i}", trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        act.set_to_pid(kp=physics.kp, kv=physics.kd, inheritrange=1.0,
-                       ctrlspec=int(mujoco.mjtCtrlInput.mjINPUT_POS))
-        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.forcerange = [-physics.torque_limit, physics.torque_limit]
+        add_pid_servo(spec, f"hinge{i}_pd", f"hinge{i}", physics.kp, physics.kd, physics.torque_limit)
 
-    spec.add_sensor(name="pivot_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="pivot")
-    spec.add_sensor(name="pivot_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="pivot")
+    add_frame_sensors(spec, (("pivot_pos", "pos"), ("pivot_quat", "quat")), mujoco.mjtObj.mjOBJ_SITE, "pivot")
     return spec
 
 

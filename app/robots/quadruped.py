@@ -33,6 +33,8 @@ import math
 import mujoco
 import numpy as np
 
+from app.robots.mjcf import describe_legs, new_spec
+
 LEGS = ("FR", "HR", "FL", "HL")
 JOINTS = ("hip", "thigh", "knee")
 
@@ -159,12 +161,7 @@ def add_robot(spec: mujoco.MjSpec, geom: QuadrupedGeometry = QUADRUPED25, pos=(0
 
 
 def build_spec(geom: QuadrupedGeometry = QUADRUPED25, floor: bool = True, height: float = 0.5) -> mujoco.MjSpec:
-    spec = mujoco.MjSpec()
-    spec.modelname = geom.name
-    spec.option.timestep = geom.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # Eq. 6 is the circular cone
-    spec.compiler.degree = False
+    spec = new_spec(geom.name, geom.timestep, "elliptic")  # Eq. 6 is the circular cone
     spec.worldbody.add_light(pos=[0, 0, 4], dir=[0, 0, -1])
     if floor:
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.1],
@@ -188,13 +185,9 @@ def dof_index(model: mujoco.MjModel) -> np.ndarray:
 
 
 def describe(geom: QuadrupedGeometry = QUADRUPED25) -> dict:
-    return {
-        "name": geom.name,
-        "description": "25 kg quadruped of paper 003 (Table 1): 18 DoF, hip abduction + thigh + knee per leg",
-        "legs": list(LEGS),
-        "joints": list(JOINTS),
-        "leg_sides": {l: ("left" if geom.side(l) > 0 else "right") for l in LEGS},
-        "hips_m": {l: geom.hip(l).tolist() for l in LEGS},
+    return describe_legs(
+        geom.name, "25 kg quadruped of paper 003 (Table 1): 18 DoF, hip abduction + thigh + knee per leg",
+        LEGS, JOINTS, geom.side, geom.hip) | {
         "total_mass_kg": geom.total_mass,
         "parameters": {"links_m": list(geom.links), "link_masses_kg": geom.masses().tolist(),
                        "trunk_inertia_kg_m2": list(geom.trunk_inertia), "inertia": geom.inertia,

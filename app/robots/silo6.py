@@ -35,6 +35,7 @@ import mujoco
 import numpy as np
 
 from app.robots.ik import leg_fk, leg_ik
+from app.robots.mjcf import add_frame_sensors, describe_legs, limit_force, new_spec
 
 LEG_IDS = (1, 2, 3, 4, 5, 6)
 JOINT_NAMES = ("coxa", "femur", "tibia")
@@ -154,8 +155,7 @@ def add_robot(spec: mujoco.MjSpec, geom: Silo6Geometry = SILO6, pos=(0.0, 0.0, 0
             act = spec.add_actuator(name=f"{joint_name(leg, jn)}_pos", target=joint_name(leg, jn),
                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
             act.set_to_position(kp=geom.kp, kv=geom.kv)
-            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-            act.forcerange = [-geom.torque_limit, geom.torque_limit]
+            limit_force(act, geom.torque_limit)
     # Simulated sensors, in this order (the controller reads nothing else):
     # 18 joint encoders, 6 foot switches, body quaternion (inclinometers), body position (DGPS).
     for leg in LEG_IDS:
@@ -165,10 +165,7 @@ def add_robot(spec: mujoco.MjSpec, geom: Silo6Geometry = SILO6, pos=(0.0, 0.0, 0
     for leg in LEG_IDS:
         spec.add_sensor(name=f"leg{leg}_switch", type=mujoco.mjtSensor.mjSENS_TOUCH,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"leg{leg}_touch")
-    spec.add_sensor(name="torso_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=mujoco.mjtObj.mjOBJ_BODY,
-                    objname="torso")
-    spec.add_sensor(name="torso_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=mujoco.mjtObj.mjOBJ_BODY,
-                    objname="torso")
+    add_frame_sensors(spec, (("torso_quat", "quat"), ("torso_pos", "pos")), mujoco.mjtObj.mjOBJ_BODY, "torso")
     for leg in LEG_IDS:
         spec.add_sensor(name=f"leg{leg}_tip_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"leg{leg}_tip")
@@ -179,12 +176,7 @@ SENSOR_SLICES = {"joints": slice(0, 18), "touch": slice(18, 24), "quat": slice(2
 
 
 def base_spec(geom: Silo6Geometry = SILO6) -> mujoco.MjSpec:
-    spec = mujoco.MjSpec()
-    spec.modelname = geom.name
-    spec.option.timestep = geom.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
-    spec.compiler.degree = False
+    spec = new_spec(geom.name, geom.timestep, "pyramidal")
     spec.worldbody.add_light(pos=[0, 0, 6], dir=[0, 0, -1])
     return spec
 
@@ -215,13 +207,9 @@ def leg_fk_body(geom: Silo6Geometry, q: np.ndarray) -> np.ndarray:
 
 
 def describe(geom: Silo6Geometry = SILO6) -> dict:
-    return {
-        "name": geom.name,
-        "description": "SILO-6-like demining hexapod (paper 004): 54 kg, insect-type 3-DoF legs, position servos",
-        "legs": list(LEG_IDS),
-        "joints": list(JOINT_NAMES),
-        "leg_sides": {str(l): ("left" if geom.side(l) > 0 else "right") for l in LEG_IDS},
-        "hips_m": {str(l): geom.hip(l).tolist() for l in LEG_IDS},
+    return describe_legs(
+        geom.name, "SILO-6-like demining hexapod (paper 004): 54 kg, insect-type 3-DoF legs, position servos",
+        LEG_IDS, JOINT_NAMES, geom.side, geom.hip) | {
         "link_lengths_m": list(geom.link_lengths),
         "total_mass_kg": round(geom.total_mass, 4),
         "parameters": {
