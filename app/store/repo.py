@@ -260,13 +260,13 @@ def cancel_requested(s: Session, job_id: str) -> bool:
     return bool(s.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
 
 
+def _assign(job: Job, **values: object) -> None:
+    for name, value in values.items():
+        setattr(job, name, value)
+
+
 def _finish(job: Job, status: str, now: dt.datetime, error: str | None = None) -> None:
-    job.status = status
-    job.error = error
-    job.finished_at = now
-    job.updated_at = now
-    job.lease_token = None
-    job.lease_expires_at = None
+    _assign(job, status=status, error=error, finished_at=now, updated_at=now, lease_token=None, lease_expires_at=None)
 
 
 def finish(s: Session, claim_: Claim, status: str, *, summary: dict | None = None, error: str | None = None,
@@ -341,15 +341,8 @@ def retry(s: Session, job_id: str, owner: str | None) -> Job:
     job = get_job(s, job_id, owner)
     if job.status not in ("failed", "cancelled"):
         raise Conflict(f"only failed or cancelled jobs can be retried; this one is {job.status}", field="status")
-    job.status = "queued"
-    job.attempt = 0
-    job.cancel_requested = False
-    job.error = None
-    job.summary = None
-    job.bundle_path = None
-    job.finished_at = None
-    job.dispatched_at = None
-    job.updated_at = utcnow()
+    _assign(job, status="queued", attempt=0, cancel_requested=False, error=None, summary=None, bundle_path=None,
+            finished_at=None, dispatched_at=None, updated_at=utcnow())
     return job
 
 
