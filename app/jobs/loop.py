@@ -57,6 +57,18 @@ class Generation:
 
 
 @dataclasses.dataclass
+class Carry:
+    """A kind's own state that must survive a kill as the optimizer's does (e.g. the
+    evaluation row of the best candidate so far, which the optimizer does not keep): its
+    ``save()`` rides in every checkpoint under ``key``; ``restore`` gets it back (None when
+    the checkpoint has none) before a resumed search continues."""
+
+    key: str
+    save: Callable[[], Any]
+    restore: Callable[[Any], None]
+
+
+@dataclasses.dataclass
 class SearchOutcome:
     best_x: np.ndarray
     best_fitness: float
@@ -85,10 +97,10 @@ def stop_reason(history: list[dict], rules: StopRules, sign: float, wall_s: floa
 
 def run_search(opt, evaluate: Callable[[np.ndarray], Generation], generations: int, ctx: RunContext,
                rules: StopRules | None = None, sign: float = 1.0,
-               progress_info: Callable[[dict], dict] | None = None) -> SearchOutcome:
+               progress_info: Callable[[dict], dict] | None = None, carry: Carry | None = None) -> SearchOutcome:
     """Run ``opt`` (ask/tell, maximises, ``state()``/``restore()`` JSON) for generations
-    0..``generations`` unless a rule stops it first. Checkpoints after every generation;
-    a restored run continues bit-identically."""
+    0..``generations`` unless a rule stops it first. Checkpoints after every generation
+    (with ``carry``'s state when given); a restored run continues bit-identically."""
     rules = rules or StopRules()
     total = generations + 1
     history: list[dict[str, Any]] = []
@@ -101,6 +113,8 @@ def run_search(opt, evaluate: Callable[[np.ndarray], Generation], generations: i
         opt.restore(ckpt["optimizer"])
         history, evaluations, totals = ckpt["history"], ckpt["evaluations"], ckpt["totals"]
         wall_before, reason = ckpt["wall_s"], ckpt.get("stop_reason")
+        if carry is not None:
+            carry.restore(ckpt.get(carry.key))
     seg_start = time.perf_counter()
     while reason is None and opt.generation < total:
         if ctx.is_cancelled():
@@ -120,8 +134,11 @@ def run_search(opt, evaluate: Callable[[np.ndarray], Generation], generations: i
         history.append(row)
         wall = wall_before + time.perf_counter() - seg_start
         reason = stop_reason(history, rules, sign, wall)
-        ctx.save_checkpoint({"optimizer": opt.state(), "history": history, "evaluations": evaluations,
-                             "totals": totals, "wall_s": wall, "stop_reason": reason})
+        state = {"optimizer": opt.state(), "history": history, "evaluations": evaluations, "totals": totals,
+                 "wall_s": wall, "stop_reason": reason}
+        if carry is not None:
+            state[carry.key] = carry.save()
+        ctx.save_checkpoint(state)
         info = {"generation": row["generation"], "best": row["best"], "mean": row["mean"], "worst": row["worst"],
                 "evaluations": evaluations}
         if "sim_steps" in totals:
