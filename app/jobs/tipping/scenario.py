@@ -97,11 +97,6 @@ def edge_name(i: int, j: int) -> str:
     return f"a{i}{j}"
 
 
-def _quat_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    return np.concatenate([[math.cos(angle / 2)], axis * math.sin(angle / 2)])
-
-
 class HexapodSim:
     """Model, data and the per-step sensing the controller uses."""
 
@@ -390,151 +385,44 @@ def run_summary(r: dict, threshold: float) -> dict:
     return out
 
 
-# -- tilting platform -----------------------------------------------------------------------
+# -- the control loop both scenarios share ------------------------------------------------------
 
-@dataclasses.dataclass(frozen=True)
-class TiltScenario:
-    """The platform turns so that ``downhill_deg`` (0 = the robot's front, 90 = its left)
-    goes down, at ``rate_deg_s`` after ``settle_s``, to the fixed final tilt ``max_tilt_deg``
-    and holds it (Sec. 5.2: the Stewart platform rotates; the motion never looks at the
-    robot, so whether the robot tips is an outcome, not a setting)."""
-
-    downhill_deg: float = 180.0
-    stance: tuple[int, ...] = (1, 3, 5)
-    rate_deg_s: float = 10.0
-    settle_s: float = 3.0
-    max_tilt_deg: float = 40.0
-    hold_s: float = 6.0  # the run lasts at least until the platform has held its final tilt this long
-    lift_m: float = 0.45
+def _with_friction(geom: HeavyHexapodGeometry, friction: float | None) -> HeavyHexapodGeometry:
+    return geom if friction is None else dataclasses.replace(geom, friction=friction)
 
 
-def paper_direction(axis: str, direction: str) -> float:
-    """Map the paper's platform rotations to the downhill direction. Seen from the axis's
-    negative end, "ccw" about y raises the front (climbing, the robot tips backward) and
-    "ccw" about x raises the right side (the robot tips to its left), as in Sec. 5.2."""
-    table = {("y", "ccw"): 180.0, ("y", "cw"): 0.0, ("x", "ccw"): 90.0, ("x", "cw"): 270.0}
-    return table[(axis, direction)]
+class _World:
+    """A scenario as the shared control loop (``_simulate``) sees it: the simulated robot,
+    the feet's targets and first stance, what the ground does and what the run reports
+    beyond the common result. The defaults are level ground that stays still."""
 
+    control_from_s = 1.0  # the judgment starts here: before, the robot is still dropping onto its feet
+    drives_stance = True  # stance legs follow ``targets`` too (a gait moves them)
+    ground_check = None  # world point -> is there ground to stand on (None: everywhere)
 
-def static_tip_angle(poly_xy: np.ndarray, com_xy: np.ndarray, height: float, downhill_deg: float) -> float:
-    """Tilt (deg) at which the CoM's projection along the platform normal leaves the convex
-    polygon ``poly_xy`` (CCW) travelling in the downhill direction."""
-    d = np.array([math.cos(math.radians(downhill_deg)), math.sin(math.radians(downhill_deg))])
-    best = np.inf
-    n = len(poly_xy)
-    for i in range(n):
-        p, q = poly_xy[i], poly_xy[(i + 1) % n]
-        e = q - p
-        den = d[0] * e[1] - d[1] * e[0]
-        if abs(den) < 1e-12:
-            continue
-        w = p - com_xy
-        s = (w[0] * e[1] - w[1] * e[0]) / den
-        u = (w[0] * d[1] - w[1] * d[0]) / den
-        if s > 0 and -1e-9 <= u <= 1 + 1e-9:
-            best = min(best, s)
-    return math.degrees(math.atan2(best, height))
+    def __init__(self, sim: HexapodSim, targets: dict[int, np.ndarray], stance: list[int]):
+        self.sim, self.targets, self.stance = sim, targets, stance
 
+    def control_steps(self, n_ctl: int, control_dt: float) -> int:
+        return n_ctl
 
-def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
-             friction: float | None = None, record_qpos: bool = True) -> dict:
-    from app.robots.heavy_hexapod import build_tilt_spec
+    def before_control(self, t: float, ctl: TippingController) -> None:
+        """At each control step, before the legs are commanded."""
 
-    g = geom if friction is None else dataclasses.replace(geom, friction=friction)
-    psi = math.radians(scen.downhill_deg)
-    axis = np.array([-math.sin(psi), math.cos(psi), 0.0])  # turning +angle about it lowers the downhill side
-    sim = HexapodSim(build_tilt_spec(g, axis=tuple(axis)), g)
-    m, d = sim.model, sim.data
-    plat_body = m.body("platform").id
-    servo = m.actuator("tilt_servo").id
-    stance = list(scen.stance)
-    targets = {leg: g.nominal_foot(leg) + (0 if leg in stance else np.array([0.0, 0.0, scen.lift_m])) for leg in LEG_IDS}
-    sim.place_feet(targets)
-    ctl = TippingController(sim, cfg, stance)
-    n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
-    n_ctl = int(round(duration_s / cfg.control_dt))
-    rec = _Recorder(n_ctl, m.nq, record_qpos)
-    slip = SlipMeter(0.02 * sim.mass * 9.81)
-    max_tilt = scen.max_tilt_deg
-    tip_angle = None  # reported only: the angle at which the stance tripod would statically tip
-    tipped_at = None
-    control_s = []
-    def tilt_at(tt: float) -> float:
-        """Trapezoidal rate profile: 1 s ramps up to ``rate_deg_s`` and back down to rest at
-        the final tilt (a rate step at either end would jolt a 5 t robot on a 20 t table)."""
-        s, R = tt - scen.settle_s, scen.rate_deg_s
-        ramp = min(1.0, max_tilt / R)
-        total = max_tilt / R + ramp
-        if s <= 0:
-            return 0.0
-        if s < ramp:
-            return R * s * s / (2 * ramp)
-        if s < total - ramp:
-            return R * (s - ramp / 2)
-        if s < total:
-            return max_tilt - R * (total - s) ** 2 / (2 * ramp)
-        return max_tilt
+    def platform_tilt_deg(self, t: float) -> float:
+        return 0.0
 
-    mujoco.mj_forward(m, d)
-    forces_avg = sim.foot_forces()
-    k = -1
-    while True:
-        k += 1
-        t = k * cfg.control_dt
-        # long enough to reach the final tilt and hold it
-        n_ctl = max(n_ctl, int(round((scen.settle_s + max_tilt / scen.rate_deg_s + 1.0 + scen.hold_s) / cfg.control_dt)))
-        if k >= n_ctl:
-            break
-        if tip_angle is None and t >= scen.settle_s:  # the stance polygon as it stands, flat
-            feet = sim.feet_world()[[l - 1 for l in stance]]
-            com = sim.com()
-            h = com[2] - feet[:, 2].mean() + g.foot_radius
-            order = ccw_order(feet)
-            tip_angle = static_tip_angle(feet[order, :2], com[:2], h, scen.downhill_deg)
-        tilt = tilt_at(t)
-        for leg in LEG_IDS:
-            if leg not in ctl.stance and (ctl.swing is None or ctl.swing[0] != leg):
-                sim.set_foot_target(leg, targets[leg])
-        feet_w, com = sim.feet_world(), sim.com()
-        c0 = time.perf_counter()
-        if t >= scen.settle_s * 0.5:
-            mon = ctl.step(t, feet_w, forces_avg, com)
-        else:
-            mon = monitor(feet_w, forces_avg, com, ctl.stance)
-        control_s.append(time.perf_counter() - c0)
-        R_plat = d.xmat[plat_body].reshape(3, 3)
-        normal = R_plat[:, 2]
-        if tipped_at is None:
-            slip.add(feet_w, forces_avg, R_plat)
-        _, R = sim.body_pose()
-        rel = math.degrees(math.acos(np.clip(R[:, 2] @ normal, -1, 1)))
-        rec.add(t, tilt, mon, forces_avg, com, rel, ctl, d, feet_w, slip.ratio_max)
-        if rel > TIPPED_DEG and tipped_at is None:
-            tipped_at = t
-        if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
-            break
-        # The platform moves every physics step (a 20 ms jump would bounce the feet), and
-        # the force sensors report the mean over the control interval (50 Hz sampling).
-        forces_avg = np.zeros((6, 3))
-        for j in range(n_sub):
-            d.ctrl[servo] = math.radians(tilt_at(t + (j + 1) * m.opt.timestep))
-            mujoco.mj_step(m, d)
-            forces_avg += sim.foot_forces()
-        forces_avg /= n_sub
-        mujoco.mj_forward(m, d)
-    tr = rec.finish()
-    return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
-            "tipped_at_s": tipped_at, "static_tip_deg": tip_angle, "max_tilt_deg": max_tilt,
-            "max_slip_m": float(slip.slip_m.max()), "slip_m": slip.slip_m.tolist(),
-            "control_ms_mean": 1e3 * float(np.mean(control_s)), "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)),
-            "model_xml": sim.spec.to_xml(), "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass,
-            "final_stance": list(ctl.stance)}
+    def ground_rotation(self) -> np.ndarray:
+        return np.eye(3)
 
+    def body_tilt_deg(self, R_body: np.ndarray, R_ground: np.ndarray) -> float:
+        return math.degrees(math.acos(np.clip(R_body[2, 2], -1, 1)))
 
-def _quat_rot(q: np.ndarray) -> np.ndarray:
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, np.asarray(q, float))
-    return R.reshape(3, 3)
+    def before_physics_step(self, t: float) -> None:
+        """Before the physics step that ends at ``t``."""
+
+    def report(self, tr: dict[str, np.ndarray]) -> dict:
+        return {}
 
 
 class SlipMeter:
@@ -600,6 +488,181 @@ class _Recorder:
         return {k: np.asarray(v) for k, v in self.rows.items()}
 
 
+def _physics_interval(world: _World, t: float, n_sub: int) -> np.ndarray:
+    """The physics over one control interval from ``t``; the force sensors report the mean
+    over the interval (50 Hz sampling), not its last step."""
+    sim = world.sim
+    m, d = sim.model, sim.data
+    forces = np.zeros((6, 3))
+    for j in range(n_sub):
+        world.before_physics_step(t + (j + 1) * m.opt.timestep)
+        mujoco.mj_step(m, d)
+        forces += sim.foot_forces()
+    forces /= n_sub
+    mujoco.mj_forward(m, d)
+    return forces
+
+
+def _simulate(world: _World, cfg: ControllerConfig, duration_s: float, record_qpos: bool) -> dict:
+    """The judgment-and-recovery controller every control step until the end of the run,
+    or ``AFTER_TIP_S`` after the robot tipped over."""
+    sim = world.sim
+    m, d = sim.model, sim.data
+    sim.place_feet(world.targets)
+    ctl = TippingController(sim, cfg, world.stance, ground_check=world.ground_check)
+    n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
+    n_ctl = world.control_steps(int(round(duration_s / cfg.control_dt)), cfg.control_dt)
+    rec = _Recorder(n_ctl, m.nq, record_qpos)
+    slip = SlipMeter(0.02 * sim.mass * 9.81)
+    tipped_at, control_s = None, []
+    mujoco.mj_forward(m, d)
+    forces_avg = sim.foot_forces()
+    for k in range(n_ctl):
+        t = k * cfg.control_dt
+        world.before_control(t, ctl)
+        for leg in LEG_IDS:
+            if (world.drives_stance or leg not in ctl.stance) and (ctl.swing is None or ctl.swing[0] != leg):
+                sim.set_foot_target(leg, world.targets[leg])
+        feet_w, com = sim.feet_world(), sim.com()
+        c0 = time.perf_counter()
+        if t >= world.control_from_s:
+            mon = ctl.step(t, feet_w, forces_avg, com)
+        else:
+            mon = monitor(feet_w, forces_avg, com, ctl.stance)
+        control_s.append(time.perf_counter() - c0)
+        R_ground = world.ground_rotation()
+        if tipped_at is None:
+            slip.add(feet_w, forces_avg, R_ground)
+        rel = world.body_tilt_deg(sim.body_pose()[1], R_ground)
+        rec.add(t, world.platform_tilt_deg(t), mon, forces_avg, com, rel, ctl, d, feet_w, slip.ratio_max)
+        if rel > TIPPED_DEG and tipped_at is None:
+            tipped_at = t
+        if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
+            break
+        forces_avg = _physics_interval(world, t, n_sub)
+    tr = rec.finish()
+    return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
+            "tipped_at_s": tipped_at, **world.report(tr), "max_slip_m": float(slip.slip_m.max()),
+            "slip_m": slip.slip_m.tolist(), "control_ms_mean": 1e3 * float(np.mean(control_s)),
+            "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)), "model_xml": sim.spec.to_xml(),
+            "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass, "final_stance": list(ctl.stance)}
+
+
+# -- tilting platform -----------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class TiltScenario:
+    """The platform turns so that ``downhill_deg`` (0 = the robot's front, 90 = its left)
+    goes down, at ``rate_deg_s`` after ``settle_s``, to the fixed final tilt ``max_tilt_deg``
+    and holds it (Sec. 5.2: the Stewart platform rotates; the motion never looks at the
+    robot, so whether the robot tips is an outcome, not a setting)."""
+
+    downhill_deg: float = 180.0
+    stance: tuple[int, ...] = (1, 3, 5)
+    rate_deg_s: float = 10.0
+    settle_s: float = 3.0
+    max_tilt_deg: float = 40.0
+    hold_s: float = 6.0  # the run lasts at least until the platform has held its final tilt this long
+    lift_m: float = 0.45
+
+
+def paper_direction(axis: str, direction: str) -> float:
+    """Map the paper's platform rotations to the downhill direction. Seen from the axis's
+    negative end, "ccw" about y raises the front (climbing, the robot tips backward) and
+    "ccw" about x raises the right side (the robot tips to its left), as in Sec. 5.2."""
+    table = {("y", "ccw"): 180.0, ("y", "cw"): 0.0, ("x", "ccw"): 90.0, ("x", "cw"): 270.0}
+    return table[(axis, direction)]
+
+
+def static_tip_angle(poly_xy: np.ndarray, com_xy: np.ndarray, height: float, downhill_deg: float) -> float:
+    """Tilt (deg) at which the CoM's projection along the platform normal leaves the convex
+    polygon ``poly_xy`` (CCW) travelling in the downhill direction."""
+    d = np.array([math.cos(math.radians(downhill_deg)), math.sin(math.radians(downhill_deg))])
+    best = np.inf
+    n = len(poly_xy)
+    for i in range(n):
+        p, q = poly_xy[i], poly_xy[(i + 1) % n]
+        e = q - p
+        den = d[0] * e[1] - d[1] * e[0]
+        if abs(den) < 1e-12:
+            continue
+        w = p - com_xy
+        s = (w[0] * e[1] - w[1] * e[0]) / den
+        u = (w[0] * d[1] - w[1] * d[0]) / den
+        if s > 0 and -1e-9 <= u <= 1 + 1e-9:
+            best = min(best, s)
+    return math.degrees(math.atan2(best, height))
+
+
+class _TiltWorld(_World):
+    """The tilting platform: it turns under the standing robot along a fixed profile that
+    never looks at the robot."""
+
+    drives_stance = False  # the stance feet stand where they were put; only the lifted legs are held
+
+    def __init__(self, scen: TiltScenario, g: HeavyHexapodGeometry):
+        from app.robots.heavy_hexapod import build_tilt_spec
+
+        psi = math.radians(scen.downhill_deg)
+        axis = np.array([-math.sin(psi), math.cos(psi), 0.0])  # turning +angle about it lowers the downhill side
+        sim = HexapodSim(build_tilt_spec(g, axis=tuple(axis)), g)
+        stance = list(scen.stance)
+        lift = np.array([0.0, 0.0, scen.lift_m])
+        super().__init__(sim, {leg: g.nominal_foot(leg) + (0 if leg in stance else lift) for leg in LEG_IDS}, stance)
+        self.scen, self.geom = scen, g
+        self.control_from_s = scen.settle_s * 0.5
+        self._platform = sim.model.body("platform").id
+        self._servo = sim.model.actuator("tilt_servo").id
+        self.tip_angle: float | None = None  # reported only: where the stance tripod would statically tip
+
+    def control_steps(self, n_ctl: int, control_dt: float) -> int:
+        s = self.scen  # long enough to reach the final tilt and hold it
+        return max(n_ctl, int(round((s.settle_s + s.max_tilt_deg / s.rate_deg_s + 1.0 + s.hold_s) / control_dt)))
+
+    def before_control(self, t: float, ctl: TippingController) -> None:
+        if self.tip_angle is None and t >= self.scen.settle_s:  # the stance polygon as it stands, flat
+            feet = self.sim.feet_world()[[l - 1 for l in self.stance]]
+            com = self.sim.com()
+            h = com[2] - feet[:, 2].mean() + self.geom.foot_radius
+            order = ccw_order(feet)
+            self.tip_angle = static_tip_angle(feet[order, :2], com[:2], h, self.scen.downhill_deg)
+
+    def platform_tilt_deg(self, t: float) -> float:
+        """Trapezoidal rate profile: 1 s ramps up to ``rate_deg_s`` and back down to rest at
+        the final tilt (a rate step at either end would jolt a 5 t robot on a 20 t table)."""
+        max_tilt = self.scen.max_tilt_deg
+        s, R = t - self.scen.settle_s, self.scen.rate_deg_s
+        ramp = min(1.0, max_tilt / R)
+        total = max_tilt / R + ramp
+        if s <= 0:
+            return 0.0
+        if s < ramp:
+            return R * s * s / (2 * ramp)
+        if s < total - ramp:
+            return R * (s - ramp / 2)
+        if s < total:
+            return max_tilt - R * (total - s) ** 2 / (2 * ramp)
+        return max_tilt
+
+    def ground_rotation(self) -> np.ndarray:
+        return self.sim.data.xmat[self._platform].reshape(3, 3)
+
+    def body_tilt_deg(self, R_body: np.ndarray, R_ground: np.ndarray) -> float:
+        return math.degrees(math.acos(np.clip(R_body[:, 2] @ R_ground[:, 2], -1, 1)))
+
+    def before_physics_step(self, t: float) -> None:
+        # The platform moves every physics step: a 20 ms jump would bounce the feet.
+        self.sim.data.ctrl[self._servo] = math.radians(self.platform_tilt_deg(t))
+
+    def report(self, tr: dict[str, np.ndarray]) -> dict:
+        return {"static_tip_deg": self.tip_angle, "max_tilt_deg": self.scen.max_tilt_deg}
+
+
+def run_tilt(scen: TiltScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
+             friction: float | None = None, record_qpos: bool = True) -> dict:
+    return _simulate(_TiltWorld(scen, _with_friction(geom, friction)), cfg, duration_s, record_qpos)
+
+
 # -- tripod walking onto a unilateral cliff ---------------------------------------------------
 
 @dataclasses.dataclass(frozen=True)
@@ -642,65 +705,36 @@ def tripod_gait_targets(geom: HeavyHexapodGeometry, sc: CliffScenario, t: float)
     return out, stance
 
 
-def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
-              friction: float | None = None, record_qpos: bool = True) -> dict:
-    from app.robots.heavy_hexapod import build_cliff_spec
+class _CliffWorld(_World):
+    """Level ground cut off on one side: the tripod gait walks the robot toward the edge."""
 
-    g = geom if friction is None else dataclasses.replace(geom, friction=friction)
-    # Walking on level ground needs no anti-creep friction, and with it (impratio 10) the
-    # position-controlled stance tripod chatters (+-20 kN) as its feet sweep back together.
-    g = dataclasses.replace(g, impratio=1.0, noslip_iterations=0)
-    side = -1 if sc.side == "right" else 1
-    sim = HexapodSim(build_cliff_spec(g, cliff_x=sc.cliff_x, side=side, drop=sc.drop_m), g)
-    m, d = sim.model, sim.data
-    hit = np.zeros(1, np.int32)
-    group = np.array([1, 0, 0, 0, 0, 0], np.uint8)
+    def __init__(self, sc: CliffScenario, g: HeavyHexapodGeometry):
+        from app.robots.heavy_hexapod import build_cliff_spec
 
-    def ground_check(p_world: np.ndarray) -> bool:
+        # Walking on level ground needs no anti-creep friction, and with it (impratio 10) the
+        # position-controlled stance tripod chatters (+-20 kN) as its feet sweep back together.
+        g = dataclasses.replace(g, impratio=1.0, noslip_iterations=0)
+        side = -1 if sc.side == "right" else 1
+        sim = HexapodSim(build_cliff_spec(g, cliff_x=sc.cliff_x, side=side, drop=sc.drop_m), g)
+        super().__init__(sim, *tripod_gait_targets(g, sc, 0.0))
+        self.sc, self.geom = sc, g
+        self._hit = np.zeros(1, np.int32)
+        self._group = np.array([1, 0, 0, 0, 0, 0], np.uint8)
+
+    def ground_check(self, p_world: np.ndarray) -> bool:
+        m, d = self.sim.model, self.sim.data
         top = np.asarray(p_world, float) + [0.0, 0.0, 1.0]
-        dist = mujoco.mj_ray(m, d, top, np.array([0.0, 0.0, -1.0]), group, 1, -1, hit)
+        dist = mujoco.mj_ray(m, d, top, np.array([0.0, 0.0, -1.0]), self._group, 1, -1, self._hit)
         return 0 <= dist <= 1.6  # ground within 0.6 m under the foothold, not the void's floor
 
-    targets, stance = tripod_gait_targets(g, sc, 0.0)
-    sim.place_feet(targets)
-    ctl = TippingController(sim, cfg, stance, ground_check=ground_check)
-    n_sub = max(1, int(round(cfg.control_dt / m.opt.timestep)))
-    n_ctl = int(round(duration_s / cfg.control_dt))
-    rec = _Recorder(n_ctl, m.nq, record_qpos)
-    tipped_at, control_s = None, []
-    slip = SlipMeter(0.02 * sim.mass * 9.81)
-    mujoco.mj_forward(m, d)
-    forces_avg = sim.foot_forces()
-    for k in range(n_ctl):
-        t = k * cfg.control_dt
-        if not ctl.frozen:
-            targets, stance = tripod_gait_targets(g, sc, t + cfg.control_dt)
-            ctl.stance = stance
-        for leg in LEG_IDS:
-            if ctl.swing is None or ctl.swing[0] != leg:
-                sim.set_foot_target(leg, targets[leg])
-        feet_w, com = sim.feet_world(), sim.com()
-        c0 = time.perf_counter()
-        mon = ctl.step(t, feet_w, forces_avg, com) if t >= 1.0 else monitor(feet_w, forces_avg, com, ctl.stance)
-        control_s.append(time.perf_counter() - c0)
-        _, R = sim.body_pose()
-        rel = math.degrees(math.acos(np.clip(R[2, 2], -1, 1)))
-        if tipped_at is None:
-            slip.add(feet_w, forces_avg, np.eye(3))
-        rec.add(t, 0.0, mon, forces_avg, com, rel, ctl, d, feet_w, slip.ratio_max)
-        if rel > TIPPED_DEG and tipped_at is None:
-            tipped_at = t
-        if tipped_at is not None and t > tipped_at + AFTER_TIP_S:
-            break
-        forces_avg = np.zeros((6, 3))
-        for _ in range(n_sub):
-            mujoco.mj_step(m, d)
-            forces_avg += sim.foot_forces()
-        forces_avg /= n_sub
-        mujoco.mj_forward(m, d)
-    tr = rec.finish()
-    return {"trace": tr, "adjustments": [a.as_dict() for a in ctl.adjustments], "tipped": tipped_at is not None,
-            "tipped_at_s": tipped_at, "control_ms_mean": 1e3 * float(np.mean(control_s)),
-            "control_ms_p95": 1e3 * float(np.percentile(control_s, 95)), "model_xml": sim.spec.to_xml(),
-            "sim_steps": len(tr["time_s"]) * n_sub, "mass_kg": sim.mass, "final_stance": list(ctl.stance),
-            "max_slip_m": float(slip.slip_m.max()), "slip_m": slip.slip_m.tolist(), "distance_m": float(tr["com_m"][-1][0] - tr["com_m"][0][0])}
+    def before_control(self, t: float, ctl: TippingController) -> None:
+        if not ctl.frozen:  # a gait generator stops once a tip is detected
+            self.targets, ctl.stance = tripod_gait_targets(self.geom, self.sc, t + ctl.cfg.control_dt)
+
+    def report(self, tr: dict[str, np.ndarray]) -> dict:
+        return {"distance_m": float(tr["com_m"][-1][0] - tr["com_m"][0][0])}
+
+
+def run_cliff(sc: CliffScenario, cfg: ControllerConfig, duration_s: float, geom: HeavyHexapodGeometry = HEAVY,
+              friction: float | None = None, record_qpos: bool = True) -> dict:
+    return _simulate(_CliffWorld(sc, _with_friction(geom, friction)), cfg, duration_s, record_qpos)

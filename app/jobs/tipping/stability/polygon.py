@@ -31,24 +31,30 @@ def ccw_order(points: np.ndarray, up: np.ndarray = UP) -> np.ndarray:
     pts = np.asarray(points, float)
     t1, t2 = tangent_basis(np.asarray(up, float))
     xy = np.stack([pts @ t1, pts @ t2], axis=1)
-    order = sorted(range(len(pts)), key=lambda i: (xy[i, 0], xy[i, 1]))
-    if len(order) < 3:
-        return np.array(order)
+    return np.array(hull_ccw(xy.tolist()))
 
-    def cross(o, a, b):
-        return (xy[a, 0] - xy[o, 0]) * (xy[b, 1] - xy[o, 1]) - (xy[a, 1] - xy[o, 1]) * (xy[b, 0] - xy[o, 0])
+
+def hull_ccw(points: list) -> list[int]:
+    """Indices of the convex hull, counter-clockwise seen from +z (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
+    if len(order) < 3:
+        return order
+
+    def turn(o, a, b):
+        po, pa, pb = points[o], points[a], points[b]
+        return (pa[0] - po[0]) * (pb[1] - po[1]) - (pa[1] - po[1]) * (pb[0] - po[0])
 
     lower: list[int] = []
     for i in order:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 1e-12:
+        while len(lower) >= 2 and turn(lower[-2], lower[-1], i) <= 1e-12:
             lower.pop()
         lower.append(i)
     upper: list[int] = []
     for i in reversed(order):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 1e-12:
+        while len(upper) >= 2 and turn(upper[-2], upper[-1], i) <= 1e-12:
             upper.pop()
         upper.append(i)
-    return np.array(lower[:-1] + upper[:-1])
+    return lower[:-1] + upper[:-1]
 
 
 def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
