@@ -21,18 +21,20 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, Field
 
-from app.optim.pso import PRESETS, ParticleSwarm
-from app.optim.random_search import RandomSearch
+from app.jobs.evidence import control_seed
+from app.jobs.multigait.evidence import (CASES, COVERAGE_SHARE, gait_metrics, heldout_values, physics,
+                                         robustness_target)
 from app.jobs.multigait.planner.costs import evaluate
-from app.jobs.multigait.evidence import CASES, gait_metrics, heldout_values
 from app.jobs.multigait.planner.maps import get_map
 from app.jobs.multigait.planner.primitives import ModularSim
+from app.optim.pso import PRESETS, ParticleSwarm
+from app.optim.random_search import RandomSearch
 from app.robots.modular import get_shape
 
 
 def make(arm: str, lower, upper, particles: int, seed: int):
     if arm == "random":
-        return RandomSearch(lower, upper, particles, seed=seed + 7919)
+        return RandomSearch(lower, upper, particles, seed=control_seed(seed))
     return ParticleSwarm(lower, upper, particles, seed=seed, **PRESETS[arm])
 
 
@@ -40,11 +42,8 @@ def one(arm: str, robot: str, seed: int, particles: int, generations: int, heldo
         log: Callable[[str], None] = print, gait_s: float = 30.0, settle_s: float = 1.0, iterations: int = 150) -> dict:
     """One arm on one seed: the paper's coverage problem (k = 3, tau = 30 s, K = 150, Empty)
     unless ``gait_s`` / ``iterations`` make it cheaper (tests)."""
-    shape = get_shape(robot)
-    pmap = get_map("empty")
-    pmap = pmap.with_start_goal(pmap.start, (pmap.start[0] + 15.0, pmap.start[1], 0.5))
+    shape, pmap, sim = _problem(robot, gait_s, settle_s)
     k, K, radius = 3, iterations, shape.radius_mu()
-    sim = ModularSim(shape, (), pmap, gait_s, settle_s)
     t0 = time.perf_counter()
     try:
         lo, hi = sim.bounds(k)
@@ -62,8 +61,8 @@ def one(arm: str, robot: str, seed: int, particles: int, generations: int, heldo
         held = heldout_values(sim, bx, k, pmap, K, "coverage", seed, radius, heldout)
     finally:
         sim.close()
-    case = CASES[0]  # dt_half
-    sim2 = ModularSim(shape, (), pmap, gait_s, settle_s, physics=case.physics())
+    dt_half = next(c for c in CASES if c.name == "dt_half")
+    sim2 = ModularSim(shape, (), pmap, gait_s, settle_s, physics=physics(dt_half))
     try:
         dth = gait_metrics(sim2, bx, k, pmap, K, "coverage", seed, radius)
     finally:
@@ -201,10 +200,11 @@ def robustness_of_bests(rows: list[dict], log: Callable[[str], None] = print) ->
 
 def robustness_report(rob: list[dict]) -> str:
     names = list(rob[0]["cases"])
-    lines = ["| arm | seed | nominal | " + " | ".join(names) + " | cases >= 80 % of nominal |",
+    lines = ["| arm | seed | nominal | " + " | ".join(names) + f" | cases >= {COVERAGE_SHARE * 100:g} % of nominal |",
              "|---|---|---|" + "---|" * (len(names) + 1)]
     for r in sorted(rob, key=lambda r: (r["arm"], r["seed"])):
-        met = sum(v >= 0.8 * r["nominal"] for v in r["cases"].values())
+        target = robustness_target("coverage", r["nominal"])
+        met = sum(target.met({"coverage_pct": v}) for v in r["cases"].values())
         lines.append(f"| {r['arm']} | {r['seed']} | {r['nominal']:.1f} | "
                      + " | ".join(f"{r['cases'][n]:.1f}" for n in names) + f" | {met} / {len(names)} |")
     for arm in sorted({r["arm"] for r in rob}):
