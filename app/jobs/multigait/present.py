@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+from app.jobs.evidence import controls_of, robustness_of
 
 HISTORY_COLUMNS = {
     "generation": "0 = the initial swarm",
@@ -49,14 +50,14 @@ def headline(s: dict) -> list[HeadlineRow]:
     label = "coverage of the map" if s["cost"] == "coverage" else "distance to the goal"
     rows = [headline_row(label, r["final_best"], unit, better),
             headline_row(f"{label} on held-out planner draws (mean)", r.get("heldout_mean"), unit, better)]
-    ctl = {c["name"]: c for c in s.get("controls") or []}
+    ctl = {c.name: c for c in controls_of(s)}
     if "random_search" in ctl:
-        rows.append(headline_row("random search, same budget: held-out mean", ctl["random_search"]["metrics"]
-                                 ["heldout_mean"], unit, better))
-    rob = s.get("robustness")
+        rows.append(headline_row("random search, same budget: held-out mean",
+                                 ctl["random_search"].metrics["heldout_mean"], unit, better))
+    rob = robustness_of(s)
     if rob:
-        rows.append(headline_row("robustness cases meeting the target", f"{rob['met']} / {rob['total']}", "", None,
-                                 target=rob["target"], met=rob["met"] == rob["total"]))
+        rows.append(headline_row("robustness cases meeting the target", f"{rob.met} / {rob.total}", "", None,
+                                 target=rob.target, met=rob.met == rob.total))
     rows += [headline_row(f"first generation best {s['cost']}", r["initial_best"], unit, better),
             headline_row("tree nodes", r["tree_nodes"], "", None),
             headline_row("tree to goal", r["goal_distance_mu"], "mu", "lower"),
@@ -80,19 +81,20 @@ def summary_tables(s: dict) -> list[Table]:
     out = [table(title, ["", "first generation best", "first generation mean", "final best", "final mean"],
                  [[s["cost"], g(r["initial_best"]), g(r["initial_mean"]), g(r["final_best"]), g(r["final_mean"])]],
                  notes)]
-    if s.get("controls"):
+    ctl = controls_of(s)
+    if ctl:
         out.append(table("controls", ["control", "evaluations", "numbers", "note"],
-                         [[c["label"], c["evaluations"],
+                         [[c.label, c.evaluations,
                            ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}"
-                                     for k, v in c["metrics"].items()), c["note"]] for c in s["controls"]]))
-    rob = s.get("robustness")
+                                     for k, v in c.metrics.items()), c.note] for c in ctl]))
+    rob = robustness_of(s)
     if rob:
-        keys = list(rob["spread"])
-        out.append(table(f"robustness: {rob['met']} of {rob['total']} cases meet the target ({rob['target']})",
+        keys = list(rob.spread)
+        out.append(table(f"robustness: {rob.met} of {rob.total} cases meet the target ({rob.target})",
                          ["case"] + keys + ["target met"],
-                         [["nominal"] + [g(rob["spread"][k]["nominal"]) for k in keys] + ["-"]] +
-                         [[c["label"]] + [g(c["metrics"].get(k)) for k in keys] + [str(c["target_met"])]
-                          for c in rob["cases"]]))
+                         [["nominal"] + [g(rob.spread[k]["nominal"]) for k in keys] + ["-"]] +
+                         [[c.label] + [g(c.metrics.get(k)) for k in keys] + [str(c.target_met)]
+                          for c in rob.cases]))
     if s.get("per_gait"):
         out.append(table("per gait", ["gait", "distance (mu)", "rotation (deg)"],
                          [[p["gait"], f"{p['distance_mu']:.2f}", f"{p['rotation_deg']:.1f}"] for p in s["per_gait"]]))
