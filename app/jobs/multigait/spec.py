@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Annotated, ClassVar, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
@@ -114,18 +114,12 @@ class MultigaitSpec(SpecBase):
     gait_duration_s: float = Field(30.0, ge=1.0, le=120.0)  # tau^p; under 1 s a CPG gait moves nothing
     settle_s: float = Field(1.0, ge=0.0, le=10.0)
 
-    @field_validator("robot")
+    @field_validator("robot", "map")
     @classmethod
-    def _known_robot(cls, v: str) -> str:
-        if v not in SHAPES:
-            raise ValueError(f"unknown modular robot {v!r}; allowed: {sorted(SHAPES)}")
-        return v
-
-    @field_validator("map")
-    @classmethod
-    def _known_map(cls, v: str) -> str:
-        if v not in MAPS:
-            raise ValueError(f"unknown map {v!r}; allowed: {sorted(MAPS)}")
+    def _known(cls, v: str, info: ValidationInfo) -> str:
+        what, known = {"robot": ("modular robot", SHAPES), "map": ("map", MAPS)}[info.field_name]
+        if v not in known:
+            raise ValueError(f"unknown {what} {v!r}; allowed: {sorted(known)}")
         return v
 
     @model_validator(mode="after")
