@@ -12,7 +12,7 @@ from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
 from app.robots.catalog import ROBOTS
 from app.robots.hexapod import DEFAULT_TIMESTEP
-from app.sim.perturb import walking_cases
+from app.jobs.recovery.cases import CASE_NAMES
 from app.jobs.recovery.robust import AGGREGATES
 
 Leg = Annotated[int, Field(ge=1, le=6)]
@@ -89,7 +89,6 @@ class Sim(StrictModel):
     timestep_s: float = Field(DEFAULT_TIMESTEP, ge=0.0005, le=0.008)
 
 
-CASE_NAMES = tuple(c.name for c in walking_cases(1.0))
 CaseName = Literal[CASE_NAMES]  # type: ignore[valid-type]
 
 
