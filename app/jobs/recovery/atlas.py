@@ -18,7 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from app.jobs.evidence import robustness_of
 from app.jobs.recovery.convergence import RULE_TEXT, check, halving_deltas
+from app.jobs.recovery.metrics import TARGET
 
 
 def load_points(src: Path) -> tuple[dict, list[dict]]:
@@ -47,14 +49,15 @@ def table(points: list[dict]) -> str:
     for k in sorted(groups, key=lambda k: (len(k), k)):
         ps = groups[k]
         ms = [p["summary"]["best"]["metrics"] for p in ps]
-        met = sum(bool(p["summary"]["target"]["best_met"]) for p in ps)
-        base = any(bool(p["summary"]["target"]["baseline_met"]) for p in ps)
-        rob = [f"{p['summary']['robustness']['met']}" for p in ps]
+        met = sum(TARGET.met(m) for m in ms)
+        base = any(TARGET.met(p["summary"]["baseline"]["metrics"]) for p in ps)
+        robs = [robustness_of(p["summary"]) for p in ps]
+        rob = [str(r.met) if r is not None else "-" for r in robs]
         rows.append(f"| {', '.join(map(str, k))} | {len(ps)} | {_mmm([m['y_f_m'] for m in ms], 100)} | "
                     f"{_mmm([m['x_f_m'] for m in ms], 100)} | {_mmm([m['yaw_f_deg'] for m in ms])} | {met}/{len(ps)} | "
                     f"{'**yes**' if base else 'no'} | {', '.join(rob)} |")
-        for p, m in zip(ps, ms):
-            h = next((c["metrics"] for c in p["summary"]["robustness"]["cases"] if c["name"] == "dt_half"), None)
+        for r, m in zip(robs, ms):
+            h = next((c.metrics for c in (r.cases if r else []) if c.name == "dt_half"), None)
             if h is not None:
                 for f in at:
                     at[f].append(m[f])

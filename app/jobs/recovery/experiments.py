@@ -15,9 +15,10 @@ import numpy as np
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
+from app.jobs.evidence import controls_of, robustness_of
+from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
-from app.jobs.recovery.metrics import TARGET_TEXT, meets_target
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]
 # Table II of the paper (real robot, mean of 10 best solutions): x, y in cm, yaw in deg.
@@ -32,20 +33,25 @@ PAPER = {
 ROW_VERSION = 2  # rows from a real run of this code: params, controls, robustness (no transcribed rows)
 
 
+def _robustness_row(s: dict, keep: tuple[str, ...]) -> dict:
+    """The robustness block of a run as a row keeps it: per case the ``keep`` metrics and
+    whether the target was met."""
+    rob = robustness_of(s)
+    cases = rob.cases if rob is not None else []
+    return {"met": rob.met if rob else 0, "total": rob.total if rob else 0,
+            "cases": {c.name: {k: c.metrics[k] for k in keep} | {"target_met": c.target_met} for c in cases}}
+
+
 def _row(lost, seed, generations, population, s: dict) -> dict:
-    rs = next((c for c in s["controls"] if c["name"] == "random_search"), None)
-    rob = s["robustness"] or {"cases": [], "met": 0, "total": 0}
-    keep = ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "fell")
+    rs = next((c for c in controls_of(s) if c.name == "random_search"), None)
     return {"version": ROW_VERSION, "lost_legs": list(lost), "seed": seed, "generations": generations,
             "population": population, "timestep_s": s["timestep_s"],
             "baseline": s["baseline"]["metrics"], "baseline_target_met": s["baseline"]["target_met"],
             "best": s["best"]["metrics"], "best_fitness": s["best"]["fitness"], "best_params": s["best"]["params"],
             "target_met": s["best"]["target_met"],
-            "random_search": None if rs is None else {"metrics": rs["metrics"], "fitness": rs["fitness"],
-                                                      "target_met": rs["target_met"]},
-            "robustness": {"met": rob["met"], "total": rob["total"],
-                           "cases": {c["name"]: {k: c["metrics"][k] for k in keep} | {"target_met": c["target_met"]}
-                                     for c in rob["cases"]}},
+            "random_search": None if rs is None else {"metrics": rs.metrics, "fitness": rs.extra["fitness"],
+                                                      "target_met": rs.target_met},
+            "robustness": _robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "fell")),
             "gait": s["gait"]["name"], "wall_s": s["timing"]["wall_s"]}
 
 
@@ -57,14 +63,9 @@ def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[
     reproduction resumes where it stopped. Rows of another format are dropped; rows of
     another budget or timestep stay in the file (earlier measurements) and are not tabled."""
     timestep = RecoverySpec().sim.timestep_s
-    rows, others = [], []
-    if raw_path is not None and raw_path.exists():
-        for r in json.loads(raw_path.read_text()):
-            if r.get("version") != ROW_VERSION:
-                continue
-            same = (r.get("generations") == generations and r.get("population") == population
-                    and r.get("timestep_s") == timestep)
-            (rows if same else others).append(r)
+    rows, others = _rows_in(raw_path, lambda r: r.get("generations") == generations
+                            and r.get("population") == population and r.get("timestep_s") == timestep,
+                            keep=lambda r: r.get("version") == ROW_VERSION)
     done = {(tuple(r["lost_legs"]), r["seed"]) for r in rows}
     for seed in range(seeds):
         for lost in scenarios or SCENARIOS:
@@ -72,15 +73,36 @@ def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[
                 continue
             spec = RecoverySpec(damage={"lost_legs": list(lost)},
                                 search={"population": population, "generations": generations, "seed": seed})
-            t = time.perf_counter()
-            s = run(spec, MemoryContext()).summary
-            rows.append(_row(lost, seed, generations, population, s))
-            _save_rows(others + rows, raw_path)
+            s, wall = _run_and_keep(spec, lambda s: _row(lost, seed, generations, population, s), rows, others,
+                                    raw_path)
             m = s["best"]["metrics"]
             log(f"legs {lost} seed {seed}: x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
                 f"yaw {m['yaw_f_deg']:.1f} deg, robustness {rows[-1]['robustness']['met']}/"
-                f"{rows[-1]['robustness']['total']} ({time.perf_counter() - t:.0f} s)")
+                f"{rows[-1]['robustness']['total']} ({wall:.0f} s)")
     return rows
+
+
+def _rows_in(raw_path: Path | None, same: Callable[[dict], bool],
+             keep: Callable[[dict], bool] = lambda r: True) -> tuple[list[dict], list[dict]]:
+    """The rows a resumed reproduction finds in ``raw_path`` (those ``keep`` drops are of an
+    old format): (those of this budget, which are not run again; the others, earlier
+    measurements kept in the file but not tabled)."""
+    rows, others = [], []
+    if raw_path is not None and raw_path.exists():
+        for r in json.loads(raw_path.read_text()):
+            if keep(r):
+                (rows if same(r) else others).append(r)
+    return rows, others
+
+
+def _run_and_keep(spec: RecoverySpec, row_of: Callable[[dict], dict], rows: list[dict], others: list[dict],
+                  raw_path: Path | None) -> tuple[dict, float]:
+    """Runs ``spec``, appends its row and saves at once: (the summary, the run's wall time)."""
+    t = time.perf_counter()
+    s = run(spec, MemoryContext()).summary
+    rows.append(row_of(s))
+    _save_rows(others + rows, raw_path)
+    return s, time.perf_counter() - t
 
 
 def _save_rows(rows: list[dict], raw_path: Path | None) -> None:
@@ -143,7 +165,7 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
     if with_control < len(rows):
         out += ["", f"The random-search control ran in {with_control} of {len(rows)} runs (the others were run with "
                     "`controls.random_search: false` to fit the CPU time available); 'not run' marks the rest."]
-    out += ["", f"Target (issue 12): {TARGET_TEXT}. 'fell' = the chassis, a coxa or a femur touched the ground "
+    out += ["", f"Target (issue 12): {TARGET.text}. 'fell' = the chassis, a coxa or a femur touched the ground "
                 "(MuJoCo contact sensors), or the body tilted past 60 deg or sagged below half its height. "
                 f"Wall time per run: median {statistics.median(walls):.0f} s on the machine that ran it "
                 f"({os.cpu_count()} cores; a loaded machine makes it longer).", ""]
@@ -160,7 +182,7 @@ def table_markdown(rows: list[dict], generations: int, population: int) -> str:
             def pc(ms, n):
                 x = statistics.median(abs(100 * m["x_f_m"]) for m in ms)
                 y = statistics.median(abs(m["yaw_f_deg"]) for m in ms)
-                ok = sum(m.get("target_met", meets_target(m)) for m in ms)
+                ok = sum(m.get("target_met", TARGET.met(m)) for m in ms)
                 return f"{x:.1f} / {y:.1f}; {ok}/{n}"
 
             cells = [pc([r["best"] for r in rs], len(rs))]
@@ -206,12 +228,9 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
     re-simulated under all seven standard perturbations. Resumable like run_scenarios."""
     timestep = RecoverySpec().sim.timestep_s
     weights = list(weights or RecoverySpec().objective.weights)
-    rows, others = [], []
-    if raw_path is not None and raw_path.exists():
-        for r in json.loads(raw_path.read_text()):
-            same = (r.get("generations") == generations and r.get("population") == population
-                    and r.get("timestep_s") == timestep and r.get("aggregate") == aggregate)
-            (rows if same else others).append(r)
+    rows, others = _rows_in(raw_path, lambda r: r.get("generations") == generations
+                            and r.get("population") == population and r.get("timestep_s") == timestep
+                            and r.get("aggregate") == aggregate)
     done = {(tuple(r["lost_legs"]), r["mode"], tuple(r.get("weights", RecoverySpec().objective.weights)))
             for r in rows}
     for lost in scenarios or feasible_losses():
@@ -224,25 +243,19 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
             if mode == "robust":
                 d["robust"] = {"models": ROBUST_MODELS, "aggregate": aggregate}
             spec = RecoverySpec(**d)
-            t = time.perf_counter()
-            s = run(spec, MemoryContext()).summary
-            rob = s["robustness"]
-            rows.append({"lost_legs": list(lost), "mode": mode, "seed": seed, "generations": generations,
-                         "population": population, "timestep_s": s["timestep_s"], "aggregate": aggregate,
-                         "robust_models": ROBUST_MODELS if mode == "robust" else [], "weights": weights,
-                         "baseline": s["baseline"]["metrics"], "baseline_target_met": s["baseline"]["target_met"],
-                         "best": s["best"]["metrics"], "best_params": s["best"]["params"],
-                         "target_met": s["best"]["target_met"], "gait": s["gait"]["name"],
-                         "robustness": {"met": rob["met"], "total": rob["total"],
-                                        "cases": {c["name"]: {k: c["metrics"][k] for k in
-                                                              ("x_f_m", "y_f_m", "yaw_f_deg", "fell")}
-                                                  | {"target_met": c["target_met"]} for c in rob["cases"]}},
-                         "evaluations": s["timing"]["evaluations"], "wall_s": s["timing"]["wall_s"]})
-            _save_rows(others + rows, raw_path)
-            m = s["best"]["metrics"]
+            s, wall = _run_and_keep(spec, lambda s: {
+                "lost_legs": list(lost), "mode": mode, "seed": seed, "generations": generations,
+                "population": population, "timestep_s": s["timestep_s"], "aggregate": aggregate,
+                "robust_models": ROBUST_MODELS if mode == "robust" else [], "weights": weights,
+                "baseline": s["baseline"]["metrics"], "baseline_target_met": s["baseline"]["target_met"],
+                "best": s["best"]["metrics"], "best_params": s["best"]["params"],
+                "target_met": s["best"]["target_met"], "gait": s["gait"]["name"],
+                "robustness": _robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "fell")),
+                "evaluations": s["timing"]["evaluations"], "wall_s": s["timing"]["wall_s"]}, rows, others, raw_path)
+            m, rob = s["best"]["metrics"], rows[-1]["robustness"]
             log(f"legs {lost} {mode} (weights {weights}): x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
                 f"yaw {m['yaw_f_deg']:.1f} deg, target {s['best']['target_met']}, perturbations met "
-                f"{rob['met']}/{rob['total']} ({time.perf_counter() - t:.0f} s)")
+                f"{rob['met']}/{rob['total']} ({wall:.0f} s)")
     return rows
 
 
@@ -365,7 +378,7 @@ def baselines_markdown(log: Callable[[str], None] = print) -> str:
         ev = GaitEvaluator(robot, model, nominal_tripod(legs), sim_config(spec))
         m = {k: v[0] for k, v in ev.evaluate(nominal_params(robot, legs)).metrics.items()}
         ev.close()
-        ok = meets_target(m)
+        ok = TARGET.met(m)
         out.append(f"| {_damage_text(dmg)} | {100 * m['x_f_m']:.1f} | {100 * m['y_f_m']:.1f} | {m['yaw_f_deg']:.1f} | "
                    f"{m['tilt_max_deg']:.1f} | {100 * m['under_3_feet_frac']:.0f} % | {'**yes**' if m['fell'] else 'no'} | "
                    f"{'**yes**' if ok else 'no'} |")

@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
-from app.jobs.recovery.metrics import TARGET  # the target for a recovered gait (forward is +y)
+from app.jobs.evidence import controls_of, robustness_of
+from app.jobs.recovery.metrics import LIMITS, TARGET, target_checks
 
 HISTORY_COLUMNS = {
     "generation": "0 = the initial population",
@@ -37,67 +38,67 @@ def damage_text(spec) -> str:
     return "; ".join(parts) or "none"
 
 
-def target_checks(m: dict) -> dict[str, bool]:
-    return {"forward": m["y_f_m"] >= TARGET["y_min_m"], "lateral": abs(m["x_f_m"]) <= TARGET["x_abs_max_m"],
-            "yaw": abs(m["yaw_f_deg"]) <= TARGET["yaw_abs_max_deg"]}
-
-
 def headline(s: dict) -> list[HeadlineRow]:
     m, b = s["best"]["metrics"], s["baseline"]["metrics"]
     ok = target_checks(m)
     return [
-        headline_row("forward distance", 100 * m["y_f_m"], "cm", "higher", f">= {100 * TARGET['y_min_m']:.0f} cm",
+        headline_row("recovery target", "met" if TARGET.met(m) else "not met", "", None, TARGET.text, TARGET.met(m)),
+        headline_row("forward distance", 100 * m["y_f_m"], "cm", "higher", f">= {100 * LIMITS['y_min_m']:.0f} cm",
                      ok["forward"]),
-        headline_row("lateral drift", 100 * m["x_f_m"], "cm", "lower", f"|x| <= {100 * TARGET['x_abs_max_m']:.0f} cm",
+        headline_row("lateral drift", 100 * m["x_f_m"], "cm", "lower", f"|x| <= {100 * LIMITS['x_abs_max_m']:.0f} cm",
                      ok["lateral"]),
-        headline_row("final yaw", m["yaw_f_deg"], "deg", "lower", f"|yaw| <= {TARGET['yaw_abs_max_deg']:.0f} deg",
+        headline_row("final yaw", m["yaw_f_deg"], "deg", "lower", f"|yaw| <= {LIMITS['yaw_abs_max_deg']:.0f} deg",
                      ok["yaw"]),
         headline_row("fitness F (Eq. 5)", s["best"]["fitness"], "", "higher"),
         headline_row("nominal tripod F", s["baseline"]["fitness"], "", "higher"),
         headline_row("nominal tripod forward", 100 * b["y_f_m"], "cm", "higher"),
-        headline_row("fell", m["fell"], "", None),
+        headline_row("fell", m["fell"], "", None, "no fall", ok["upright"]),
     ] + _evidence_rows(s)
 
 
 def _evidence_rows(s: dict) -> list[HeadlineRow]:
     rows = []
-    tgt = s.get("target") or {}
-    if "baseline_met" in tgt:
-        rows.append(headline_row("nominal tripod already meets the target", tgt["baseline_met"], "", None))
-    rnd = next((c for c in s.get("controls") or [] if c["name"] == "random_search"), None)
+    if "baseline" in s:
+        rows.append(headline_row("nominal tripod already meets the target", TARGET.met(s["baseline"]["metrics"]), "",
+                                 None))
+    rnd = next((c for c in controls_of(s) if c.name == "random_search"), None)
     if rnd is not None:
-        rows.append(headline_row("random search (same budget) forward", 100 * rnd["metrics"]["y_f_m"], "cm", "higher",
-                                 tgt.get("text") or "the recovery target", rnd["target_met"]))
-    rob = s.get("robustness")
-    if rob:
-        rows.append(headline_row("perturbed re-runs meeting the target", f"{rob['met']}/{rob['total']}", "", "higher"))
+        rows.append(headline_row("random search (same budget) forward", 100 * rnd.metrics["y_f_m"], "cm", "higher",
+                                 TARGET.text, rnd.target_met))
+    rob = robustness_of(s)
+    if rob is not None:
+        rows.append(headline_row("perturbed re-runs meeting the target", f"{rob.met}/{rob.total}", "", "higher"))
     return rows
+
+
+def _walk_cells(m: dict) -> list[str]:
+    return [f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}"]
 
 
 def summary_tables(s: dict) -> list[Table]:
     rows = []
     for name in ("baseline", "best"):
         m = s[name]["metrics"]
-        rows.append(["before (nominal tripod)" if name == "baseline" else "after recovery",
-                     f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}",
-                     f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}"])
+        rows.append(["before (nominal tripod)" if name == "baseline" else "after recovery", *_walk_cells(m),
+                     f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}",
+                     str(TARGET.met(m))])
     title = (f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} "
              f"(sigma={s['gait']['sigma']})")
-    out = [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F"], rows)]
-    if s.get("controls"):
+    out = [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F",
+                         "target met"], rows, [f"target: {TARGET.text}"])]
+    controls = controls_of(s)
+    if controls:
         out.append(table("controls (same budget)", ["control", "evaluations", "x (cm)", "y (cm)", "yaw (deg)", "fell",
                                                      "target met", "note"],
-                         [[c["label"], c["evaluations"], f"{100 * c['metrics']['x_f_m']:.1f}",
-                           f"{100 * c['metrics']['y_f_m']:.1f}", f"{c['metrics']['yaw_f_deg']:.1f}",
-                           str(c["metrics"]["fell"]), str(c["target_met"]), c["note"]] for c in s["controls"]]))
-    rob = s.get("robustness")
-    if rob:
+                         [[c.label, c.evaluations, *_walk_cells(c.metrics), str(c.metrics["fell"]),
+                           str(c.target_met), c.note] for c in controls]))
+    rob = robustness_of(s)
+    if rob is not None:
         out.append(table("robustness: the recovered gait re-simulated", ["case", "x (cm)", "y (cm)", "yaw (deg)", "fell",
                                                                         "target met"],
-                         [[c["label"], f"{100 * c['metrics']['x_f_m']:.1f}", f"{100 * c['metrics']['y_f_m']:.1f}",
-                           f"{c['metrics']['yaw_f_deg']:.1f}", str(c["metrics"]["fell"]), str(c["target_met"])]
-                          for c in rob["cases"]],
-                         [f"target: {rob['target']}; met in {rob['met']} of {rob['total']} cases"]))
+                         [[c.label, *_walk_cells(c.metrics), str(c.metrics["fell"]), str(c.target_met)]
+                          for c in rob.cases],
+                         [f"target: {TARGET.text}; met in {rob.met} of {rob.total} cases"]))
     return out
 
 

@@ -1,24 +1,35 @@
-"""The ``recovery`` job: gait-sequence planning + DE over leg-tip trajectories (paper 000)."""
+"""The ``recovery`` job: gait-sequence planning + DE over leg-tip trajectories (paper 000).
+
+``run`` is five steps over one state (``_Job``): ``set_up`` (the damaged robot, its gait
+sequence, the search space and the evaluators), ``search`` (DE, then the random-search
+control at the same budget), ``controls`` (the answer, the nominal tripod and the control's
+best re-scored), ``robustness`` (the answer re-simulated under the standard cases) and
+``summary``; ``record_traces`` keeps the two walks for the replay.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Mapping
 
+import mujoco
 import numpy as np
 
-from app.jobs.recovery.sequences import hexapod_neighbours, nominal_tripod, plan_hexapod
-from app.jobs.recovery.trajectory import param_names
-from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.evidence import Phases
-from app.jobs.loop import Generation, run_search
+from app.jobs.base import JobResult, RunContext
+from app.jobs.evidence import ControlRow, PhaseContext, Phases, Robustness, control_seed
+from app.jobs.loop import Generation, SearchOutcome, run_search
+from app.jobs.recovery.cases import walking_cases
+from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
+from app.jobs.recovery.metrics import TARGET, fitness, objective_terms
+from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
+from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
+from app.jobs.recovery.trajectory import param_names
 from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
-from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
-from app.jobs.recovery.metrics import TARGET_TEXT, fitness, meets_target, objective_terms
-from app.sim.perturb import case_by_name, robustness_block, walking_cases
-from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
+from app.sim.perturb import Perturbation
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -76,11 +87,21 @@ def sim_config(spec: RecoverySpec) -> SimConfig:
                      stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m)
 
 
+def _scalars(metrics: Mapping[str, np.ndarray], k: int | None = None) -> dict:
+    """One candidate's metrics as JSON scalars: the first row of (P,) arrays, or column
+    ``k`` of the first row of (P, K) arrays (one column per model)."""
+    return {key: (bool(x) if key == "fell" else float(x))
+            for key, x in ((key, v[0] if k is None else v[0, k]) for key, v in metrics.items())}
+
+
+def _params(names: list[str], x: np.ndarray) -> dict[str, float]:
+    return {n: float(v) for n, v in zip(names, x)}
+
+
 def _scored(ev: GaitEvaluator, x: np.ndarray, weights, units: str) -> dict:
     r = ev.evaluate(x)
-    m = {k: (bool(v[0]) if k == "fell" else float(v[0])) for k, v in r.metrics.items()}
     terms = {k: float(v[0]) for k, v in objective_terms(r.metrics, weights, units).items()}
-    return {"metrics": m, "fitness": float(fitness(r.metrics, weights, units)[0]), "terms": terms}
+    return {"metrics": _scalars(r.metrics), "fitness": float(fitness(r.metrics, weights, units)[0]), "terms": terms}
 
 
 # -- the job ---------------------------------------------------------------------------------
@@ -89,169 +110,235 @@ class _Scorer:
     """Fitness of a population on the nominal model, or on several models (robust search).
     Returns (fitness (P,), nominal-model metrics (P,), simulated steps)."""
 
-    def __init__(self, spec: RecoverySpec, robot, mspec, model, seq, cfg):
+    def __init__(self, spec: RecoverySpec, robot: RobotEntry, mspec, model, seq: GaitSequence, cfg: SimConfig):
         self.weights, self.units = spec.objective.weights, spec.objective.units
         self.robust = spec.robust
-        self.cases = [case_by_name(walking_cases(robot.geometry.total_mass), n) for n in spec.robust.models] \
-            if spec.robust else []
+        self.models_per_candidate = spec.models_per_candidate
+        self.cases = walking_cases(robot.geometry.total_mass, spec.robust.models) if spec.robust else []
         models = [model] + case_models(mspec, model, self.cases)
         self.ev = MultiModelEvaluator(robot, models, seq, cfg)
 
     def __call__(self, x: np.ndarray):
         r = self.ev.evaluate_all(x)
+        m = {k: v[:, 0] for k, v in r.metrics.items()}
         if self.robust is None:
-            m = {k: v[:, 0] for k, v in r.metrics.items()}
             return fitness(m, self.weights, self.units), m, r.sim_steps
         f, _ = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
-        return f, {k: v[:, 0] for k, v in r.metrics.items()}, r.sim_steps
+        return f, m, r.sim_steps
+
+    def generation(self, x: np.ndarray) -> Generation:
+        """One generation of a search: fitness, falls, simulated steps."""
+        f, m, steps = self(x)
+        return Generation(f, {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps},
+                          evaluations=len(f) * self.models_per_candidate)
 
     def per_model(self, x: np.ndarray) -> list[dict]:
         r = self.ev.evaluate_all(x)
         _, f = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
         names = ["nominal"] + [c.name for c in self.cases]
-        return [{"name": n, "fitness": float(f[0, k]),
-                 "metrics": {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}}
-                for k, n in enumerate(names)]
+        return [{"name": n, "fitness": float(f[0, k]), "metrics": _scalars(r.metrics, k)} for k, n in enumerate(names)]
 
     def close(self):
         self.ev.close()
 
 
-def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
-    t0 = time.perf_counter()
+@dataclasses.dataclass
+class _Job:
+    """What the steps share: the problem set up once, its evaluators (closed at the end),
+    what each step found, and the tallies the steps add to."""
+
+    spec: RecoverySpec
+    robot: RobotEntry
+    mspec: mujoco.MjSpec
+    model: mujoco.MjModel
+    legs: list[int]
+    seq: GaitSequence
+    lower: np.ndarray
+    upper: np.ndarray
+    names: list[str]
+    score: _Scorer
+    ev: GaitEvaluator  # the planned gait sequence on the nominal model
+    base_ev: GaitEvaluator  # the nominal tripod
+    cases: list[Perturbation]
+    rob_ev: MultiModelEvaluator | None
+    searches: dict[str, SearchOutcome] = dataclasses.field(default_factory=dict)
+    best: dict = dataclasses.field(default_factory=dict)
+    baseline: dict = dataclasses.field(default_factory=dict)
+    controls: list[dict] = dataclasses.field(default_factory=list)
+    robustness: dict | None = None
+    robust: dict | None = None
+    traces: dict = dataclasses.field(default_factory=dict)
+    evaluations: int = 0
+    sim_steps: int = 0
+    wall_s: float = 0.0  # the searches' (summed over resumes), then the post-search steps'
+    setup_s: float = 0.0
+
+    @property
+    def nominal_x(self) -> np.ndarray:
+        return nominal_params(self.robot, self.legs)
+
+    def close(self) -> None:
+        for ev in (self.score, self.ev, self.base_ev, self.rob_ev):
+            if ev is not None:
+                ev.close()
+
+
+def set_up(spec: RecoverySpec) -> _Job:
     robot = get_robot(spec.robot)
     mspec, model = sim_model(spec, robot)
     legs = functional_legs(spec)
-    com_xy = robot.stance_com_xy(model, spec.gait.stance_height_m)
-    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(), com_xy)
+    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(),
+                       robot.stance_com_xy(model, spec.gait.stance_height_m))
     cfg = sim_config(spec)
-    weights, units = spec.objective.weights, spec.objective.units
     lower, upper = search_bounds(spec, robot)
-    names = param_names(legs)
+    cases = walking_cases(robot.geometry.total_mass, spec.robustness.cases)
+    return _Job(spec=spec, robot=robot, mspec=mspec, model=model, legs=legs, seq=seq, lower=lower, upper=upper,
+                names=param_names(legs), score=_Scorer(spec, robot, mspec, model, seq, cfg),
+                ev=GaitEvaluator(robot, model, seq, cfg), base_ev=GaitEvaluator(robot, model, nominal_tripod(legs), cfg),
+                cases=cases,
+                rob_ev=MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None)
+
+
+def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
+    """Each phase's share of the progress bar, in simulated walks."""
     s = spec.search
-    total = s.generations + 1  # generation 0 is the initial population
-    names_of_phases = ["search"] + (["random_search"] if spec.controls.random_search else [])
+    per_search = s.population * (s.generations + 1) * spec.models_per_candidate
+    rnd = int(spec.controls.random_search)
+    sizes = {"search": per_search, "random_search": rnd * per_search, "final_scoring": 2,
+             "random_search_scoring": rnd, "robustness": len(spec.robustness.cases), "traces": 2}
+    return {name: n for name, n in sizes.items() if n}
 
-    score = _Scorer(spec, robot, mspec, model, seq, cfg)
-    score.ev_models = spec.models_per_candidate
-    ev = GaitEvaluator(robot, model, seq, cfg)
-    base_ev = GaitEvaluator(robot, model, nominal_tripod(legs), cfg)
-    all_cases = walking_cases(robot.geometry.total_mass)
-    cases = [case_by_name(all_cases, n) for n in spec.robustness.cases]
-    rob_ev = MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None
-    try:
-        opts = {"search": make_optimizer(s.optimizer, lower, upper, s.population, s.seed, cr=s.cr, f=s.f)}
-        if spec.controls.random_search:
-            # its own stream of the job's seed, so adding the control leaves the search's draws alone
-            opts["random_search"] = make_optimizer("random", lower, upper, s.population, [s.seed, 1])
 
-        def evaluate(x: np.ndarray) -> Generation:
-            f, m, steps = score(x)
-            return Generation(f, {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps},
-                              evaluations=len(f) * score.ev_models)
-
-        phases = Phases(ctx, {name: total for name in names_of_phases})
-        seg_start = time.perf_counter()
-        searches = {"search": run_search(opts["search"], evaluate, s.generations, phases.context("search"), spec.stop)}
-        if "random_search" in opts:  # as many generations as the search ran, when a stop rule ended it early
-            searches["random_search"] = run_search(opts["random_search"], evaluate,
-                                                   searches["search"].generations_run - 1,
+def search(job: _Job, phases: Phases) -> None:
+    """The search, then (when asked) the uniform random search over the same bounds for as
+    many generations as the search ran (fewer when a stop rule ended it early)."""
+    s = job.spec.search
+    opt = make_optimizer(s.optimizer, job.lower, job.upper, s.population, s.seed, cr=s.cr, f=s.f)
+    job.searches["search"] = run_search(opt, job.score.generation, s.generations, phases.context("search"),
+                                        job.spec.stop)
+    if job.spec.controls.random_search:
+        # its own stream of the job's seed, so adding the control leaves the search's draws alone
+        rnd = make_optimizer("random", job.lower, job.upper, s.population, control_seed(s.seed))
+        job.searches["random_search"] = run_search(rnd, job.score.generation, job.searches["search"].generations_run - 1,
                                                    phases.context("random_search"))
-        post_start = time.perf_counter()
+    done = job.searches.values()
+    job.evaluations = sum(o.evaluations for o in done)
+    job.sim_steps = sum(int(o.totals.get("sim_steps", 0)) for o in done)
+    job.wall_s = sum(o.wall_s for o in done)
 
-        def enter(name: str) -> None:
-            """Between the post-search units of work: stop on cancel (the searches' results are
-            in the checkpoint, a resume starts here), and say which one runs."""
-            if ctx.is_cancelled():
-                raise Cancelled()
-            ctx.progress(phases.total, phases.total,
-                         {"phase": name, "best": float(searches["search"].best_fitness),
-                          "evaluations": int(sum(o.evaluations for o in searches.values()))})
 
-        enter("final_scoring")
-        state = {"evaluations": sum(o.evaluations for o in searches.values()),
-                 "sim_steps": sum(int(o.totals.get("sim_steps", 0)) for o in searches.values()),
-                 "wall_s": sum(o.wall_s for o in searches.values())}
+def _enter(job: _Job, phases: Phases, name: str) -> PhaseContext:
+    """A post-search phase begins: stop here on cancel (the searches' results are in the
+    checkpoint, so a resume starts here) and say which one runs."""
+    ph = phases.context(name)
+    ph.tick(0, {"best": float(job.searches["search"].best_fitness), "evaluations": int(job.evaluations)})
+    return ph
 
-        best_x = searches["search"].best_x
-        nominal = nominal_params(robot, legs)
-        best = _scored(ev, best_x, weights, units)
-        baseline = _scored(base_ev, nominal, weights, units)
-        state["evaluations"] += 2
-        controls = [{
-            "name": "baseline", "label": "nominal tripod with nominal parameters (no recovery)", "evaluations": 1,
-            "metrics": baseline["metrics"], "fitness": baseline["fitness"],
-            "target_met": meets_target(baseline["metrics"]),
-            "note": ("already meets the target without recovery" if meets_target(baseline["metrics"])
-                     else "does not meet the target") + ("; falls (chassis or upper leg on the ground)"
-                                                        if baseline["metrics"]["fell"] else ""),
-        }]
-        if "random_search" in opts:
-            enter("random_search_scoring")
-            rx = searches["random_search"].best_x
-            rs = _scored(ev, rx, weights, units)
-            state["evaluations"] += 1
-            controls.append({
-                "name": "random_search", "label": "uniform random search over the same bounds",
-                "evaluations": total * s.population * spec.models_per_candidate,
-                "metrics": rs["metrics"], "fitness": rs["fitness"], "target_met": meets_target(rs["metrics"]),
-                "params": {n: float(v) for n, v in zip(names, rx)},
-                "note": "same budget, same scoring" + (" (robust)" if spec.robust else "")
-                        + f"; {'beats' if rs['fitness'] > best['fitness'] else 'does not beat'} the search's best F",
-            })
-        robustness = None
-        if rob_ev is not None:
-            enter("robustness")
-            r = rob_ev.evaluate_all(best_x)
-            state["evaluations"] += len(cases)
-            state["sim_steps"] += r.sim_steps
-            rows = []
-            for k, c in enumerate(cases):
-                m = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}
-                rows.append({"name": c.name, "label": c.label, "metrics": m, "target_met": meets_target(m),
-                             "fitness": float(fitness({key: v[:, k] for key, v in r.metrics.items()}, weights, units)[0])})
-            robustness = robustness_block(TARGET_TEXT, best["metrics"], rows)
-        robust = None
-        if spec.robust is not None:
-            robust = spec.robust.model_dump() | {"best_per_model": score.per_model(best_x[None])}
-        enter("traces")
-        traces = {"best": ev.trace(best_x), "baseline": base_ev.trace(nominal)}
-    finally:
-        score.close()
-        ev.close()
-        base_ev.close()
-        if rob_ev is not None:
-            rob_ev.close()
-    wall = state["wall_s"] + time.perf_counter() - post_start  # searches (across resumes) + final scoring
-    history = searches["search"].history
-    best["params"] = {n: float(v) for n, v in zip(names, best_x)}
-    best["target_met"] = meets_target(best["metrics"])
-    baseline["params"] = {n: float(v) for n, v in zip(names, nominal)}
-    baseline["gait"] = nominal_tripod(legs).as_dict()
-    baseline["target_met"] = controls[0]["target_met"]
-    evaluations, sim_steps = state["evaluations"], state["sim_steps"]
-    summary = {
+
+def _done(ph: PhaseContext) -> None:
+    ph.progress(1, 1, {})  # the next phase's _enter checks for a cancel
+
+
+def controls(job: _Job, phases: Phases) -> None:
+    """The answer and the nominal tripod re-scored; the random search's best beside them."""
+    ph = _enter(job, phases, "final_scoring")
+    w, u = job.spec.objective.weights, job.spec.objective.units
+    job.best = _scored(job.ev, job.searches["search"].best_x, w, u)
+    job.baseline = _scored(job.base_ev, job.nominal_x, w, u)
+    job.evaluations += 2
+    met = TARGET.met(job.baseline["metrics"])
+    note = ("already meets the target without recovery" if met else "does not meet the target") + (
+        "; falls (chassis or upper leg on the ground)" if job.baseline["metrics"]["fell"] else "")
+    job.controls = [ControlRow("baseline", "nominal tripod with nominal parameters (no recovery)",
+                               job.baseline["metrics"], met, 1, note,
+                               extra={"fitness": job.baseline["fitness"]}).to_json()]
+    _done(ph)
+    if "random_search" not in job.searches:
+        return
+    ph = _enter(job, phases, "random_search_scoring")
+    rx = job.searches["random_search"].best_x
+    rs = _scored(job.ev, rx, w, u)
+    job.evaluations += 1
+    s = job.spec
+    beats = "beats" if rs["fitness"] > job.best["fitness"] else "does not beat"
+    job.controls.append(ControlRow(
+        "random_search", "uniform random search over the same bounds", rs["metrics"], TARGET.met(rs["metrics"]),
+        (s.search.generations + 1) * s.search.population * s.models_per_candidate,
+        "same budget, same scoring" + (" (robust)" if s.robust else "") + f"; {beats} the search's best F",
+        extra={"fitness": rs["fitness"], "params": _params(job.names, rx)}).to_json())
+    _done(ph)
+
+
+def robustness(job: _Job, phases: Phases) -> None:
+    """The answer re-simulated under each case, judged by the target; and, after a robust
+    search, the answer's fitness on each model it was searched on."""
+    best_x = job.searches["search"].best_x
+    if job.rob_ev is not None:
+        ph = _enter(job, phases, "robustness")
+        r = job.rob_ev.evaluate_all(best_x)
+        job.evaluations += len(job.cases)
+        job.sim_steps += r.sim_steps
+        w, u = job.spec.objective.weights, job.spec.objective.units
+        rows = []
+        for k, c in enumerate(job.cases):
+            m = _scalars(r.metrics, k)
+            f = float(fitness({key: v[:, k] for key, v in r.metrics.items()}, w, u)[0])
+            rows.append({"name": c.name, "label": c.label, "metrics": m, "target_met": TARGET.met(m), "fitness": f})
+        job.robustness = Robustness.build(TARGET.text, job.best["metrics"], rows).to_json()
+        _done(ph)
+    if job.spec.robust is not None:
+        job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
+
+
+def record_traces(job: _Job, phases: Phases) -> None:
+    ph = _enter(job, phases, "traces")
+    job.traces = {"best": job.ev.trace(job.searches["search"].best_x), "baseline": job.base_ev.trace(job.nominal_x)}
+    _done(ph)
+
+
+def summary(job: _Job) -> dict:
+    search_out = job.searches["search"]
+    best = job.best | {"params": _params(job.names, search_out.best_x), "target_met": TARGET.met(job.best["metrics"])}
+    baseline = job.baseline | {"params": _params(job.names, job.nominal_x), "gait": nominal_tripod(job.legs).as_dict(),
+                               "target_met": TARGET.met(job.baseline["metrics"])}
+    return {
         "kind": "recovery",
-        "robot": spec.robot,
-        "damage": spec.damage.model_dump(),
-        "seed": spec.seed,
+        "robot": job.spec.robot,
+        "damage": job.spec.damage.model_dump(),
+        "seed": job.spec.seed,
         "baseline": baseline,
         "best": best,
-        "target": {"text": TARGET_TEXT, "best_met": best["target_met"], "baseline_met": baseline["target_met"],
+        "target": {"text": TARGET.text, "best_met": best["target_met"], "baseline_met": baseline["target_met"],
                    "note": ("the baseline already meets the target: this damage needs no recovery"
                             if baseline["target_met"] else "")},
-        "controls": controls,
-        "robustness": robustness,
-        "robust": robust,
-        "gait": seq.as_dict() | {"period_s": ev.n_period * ev.dt},
-        "timestep_s": float(model.opt.timestep),
-        "bounds": {"names": names, "lower": lower.tolist(), "upper": upper.tolist()},
-        "history": history,
-        "random_search_history": searches["random_search"].history if "random_search" in searches else [],
-        "search": {"stop_reason": searches["search"].stop_reason, "generations_run": searches["search"].generations_run},
-        "timing": {"wall_s": wall, "evaluations": evaluations,
-                   "sim_steps_per_s": sim_steps / max(wall, 1e-9), "sim_steps": sim_steps,
-                   "setup_s": seg_start - t0},
+        "controls": job.controls,
+        "robustness": job.robustness,
+        "robust": job.robust,
+        "gait": job.seq.as_dict() | {"period_s": job.ev.n_period * job.ev.dt},
+        "timestep_s": float(job.model.opt.timestep),
+        "bounds": {"names": job.names, "lower": job.lower.tolist(), "upper": job.upper.tolist()},
+        "history": search_out.history,
+        "random_search_history": job.searches["random_search"].history if "random_search" in job.searches else [],
+        "search": {"stop_reason": search_out.stop_reason, "generations_run": search_out.generations_run},
+        "timing": {"wall_s": job.wall_s, "evaluations": job.evaluations,
+                   "sim_steps_per_s": job.sim_steps / max(job.wall_s, 1e-9), "sim_steps": job.sim_steps,
+                   "setup_s": job.setup_s},
     }
-    return JobResult(summary=summary, history=history, traces=traces, model_xml=mspec.to_xml(),
-                     evaluations=evaluations, sim_steps=sim_steps)
+
+
+def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
+    t0 = time.perf_counter()
+    job = set_up(spec)
+    try:
+        phases = Phases(ctx, phase_sizes(spec))
+        job.setup_s = time.perf_counter() - t0
+        search(job, phases)
+        post_start = time.perf_counter()
+        controls(job, phases)
+        robustness(job, phases)
+        record_traces(job, phases)
+    finally:
+        job.close()
+    job.wall_s += time.perf_counter() - post_start  # the searches (across resumes) + the post-search steps
+    return JobResult(summary=summary(job), history=job.searches["search"].history, traces=job.traces,
+                     model_xml=job.mspec.to_xml(), evaluations=job.evaluations, sim_steps=job.sim_steps)

@@ -9,15 +9,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from app.jobs import viewkit as kit
-from app.jobs.recovery.present import HISTORY_COLUMNS, TARGET as _TARGET, replay_style
+from app.jobs.recovery.metrics import TARGET, target_checks
+from app.jobs.recovery.present import HISTORY_COLUMNS, replay_style
 
 # labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
 RUNS = {t.name: (t.label, t.color) for t in replay_style(["best", "baseline"])}
-# The walking target (present.TARGET): forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg.
-TARGET = {"forward_cm": 100 * _TARGET["y_min_m"], "lateral_cm": 100 * _TARGET["x_abs_max_m"],
-          "yaw_deg": _TARGET["yaw_abs_max_deg"]}
-TARGET_TEXT = (f"forward ≥ {TARGET['forward_cm']:g} cm, |lateral| ≤ {TARGET['lateral_cm']:g} cm, "
-               f"|yaw| ≤ {TARGET['yaw_deg']:g}°")
 
 
 def _order(traces: Mapping) -> list[str]:
@@ -26,11 +22,6 @@ def _order(traces: Mapping) -> list[str]:
 
 def _style(name: str, i: int) -> tuple[str, str]:
     return RUNS.get(name, (name.replace("_", " "), kit.PALETTE[(i + 2) % len(kit.PALETTE)]))
-
-
-def target_checks(m: dict) -> dict[str, bool]:
-    return {"forward": m["y_f_m"] * 100 >= TARGET["forward_cm"], "lateral": abs(m["x_f_m"] * 100) <= TARGET["lateral_cm"],
-            "yaw": abs(m["yaw_f_deg"]) <= TARGET["yaw_deg"], "upright": not m.get("fell", False)}
 
 
 def table_two(summary: dict) -> dict | None:
@@ -59,17 +50,17 @@ def table_two(summary: dict) -> dict | None:
             v = f(m)
             b = None if name == "baseline" or f(base["metrics"]) == v else better(kind, f(base["metrics"]), v)
             row.append(kit.cell(round(v, 2), met=checks[tkey] if tkey else None, better=b))
-        row.append(kit.cell("yes" if m.get("fell") else "no", met=not m.get("fell")))
+        row.append(kit.cell("no" if checks["upright"] else "yes", met=checks["upright"]))
         fb = None if name == "baseline" or r["fitness"] == base["fitness"] else r["fitness"] > base["fitness"]
         row.append(kit.cell(r["fitness"], better=fb))
-        ok = all(checks.values())
+        ok = TARGET.met(m)
         row.append(kit.cell("met" if ok else "not met", met=ok))
         rows.append(row)
     cap = (f"As in the paper's Table II: final position (x sideways drift, y forward, the walking direction), final yaw, "
-           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {TARGET_TEXT}, without "
-           "falling — each target column says met or not met. Recovered values say better or worse than the baseline.")
+           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {TARGET.text} — each "
+           "target column says met or not met. Recovered values say better or worse than the baseline.")
     return kit.panel("table2", "Before and after", cap,
-                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({TARGET_TEXT})"],
+                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({TARGET.text})"],
                                      rows))
 
 
@@ -221,8 +212,7 @@ def study_views(study: dict, points: list[dict]) -> list[dict]:
         m = s["best"]["metrics"]
         groups.setdefault(tuple(sorted(d["lost_legs"])), []).append(
             {"speed": 100 * m["y_f_m"] / p["spec"]["sim"]["duration_s"], "x": 100 * m["x_f_m"], "y": 100 * m["y_f_m"],
-             "yaw": m["yaw_f_deg"], "met": bool(s["target"]["best_met"]),
-             "baseline_met": bool(s["target"]["baseline_met"])})
+             "yaw": m["yaw_f_deg"], "met": TARGET.met(m), "baseline_met": TARGET.met(s["baseline"]["metrics"])})
     if len(groups) < 2 or robot not in ROBOTS:
         return []
     info = ROBOTS[robot].describe()

@@ -150,7 +150,8 @@ def test_robustness_block_is_a_real_re_simulation_of_the_answer(small_run):
     from app.jobs.recovery.sequences import plan_hexapod
     from app.jobs.recovery.run import sim_config, sim_model
     from app.jobs.recovery.evaluate import GaitEvaluator
-    from app.sim.perturb import case_by_name, perturbed_model, walking_cases
+    from app.jobs.recovery.cases import perturbation
+    from app.sim.perturb import perturbed_model
 
     spec, res = small_run
     rob = res.summary["robustness"]
@@ -162,7 +163,7 @@ def test_robustness_block_is_a_real_re_simulation_of_the_answer(small_run):
     assert all(c["metrics"]["y_f_m"] != nominal_y for c in rob["cases"])
     # re-simulate one case by hand: the block holds exactly that simulation's numbers
     mspec, model = sim_model(spec, JETHEXA)
-    case = case_by_name(walking_cases(JETHEXA.geometry.total_mass), "friction_0.7")
+    case = perturbation("friction_0.7", JETHEXA.geometry.total_mass)
     seq = plan_hexapod([1, 6], JETHEXA.nominal_feet_xy(), JETHEXA.stance_com_xy(model, 0.10))
     ev = GaitEvaluator(JETHEXA, perturbed_model(mspec, case, model), seq, sim_config(spec))
     x = np.array(list(res.summary["best"]["params"].values()))
