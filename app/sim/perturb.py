@@ -1,9 +1,10 @@
 """Perturbed copies of a simulated world, for robustness checks and robust search.
 
-Every kind re-simulates its final answer under the same named perturbations (the shared
-``summary["robustness"]`` block), so a result that only holds on the exact numerical model
-it was tuned on shows up as such. A perturbation is a value; ``perturbed_model`` turns an
-``MjSpec`` into the perturbed ``MjModel``:
+Every kind re-simulates its final answer under the standard named cases
+(``app.jobs.evidence.CASES``, the shared ``summary["robustness"]`` block), so a result that
+only holds on the exact numerical model it was tuned on shows up as such. A kind turns each
+case into a ``Perturbation`` of its MuJoCo world (the payload and the rough floor are the
+kind's to size); ``perturbed_model`` turns an ``MjSpec`` into the perturbed ``MjModel``:
 
 - structural edits go through a copy of the spec (rough terrain replaces the plane geom
   named ``floor`` by a height field with the same contact settings);
@@ -21,8 +22,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Sequence
-
 import mujoco
 import numpy as np
 
@@ -48,30 +47,6 @@ class Perturbation:
 
 
 NOMINAL = Perturbation("nominal", "nominal model")
-
-
-def walking_cases(robot_mass_kg: float) -> list[Perturbation]:
-    """The standard set for a walking robot. The payload is 10 % of the robot's mass, set
-    2 cm to one side of the torso's centre of mass, so that it also tests lateral balance."""
-    payload = round(0.1 * robot_mass_kg, 3)
-    return [
-        Perturbation("dt_half", "timestep halved", timestep_scale=0.5),
-        Perturbation("dt_quarter", "timestep quartered", timestep_scale=0.25),
-        Perturbation("friction_0.7", "friction x 0.7", friction_scale=0.7),
-        Perturbation("friction_1.3", "friction x 1.3", friction_scale=1.3),
-        Perturbation("mass_+10pct", "all link and body masses +10 %", mass_scale=1.1),
-        Perturbation("payload", f"payload {payload} kg, 2 cm right of the torso's centre of mass",
-                     payload_kg=payload, payload_offset_m=(0.02, 0.0, 0.0)),
-        Perturbation("rough_terrain", "rough floor: height field, heights uniform in +-5 mm on a 4 cm grid",
-                     terrain_amplitude_m=0.005),
-    ]
-
-
-def case_by_name(cases: Sequence[Perturbation], name: str) -> Perturbation:
-    for c in cases:
-        if c.name == name:
-            return c
-    raise KeyError(f"unknown perturbation {name!r}; known: {[c.name for c in cases]}")
 
 
 # -- spec edits -----------------------------------------------------------------------------
@@ -159,24 +134,3 @@ def same_signature(a: mujoco.MjModel, b: mujoco.MjModel) -> bool:
     """Can ``a`` and ``b`` share one ``mujoco.rollout`` call (same sizes and timestep)?"""
     sizes = ("nq", "nv", "nu", "na", "nbody", "ngeom", "nsensordata", "nhfielddata", "nmocap", "neq")
     return a.opt.timestep == b.opt.timestep and all(getattr(a, s) == getattr(b, s) for s in sizes)
-
-
-# -- the shared result block ----------------------------------------------------------------
-
-def spread(nominal: dict[str, float], cases: list[dict]) -> dict[str, dict[str, float]]:
-    out = {}
-    for k, v in nominal.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            continue
-        vals = [c["metrics"][k] for c in cases if isinstance(c["metrics"].get(k), (int, float))]
-        vals = [float(x) for x in vals if not isinstance(x, bool)] + [float(v)]
-        out[k] = {"min": min(vals), "max": max(vals), "nominal": float(v)}
-    return out
-
-
-def robustness_block(target: str, nominal_metrics: dict, cases: list[dict]) -> dict:
-    """``summary["robustness"]`` in the shared format. ``cases``: [{"name", "label",
-    "metrics", "target_met"}] from real re-simulations of the final answer."""
-    met = sum(1 for c in cases if c["target_met"] is True)
-    return {"target": target, "cases": cases, "met": met, "total": len(cases),
-            "spread": spread(nominal_metrics, cases)}

@@ -10,11 +10,12 @@ from app.jobs.recovery.run import nominal_params
 from app.robots.catalog import JETHEXA
 from app.robots.damage import DamageSpec
 from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
-from app.sim.perturb import (NOMINAL, Perturbation, case_by_name, edit_model, perturbed_model, robustness_block,
-                             same_signature, walking_cases)
+from app.sim.perturb import NOMINAL, Perturbation, edit_model, perturbed_model, same_signature
+from app.jobs.recovery.cases import perturbation, walking_cases
 from app.jobs.recovery.robust import MultiModelEvaluator, aggregate, case_models
 
-CASES = walking_cases(JETHEXA.geometry.total_mass)
+MASS = JETHEXA.geometry.total_mass
+CASES = walking_cases(MASS)
 SHORT = SimConfig(duration_s=1.0, settle_s=0.3)
 
 
@@ -32,7 +33,7 @@ def test_each_case_edits_what_it_says(world):
     np.testing.assert_allclose(c["friction_1.3"].geom_friction[:, 0], 1.3 * m.geom_friction[:, 0])
     np.testing.assert_allclose(c["mass_+10pct"].body_mass, 1.1 * m.body_mass)
     assert c["mass_+10pct"].body_subtreemass[1] == pytest.approx(1.1 * m.body_subtreemass[1])  # mj_setConst ran
-    pay = case_by_name(CASES, "payload").payload_kg
+    pay = perturbation("payload", MASS).payload_kg
     assert c["payload"].body_subtreemass[0] == pytest.approx(m.body_subtreemass[0] + pay)
     rough = c["rough_terrain"]
     floor = mujoco.mj_name2id(rough, mujoco.mjtObj.mjOBJ_GEOM, "floor")
@@ -70,8 +71,7 @@ def test_payload_edit_matches_a_compiled_payload_geom():
 
 def test_variants_in_one_rollout_equal_single_model_runs(world):
     mspec, m = world
-    cases = [NOMINAL, case_by_name(CASES, "friction_0.7"), case_by_name(CASES, "payload"),
-             case_by_name(CASES, "dt_half"), case_by_name(CASES, "rough_terrain")]
+    cases = [NOMINAL] + walking_cases(MASS, ["friction_0.7", "payload", "dt_half", "rough_terrain"])
     models = case_models(mspec, m, cases)
     seq = plan_hexapod((1, 6), JETHEXA.nominal_feet_xy())
     legs = [2, 3, 4, 5]
@@ -95,12 +95,3 @@ def test_aggregates():
     np.testing.assert_array_equal(aggregate(f, "worst"), [1.0, -1.0])
     with pytest.raises(ValueError):
         aggregate(f, "best")
-
-
-def test_robustness_block_counts_and_spreads():
-    nominal = {"y_f_m": 0.6, "x_f_m": 0.01, "fell": False}
-    cases = [{"name": "a", "label": "a", "metrics": {"y_f_m": 0.4, "x_f_m": 0.0, "fell": False}, "target_met": False},
-             {"name": "b", "label": "b", "metrics": {"y_f_m": 0.7, "x_f_m": 0.03, "fell": False}, "target_met": True}]
-    b = robustness_block("t", nominal, cases)
-    assert b["met"] == 1 and b["total"] == 2 and "fell" not in b["spread"]
-    assert b["spread"]["y_f_m"] == {"min": 0.4, "max": 0.7, "nominal": 0.6}
