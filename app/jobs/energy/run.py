@@ -1,6 +1,10 @@
 """Run an ``energy`` job: GA (paper 003) -> detailed evaluation of the best -> full-physics
 check -> controls -> robustness. Search phases checkpoint every generation; the analysis
-after them is deterministic and re-runs on resume."""
+after them is deterministic and re-runs on resume.
+
+The job is five steps over small state records: set-up (``_Job``), the searches
+(``_Searches``), the answer in detail with its physics check (``_Answer``), the controls
+and the robustness re-runs (``_Evidence``), and the summary."""
 
 from __future__ import annotations
 
@@ -10,25 +14,112 @@ from typing import Any
 
 import numpy as np
 
-from app.jobs.energy.dynamics.gait import Gait
-from app.jobs.energy.dynamics.physics import PhysicsConfig, reference_from, simulate
-from app.jobs.energy.dynamics.pipeline import PERIODICITY_TOL, evaluate
-from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.evidence import Phases
-from app.jobs.loop import Generation, run_search
-from app.jobs.energy.problem import (PopulationEvaluator, decode, encode_nominal, eval_config, geometry,
+from app.jobs.base import JobResult, RunContext
+from app.jobs.energy.dynamics.gait import Gait, Task
+from app.jobs.energy.dynamics.physics import PhysicsConfig, Reference, reference_from, simulate
+from app.jobs.energy.dynamics.pipeline import PERIODICITY_TOL, EvalConfig, evaluate
+from app.jobs.energy.problem import (PopulationEvaluator, Space, decode, encode_nominal, eval_config, geometry,
                                      space, task_of)
-from app.jobs.energy.spec import ROBUSTNESS_CASES, EnergySpec
+from app.jobs.energy.spec import EPS_RATIO_MIN, ROBUSTNESS_CASES, EnergySpec, walk_target
+from app.jobs.evidence import (Case, CaseResult, ControlRow, PhaseContext, Phases, Robustness, Target, control_seed,
+                               spread)
+from app.jobs.loop import Carry, Generation, SearchOutcome, run_search
 from app.optim.ga import GeneticAlgorithm
 from app.optim.random_search import RandomSearch
-from app.robots.quadruped import LEGS, build_spec
+from app.robots.quadruped import LEGS, QuadrupedGeometry, build_spec
 
-SPEED_TOL = 0.1  # physics target: realised speed within 10 % of V, and up for every period
+# The play-back as the spec sets it: every scale of a robustness case at 1 (exact: x * 1.0 == x).
+_AS_SPECIFIED = Case("as_specified", "the world as specified")
+_SPREAD_KEYS = ("speed_m_s", "mean_height_m", "cot")
 
 
-def _gait_summary(gait: Gait) -> dict[str, Any]:
-    return {"period_s": gait.period, "touchdown_s": list(gait.touchdown), "duty": list(gait.duty), "legs": list(LEGS)}
+# -- the state the steps pass on ----------------------------------------------------------------
 
+@dataclasses.dataclass
+class _Job:
+    """What set-up derives from the spec and every later step reads."""
+
+    spec: EnergySpec
+    sp: Space
+    task: Task
+    cfg: EvalConfig
+    target: Target
+    phases: Phases
+    analysis: PhaseContext  # after the searches: the answer, the physics check, controls, robustness
+    t_start: float
+
+
+@dataclasses.dataclass
+class _Searched:
+    """One search's outcome and the evaluation row of its best candidate (the controls and
+    the summary need more of it than its J)."""
+
+    out: SearchOutcome
+    row: dict[str, Any]
+
+
+@dataclasses.dataclass
+class _Searches:
+    best_x: np.ndarray
+    history: list[dict[str, Any]]
+    t_end: float  # when the searches ended: this attempt's analysis time counts from here
+    evaluations: int = 0
+    wall_s: float = 0.0  # the searches' wall time, summed over resumed attempts
+    ga: _Searched | None = None
+    rs: _Searched | None = None
+
+
+@dataclasses.dataclass
+class _Answer:
+    """The answer evaluated in detail and, when every stage ran, played in MuJoCo."""
+
+    gait: Gait
+    links: tuple[float, float, float]
+    geom: QuadrupedGeometry
+    best: dict[str, Any]
+    ref: Reference | None = None
+    phys: dict[str, Any] | None = None
+    phys_other: dict[str, Any] | None = None
+    phys_raw: dict[str, Any] | None = None
+    sim_steps: int = 0
+
+
+@dataclasses.dataclass
+class _Evidence:
+    controls: list[ControlRow] = dataclasses.field(default_factory=list)
+    analysis: dict[str, Any] = dataclasses.field(default_factory=dict)
+    robustness: Robustness | None = None
+
+
+# -- the job ----------------------------------------------------------------------------------
+
+def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
+    job = _set_up(spec, ctx)
+    found = _search(job)
+    answer = _answer(job, found)
+    evidence = _Evidence()
+    if spec.evidence.controls:
+        _controls(job, found, answer, evidence)
+    if spec.evidence.robustness and answer.ref is not None:
+        evidence.robustness = _robustness(job, answer)
+    return _result(job, found, answer, evidence)
+
+
+def _set_up(spec: EnergySpec, ctx: RunContext) -> _Job:
+    t_start = time.perf_counter()
+    sizes: dict[str, int] = {}
+    if spec.search.optimizer == "ga":
+        n = spec.search_evaluations
+        sizes = {"ga": n} | ({"random_search": n} if spec.evidence.random_search else {})
+    # The analysis's share is the searches' complement: when a stop rule ends them early the
+    # bar jumps over what they skipped and never runs backwards.
+    phases = Phases(ctx, sizes | {"analysis": spec.evaluations_budget - sum(sizes.values())})
+    return _Job(spec=spec, sp=space(spec), task=task_of(spec), cfg=eval_config(spec),
+                target=walk_target(spec.task.speed_m_s, spec.physics.periods), phases=phases,
+                analysis=phases.context("analysis"), t_start=t_start)
+
+
+# -- the searches -----------------------------------------------------------------------------
 
 class _Minimising:
     """The GA minimises J; the shared loop maximises its fitness -J (negation is exact, so
@@ -59,31 +150,15 @@ class _Minimising:
         self.ga.restore(state)
 
 
-class _SearchPhase:
-    """One search phase's run context plus what the controls and the summary need beyond
-    the loop's history: the evaluation row of the best candidate so far. It rides in the
-    phase's checkpoint, so a resumed search keeps it."""
+class _Evaluation:
+    """A search's evaluate for the shared loop: a population's evaluation rows become its
+    Generation; the row of the best candidate so far is kept, and rides in the search's
+    checkpoint (``carry``) so a resumed search has it too."""
 
-    def __init__(self, ctx, evaluator):
-        self.ctx, self.evaluator = ctx, evaluator
-        self.artifact_dir = ctx.artifact_dir
-        self.row: dict | None = None
+    def __init__(self, evaluator: PopulationEvaluator):
+        self.evaluator = evaluator
+        self.row: dict[str, Any] | None = None
         self.feasible_share = 0.0
-
-    def load_checkpoint(self):
-        state = self.ctx.load_checkpoint()
-        if state is not None:
-            self.row = state.get("best_row")
-        return state
-
-    def save_checkpoint(self, state: dict) -> None:
-        self.ctx.save_checkpoint(state | {"best_row": self.row})
-
-    def progress(self, done: int, total: int, info: dict) -> None:
-        self.ctx.progress(done, total, info)
-
-    def is_cancelled(self) -> bool:
-        return self.ctx.is_cancelled()
 
     def __call__(self, X: np.ndarray) -> Generation:
         rows = self.evaluator(X)
@@ -100,140 +175,47 @@ class _SearchPhase:
     def info(self, info: dict) -> dict:
         return info | {"best_J": info["best"], "feasible_share": self.feasible_share}
 
+    def carry(self) -> Carry:
+        return Carry("best_row", lambda: self.row, self._restore)
 
-class _Skipped:
-    """The analysis's progress after searches a stop rule ended early: the bar counts the
-    searches' whole share as done, so it never runs backwards."""
-
-    def __init__(self, ctx, skipped: int):
-        self.ctx, self.skipped = ctx, skipped
-
-    def progress(self, done: int, total: int, info: dict) -> None:
-        self.ctx.progress(done + self.skipped, total, info)
-
-    def is_cancelled(self) -> bool:
-        return self.ctx.is_cancelled()
+    def _restore(self, row: dict[str, Any] | None) -> None:
+        self.row = row
 
 
-def _search(opt, phase: _SearchPhase, generations: int, rules) -> dict:
+def _run_one(job: _Job, name: str, opt, evaluator: PopulationEvaluator, generations: int, rules) -> _Searched:
     """One search (the GA or its control) through the shared loop (app/jobs/loop.py):
     generation 0 is the initial population, ``generations`` more follow unless a stop
     rule ends it; checkpoints after every generation, stops on cancel between them."""
-    out = run_search(opt, phase, generations, phase, rules, sign=-1.0, progress_info=phase.info)
-    return {"best_x": out.best_x, "best": {"row": phase.row}, "history": out.history, "evaluations": out.evaluations,
-            "wall_s": out.wall_s, "stop_reason": out.stop_reason, "generations_run": out.generations_run}
+    ev = _Evaluation(evaluator)
+    out = run_search(opt, ev, generations, job.phases.context(name), rules, sign=-1.0, progress_info=ev.info,
+                     carry=ev.carry())
+    return _Searched(out, ev.row)
 
 
-def _physics_summary(p: dict, ref_cot: float, speed: float) -> dict[str, Any]:
-    out = {k: p[k] for k in ("stays_up", "fell_at_s", "periods_completed", "speed_m_s", "mean_height_m", "cot",
-                             "cot_feedforward_part", "drift_per_period", "duration_s")}
-    out["cot"], out["cot_feedforward_part"] = float(out["cot"]), float(out["cot_feedforward_part"])
-    out["feedback_cot_share"] = (out["cot"] - out["cot_feedforward_part"]) / out["cot"] if out["cot"] > 0 else None
-    out["cot_vs_model"] = out["cot"] / ref_cot - 1.0 if ref_cot > 0 else None
-    out["target_met"] = bool(p["stays_up"] and abs(p["speed_m_s"] - speed) <= SPEED_TOL * speed)
-    return out
-
-
-def _physics(spec, geom, ref, task, **over):
-    ph = spec.physics
-    stance = max(ref.duty) * ref.period
-    cfg = PhysicsConfig(periods=ph.periods, timestep=ph.timestep_s, balance=ph.balance,
-                        foot_placement_s=over.get("foot_placement", ph.foot_placement) * stance)
-    friction = task.friction
-    if "timestep_scale" in over:
-        cfg = dataclasses.replace(cfg, timestep=cfg.timestep * over["timestep_scale"])
-    if "friction_scale" in over:
-        friction = friction * over["friction_scale"]
-    if "mass_scale" in over:
-        cfg = dataclasses.replace(cfg, mass_scale=over["mass_scale"])
-    if "balance" in over:
-        cfg = dataclasses.replace(cfg, balance=over["balance"])
-    return simulate(geom, ref, friction, dataclasses.replace(cfg, friction=friction))
-
-
-def run(spec: EnergySpec, ctx: RunContext) -> JobResult:
-    t_start = time.perf_counter()
-    total = spec.evaluations_budget
-    sp = space(spec)
-    task = task_of(spec)
-    cfg = eval_config(spec)
-    evaluator = PopulationEvaluator(spec) if spec.search.optimizer == "ga" else None
-    search_wall = 0.0
+def _search(job: _Job) -> _Searches:
+    """The GA and its equal-budget control: uniform random search over the same box, as
+    many generations as the GA ran (fewer when a stop rule ended it). Without a search the
+    answer is Table 1's design."""
+    spec, sp = job.spec, job.sp
+    if spec.search.optimizer != "ga":
+        return _Searches(best_x=encode_nominal(sp, spec), history=[], t_end=job.t_start)
+    evaluator = PopulationEvaluator(spec)
     try:
-        if spec.search.optimizer == "ga":
-            n = spec.search_evaluations
-            sizes = {"ga": n} | ({"random_search": n} if spec.evidence.random_search else {})
-            phases = Phases(ctx, sizes | {"analysis": total - sum(sizes.values())})
-            # --- the GA ---------------------------------------------------------------------
-            ga = GeneticAlgorithm(sp.lower, sp.upper, population=spec.search.population, seed=spec.search.seed)
-            st = _search(_Minimising(ga), _SearchPhase(phases.context("ga"), evaluator), spec.search.generations,
-                         spec.stop)
-            best_x, history, done = st["best_x"], st["history"], st["evaluations"]
-            search_wall += st["wall_s"]
-            # --- its equal-budget control: uniform random search over the same box, as many
-            # generations as the GA ran (fewer when a stop rule ended it) ---------------------
-            rs_state = None
-            if spec.evidence.random_search:
-                rs = RandomSearch(sp.lower, sp.upper, population=spec.search.population,
-                                  seed=spec.search.seed + 7919)
-                rs_state = _search(rs, _SearchPhase(phases.context("random_search"), evaluator),
-                                   st["generations_run"] - 1, None)
-                history = _merge_history(history, rs_state["history"])
-                done += rs_state["evaluations"]
-                search_wall += rs_state["wall_s"]
-        else:
-            best_x, history, done, rs_state, st = encode_nominal(sp, spec), [], 0, None, None
+        ga = GeneticAlgorithm(sp.lower, sp.upper, population=spec.search.population, seed=spec.search.seed)
+        st = _run_one(job, "ga", _Minimising(ga), evaluator, spec.search.generations, spec.stop)
+        found = _Searches(best_x=st.out.best_x, history=st.out.history, t_end=0.0, evaluations=st.out.evaluations,
+                          wall_s=st.out.wall_s, ga=st)
+        if spec.evidence.random_search:
+            rs = RandomSearch(sp.lower, sp.upper, population=spec.search.population,
+                              seed=control_seed(spec.search.seed))
+            found.rs = _run_one(job, "random_search", rs, evaluator, st.out.generations_run - 1, None)
+            found.history = _merge_history(found.history, found.rs.out.history)
+            found.evaluations += found.rs.out.evaluations
+            found.wall_s += found.rs.out.wall_s
     finally:
-        if evaluator is not None:
-            evaluator.close()
-    t_post = time.perf_counter()
-    if st is not None and done < sum(sizes.values()):
-        ctx = _Skipped(ctx, sum(sizes.values()) - done)  # a stop rule ended the searches early
-
-    # --- the answer in detail --------------------------------------------------------------
-    if ctx.is_cancelled():
-        raise Cancelled()
-    gait, links = decode(sp, best_x)
-    geom = geometry(spec, links)
-    best = evaluate(geom, gait, task, cfg, detail=True)
-    done += 1
-    ctx.progress(done, total, {"phase": "analysis", "step": "best in detail"})
-    tr = best.get("trajectories")
-    phys, phys_other, ref, phys_raw = None, None, None, None
-    sim_steps = 0
-    if tr is not None:
-        if ctx.is_cancelled():
-            raise Cancelled()
-        ref = reference_from(tr, gait, task.speed)
-        p = _physics(spec, geom, ref, task)
-        phys = _physics_summary(p, best["cot"]["qp"], task.speed)
-        phys_raw = p
-        feedback = spec.physics.balance or spec.physics.foot_placement > 0
-        p2 = (_physics(spec, geom, ref, task, balance=False, foot_placement=0.0) if feedback
-              else _physics(spec, geom, ref, task, foot_placement=0.5))
-        sim_steps += p["steps"] + p2["steps"]
-        phys_other = _physics_summary(p2, best["cot"]["qp"], task.speed)
-        phys["feedback"] = _feedback_text(spec.physics.balance, spec.physics.foot_placement)
-        phys_other["feedback"] = _feedback_text(False, 0.0) if feedback else _feedback_text(False, 0.5)
-        done += 2
-        ctx.progress(done, total, {"phase": "analysis", "step": "physics check", "stays_up": phys["stays_up"]})
-
-    controls, analysis = [], {}
-    if spec.evidence.controls:
-        controls, analysis, n = _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx, done, total)
-        done += n
-    robustness = None
-    if spec.evidence.robustness and ref is not None:
-        robustness = _robustness(spec, geom, ref, task, phys, ctx, done, total)
-        done += len(ROBUSTNESS_CASES)
-
-    # the searches' wall time summed over resumed attempts, then this attempt's analysis
-    wall = (search_wall + time.perf_counter() - t_post) if st is not None else time.perf_counter() - t_start
-    summary = _summary(spec, best, gait, links, geom, phys, phys_other, controls, analysis, robustness, st, wall, done)
-    traces = _traces(best, phys_raw)
-    model_xml = build_spec(dataclasses.replace(geom, timestep=spec.physics.timestep_s)).to_xml()
-    return JobResult(summary=summary, history=history, traces=traces, model_xml=model_xml, evaluations=done,
-                     sim_steps=int(sim_steps + (robustness or {}).get("sim_steps", 0)))
+        evaluator.close()
+    found.t_end = time.perf_counter()
+    return found
 
 
 def _merge_history(ga: list[dict], rs: list[dict]) -> list[dict]:
@@ -250,6 +232,59 @@ def _merge_history(ga: list[dict], rs: list[dict]) -> list[dict]:
     return out
 
 
+# -- the answer in detail and in physics ------------------------------------------------------
+
+def _answer(job: _Job, found: _Searches) -> _Answer:
+    job.analysis.check()
+    gait, links = decode(job.sp, found.best_x)
+    geom = geometry(job.spec, links)
+    a = _Answer(gait, links, geom, evaluate(geom, gait, job.task, job.cfg, detail=True))
+    job.analysis.tick(1, {"step": "best in detail"})
+    tr = a.best.get("trajectories")
+    if tr is not None:  # every stage ran: the answer can be played back
+        _physics_check(job, a, tr)
+    return a
+
+
+def _physics_check(job: _Job, a: _Answer, tr: dict[str, Any]) -> None:
+    """The answer played in MuJoCo with the spec's feedback, and with the other feedback:
+    none (joint PD only) or, when the spec has none, the default foot placement."""
+    ph = job.spec.physics
+    a.ref = reference_from(tr, a.gait, job.task.speed)
+    feedback = ph.balance or ph.foot_placement > 0
+    other = 0.0 if feedback else 0.5
+    p = _physics(job, a)
+    p2 = _physics(job, a, balance=False, foot_placement=other)
+    a.sim_steps += p["steps"] + p2["steps"]
+    ref_cot = a.best["cot"]["qp"]
+    a.phys = _physics_summary(p, ref_cot, job.target) | {"feedback": _feedback_text(ph.balance, ph.foot_placement)}
+    a.phys_other = _physics_summary(p2, ref_cot, job.target) | {"feedback": _feedback_text(False, other)}
+    a.phys_raw = p
+    job.analysis.tick(2, {"step": "physics check", "stays_up": a.phys["stays_up"]})
+
+
+def _physics(job: _Job, a: _Answer, balance: bool | None = None, foot_placement: float | None = None,
+             case: Case = _AS_SPECIFIED) -> dict[str, Any]:
+    ph = job.spec.physics
+    stance = max(a.ref.duty) * a.ref.period
+    friction = job.task.friction * case.friction_scale
+    cfg = PhysicsConfig(periods=ph.periods, timestep=ph.timestep_s * case.timestep_scale,
+                        balance=ph.balance if balance is None else balance,
+                        foot_placement_s=(ph.foot_placement if foot_placement is None else foot_placement) * stance,
+                        friction=friction, mass_scale=case.mass_scale)
+    return simulate(a.geom, a.ref, friction, cfg)
+
+
+def _physics_summary(p: dict, ref_cot: float, target: Target) -> dict[str, Any]:
+    out = {k: p[k] for k in ("stays_up", "fell_at_s", "periods_completed", "speed_m_s", "mean_height_m", "cot",
+                             "cot_feedforward_part", "drift_per_period", "duration_s")}
+    out["cot"], out["cot_feedforward_part"] = float(out["cot"]), float(out["cot_feedforward_part"])
+    out["feedback_cot_share"] = (out["cot"] - out["cot_feedforward_part"]) / out["cot"] if out["cot"] > 0 else None
+    out["cot_vs_model"] = out["cot"] / ref_cot - 1.0 if ref_cot > 0 else None
+    out["target_met"] = target.met(p)
+    return out
+
+
 def _feedback_text(balance: bool, foot_placement: float) -> str:
     parts = []
     if foot_placement > 0:
@@ -259,10 +294,7 @@ def _feedback_text(balance: bool, foot_placement: float) -> str:
     return " + ".join(parts) if parts else "joint PD only"
 
 
-def _row(name, label, evaluations, metrics, target_met, note):
-    return {"name": name, "label": label, "evaluations": evaluations, "metrics": metrics, "target_met": target_met,
-            "note": note}
-
+# -- the controls -----------------------------------------------------------------------------
 
 def _metrics(r: dict) -> dict[str, Any]:
     if "cot" not in r:
@@ -273,144 +305,196 @@ def _metrics(r: dict) -> dict[str, Any]:
             "periodicity_error": r["periodicity_error"]}
 
 
-def _controls(spec, sp, best_x, best, gait, links, task, cfg, st, rs_state, ctx, done, total):
-    controls, analysis = [], {}
-    n = 0
+def _controls(job: _Job, found: _Searches, a: _Answer, ev: _Evidence) -> None:
+    """The random search's row (its search already ran), then each analysis control; the
+    progress names the control about to run, counting the evaluations of those before it."""
+    if found.rs is not None:
+        ev.controls.append(_random_search_row(found.rs, a.best))
+    done = 0
+    for name, control in _CONTROLS:
+        job.analysis.tick(done, {"step": "control", "control": name})
+        done = control(job, a, ev)
+    job.analysis.tick(done, {"step": "controls"})
 
-    def unit(name: str) -> None:
-        """Before each control's evaluations: stop on cancel, say which control runs."""
-        if ctx.is_cancelled():
-            raise Cancelled()
-        ctx.progress(done + n, total, {"phase": "analysis", "step": "control", "control": name})
-    target = "feasible (periodic within tolerance) with a lower J than the control"
-    if rs_state is not None and rs_state["best"] is not None:
-        row = rs_state["best"]["row"]
-        controls.append(_row(
-            "random_search", "uniform random search over the same bounds", rs_state["evaluations"],
-            {"J": row["fitness"], "feasible": row["feasible"], "cot_final": row.get("cot_final"),
-             "ga_J": best["fitness"], "ga_better": bool(best["fitness"] < row["fitness"])},
-            bool(best["fitness"] < row["fitness"]), "same population x generations as the GA; the GA's answer "
-            "is target_met when its J is lower"))
-    # Table 1's own timing with Table 1 links.
-    unit("paper_table1")
-    nominal = encode_nominal(sp, spec)
-    g0, l0 = decode(sp, nominal)
-    base = evaluate(geometry(spec, l0), g0, task, cfg)
-    n += 1
-    m = _metrics(base)
-    m["ga_J"] = best["fitness"]
-    controls.append(_row("paper_table1", "Table 1 timing (T = 0.46 s) with Table 1 links", 1, m,
-                         bool(best["fitness"] <= base["fitness"]), "the paper's own gait, evaluated by the same pipeline"))
-    analysis["table1"] = _metrics(base)
-    # SRB-only (massless legs in the NLP), re-evaluated on the heavy-legged robot.
-    unit("srb_only")
-    srb = evaluate(geometry(spec, links), gait, task, dataclasses.replace(cfg, leg_dynamics=False))
-    n += 1
-    # Massless legs: a milligram rod per link (MuJoCo needs some mass on a moving body).
-    light = dataclasses.replace(geometry(spec, links), link_masses=(1e-6, 1e-6, 1e-6), inertia="rod")
-    massless = evaluate(light, gait, task, dataclasses.replace(cfg, leg_dynamics=False))
-    n += 1
-    cmp = {"srb_on_heavy_legs": _metrics(srb), "srb_on_massless_legs": _metrics(massless), "leg_dynamics": _metrics(best)}
+
+def _random_search_row(rs: _Searched, best: dict) -> ControlRow:
+    row, better = rs.row, bool(best["fitness"] < rs.row["fitness"])
+    return ControlRow("random_search", "uniform random search over the same bounds",
+                      {"J": row["fitness"], "feasible": row["feasible"], "cot_final": row.get("cot_final"),
+                       "ga_J": best["fitness"], "ga_better": better},
+                      better, rs.out.evaluations, "same population x generations as the GA; the GA's answer is "
+                      "target_met when its J is lower")
+
+
+def _table1_design(job: _Job) -> tuple[Gait, tuple[float, float, float]]:
+    return decode(job.sp, encode_nominal(job.sp, job.spec))
+
+
+def _paper_table1(job: _Job, a: _Answer, ev: _Evidence) -> int:
+    """Table 1's own timing with Table 1 links."""
+    g0, l0 = _table1_design(job)
+    base = evaluate(geometry(job.spec, l0), g0, job.task, job.cfg)
+    ev.controls.append(ControlRow("paper_table1", "Table 1 timing (T = 0.46 s) with Table 1 links",
+                                  _metrics(base) | {"ga_J": a.best["fitness"]},
+                                  bool(a.best["fitness"] <= base["fitness"]), 1,
+                                  "the paper's own gait, evaluated by the same pipeline"))
+    ev.analysis["table1"] = _metrics(base)
+    return 1
+
+
+def _srb_only(job: _Job, a: _Answer, ev: _Evidence) -> int:
+    """SRB-only (massless legs in the NLP), re-evaluated on the heavy-legged robot, and on
+    massless legs: a milligram rod per link (MuJoCo needs some mass on a moving body)."""
+    no_legs = dataclasses.replace(job.cfg, leg_dynamics=False)
+    srb = evaluate(a.geom, a.gait, job.task, no_legs)
+    light = dataclasses.replace(a.geom, link_masses=(1e-6, 1e-6, 1e-6), inertia="rod")
+    massless = evaluate(light, a.gait, job.task, no_legs)
+    best = a.best
+    cmp = {"srb_on_heavy_legs": _metrics(srb), "srb_on_massless_legs": _metrics(massless),
+           "leg_dynamics": _metrics(best)}
     if "cot" in massless and "cot" in srb:
         cmp["cot_increase_heavy_vs_massless"] = srb["cot"]["final"] / massless["cot"]["final"] - 1.0
-    analysis["srb_vs_legs"] = cmp
-    controls.append(_row("srb_only", "SRB with massless legs (paper ref. [10]), re-evaluated on the heavy legs", 2,
-                         {"eps_nlp_N": _metrics(srb).get("eps_nlp_N"), "eps_nlp_legs_N": best["eps"]["nlp"]["norm"]
-                          if "eps" in best else None, "cot_final": _metrics(srb).get("cot_final"),
-                          "cot_massless": _metrics(massless).get("cot_nlp"), "feasible": srb["feasible"]},
-                         bool("eps" in srb and "eps" in best and best["eps"]["nlp"]["norm"] < srb["eps"]["nlp"]["norm"]),
-                         "target_met when the dummy legs leave a smaller residual than massless legs"))
-    # High step: the same design with a higher swing (obstacle clearance).
-    unit("high_step")
-    high = task_of(spec, swing_height=spec.evidence.high_step_swing_height_m)
-    hs = evaluate(geometry(spec, links), gait, high, cfg)
-    hs0 = evaluate(geometry(spec, l0), g0, high, cfg)
-    n += 2
-    analysis["high_step"] = {"swing_height_m": spec.evidence.high_step_swing_height_m, "best_design": _metrics(hs),
-                             "table1": _metrics(hs0)}
-    controls.append(_row("high_step", f"swing height {spec.evidence.high_step_swing_height_m} m (best design and "
-                         "Table 1 re-evaluated)", 2,
-                         {"best_" + k: v for k, v in _metrics(hs).items()} | {"table1_" + k: v for k, v in _metrics(hs0).items()},
-                         bool(hs["feasible"] or hs0["feasible"]),
-                         "not re-optimised; a calf and thigh of unequal length cannot fold the foot as close to the hip"))
-    # Table 1's inertias vs the ones a slender rod of that mass and length has.
-    unit("rod_inertia")
-    rod = evaluate(dataclasses.replace(geometry(spec, links), inertia="rod"), gait, task, cfg)
-    n += 1
-    analysis["rod_inertia"] = _metrics(rod)
-    controls.append(_row("rod_inertia", "link inertias of slender rods instead of Table 1's", 1, _metrics(rod), None,
-                         "papers README: Table 1's inertias are 10-1000x a slender link's"))
-    # Ablation of the residual iteration (the paper's single NLP pass).
-    unit("no_residual_iteration")
-    single = evaluate(geometry(spec, links), gait, task, dataclasses.replace(cfg, residual_iterations=0))
-    n += 1
+    ev.analysis["srb_vs_legs"] = cmp
+    ev.controls.append(ControlRow(
+        "srb_only", "SRB with massless legs (paper ref. [10]), re-evaluated on the heavy legs",
+        {"eps_nlp_N": _metrics(srb).get("eps_nlp_N"),
+         "eps_nlp_legs_N": best["eps"]["nlp"]["norm"] if "eps" in best else None,
+         "cot_final": _metrics(srb).get("cot_final"), "cot_massless": _metrics(massless).get("cot_nlp"),
+         "feasible": srb["feasible"]},
+        bool("eps" in srb and "eps" in best and best["eps"]["nlp"]["norm"] < srb["eps"]["nlp"]["norm"]), 2,
+        "target_met when the dummy legs leave a smaller residual than massless legs"))
+    return 2
+
+
+def _high_step(job: _Job, a: _Answer, ev: _Evidence) -> int:
+    """The same design with a higher swing (obstacle clearance), and Table 1's."""
+    height = job.spec.evidence.high_step_swing_height_m
+    high = task_of(job.spec, swing_height=height)
+    g0, l0 = _table1_design(job)
+    hs = evaluate(a.geom, a.gait, high, job.cfg)
+    hs0 = evaluate(geometry(job.spec, l0), g0, high, job.cfg)
+    ev.analysis["high_step"] = {"swing_height_m": height, "best_design": _metrics(hs), "table1": _metrics(hs0)}
+    ev.controls.append(ControlRow(
+        "high_step", f"swing height {height} m (best design and Table 1 re-evaluated)",
+        {"best_" + k: v for k, v in _metrics(hs).items()} | {"table1_" + k: v for k, v in _metrics(hs0).items()},
+        bool(hs["feasible"] or hs0["feasible"]), 2,
+        "not re-optimised; a calf and thigh of unequal length cannot fold the foot as close to the hip"))
+    return 2
+
+
+def _rod_inertia(job: _Job, a: _Answer, ev: _Evidence) -> int:
+    """Table 1's inertias vs the ones a slender rod of that mass and length has."""
+    rod = evaluate(dataclasses.replace(a.geom, inertia="rod"), a.gait, job.task, job.cfg)
+    ev.analysis["rod_inertia"] = _metrics(rod)
+    ev.controls.append(ControlRow("rod_inertia", "link inertias of slender rods instead of Table 1's", _metrics(rod),
+                                  None, 1, "papers README: Table 1's inertias are 10-1000x a slender link's"))
+    return 1
+
+
+def _no_residual_iteration(job: _Job, a: _Answer, ev: _Evidence) -> int:
+    """Ablation of the residual iteration (the paper's single NLP pass)."""
+    single = evaluate(a.geom, a.gait, job.task, dataclasses.replace(job.cfg, residual_iterations=0))
     ms = _metrics(single)
     if "eps_qp_N" in ms:
         ms["eps_ratio"] = ms["eps_nlp_N"] / max(ms["eps_qp_N"], 1e-12)
-    controls.append(_row("no_residual_iteration", "the paper's single NLP pass (no re-solve with the legs' true wrench)",
-                         1, ms, bool("eps_ratio" in ms and ms["eps_ratio"] >= 100), "target: eps_QP 100x below eps_NLP"))
-    if ctx.is_cancelled():
-        raise Cancelled()
-    ctx.progress(done + n, total, {"phase": "analysis", "step": "controls"})
-    return controls, analysis, n
+    ev.controls.append(ControlRow(
+        "no_residual_iteration", "the paper's single NLP pass (no re-solve with the legs' true wrench)", ms,
+        bool("eps_ratio" in ms and ms["eps_ratio"] >= EPS_RATIO_MIN), 1,
+        f"target: eps_QP {EPS_RATIO_MIN:g}x below eps_NLP"))
+    return 1
 
 
-def _robustness(spec, geom, ref, task, phys, ctx, done, total):
-    cases = []
-    steps = 0
-    for i, (name, label, over) in enumerate(ROBUSTNESS_CASES):
-        if ctx.is_cancelled():
-            raise Cancelled()
-        p = _physics(spec, geom, ref, task, **over)
+# In this order; each returns the evaluations it ran (EnergySpec.budget_formula counts 7).
+_CONTROLS = (("paper_table1", _paper_table1), ("srb_only", _srb_only), ("high_step", _high_step),
+             ("rod_inertia", _rod_inertia), ("no_residual_iteration", _no_residual_iteration))
+
+
+# -- robustness -------------------------------------------------------------------------------
+
+def _robustness(job: _Job, a: _Answer) -> Robustness:
+    """The answer re-played under every case, judged by the kind's target."""
+    cases, steps = [], 0
+    for c in ROBUSTNESS_CASES:
+        p = _physics(job, a, case=c)
         steps += p["steps"]
-        s = _physics_summary(p, phys["cot"] if phys else 0.0, task.speed)
-        cases.append({"name": name, "label": label, "target_met": s["target_met"],
-                      "metrics": {"stays_up": s["stays_up"], "speed_m_s": s["speed_m_s"], "mean_height_m": s["mean_height_m"],
-                                  "cot": s["cot"], "periods_completed": s["periods_completed"],
-                                  "drift_angle_rad": s["drift_per_period"].get("angle_rad")}})
-        ctx.progress(done + i + 1, total, {"phase": "robustness", "case": name, "stays_up": s["stays_up"]})
-    spread = {}
-    for k in ("speed_m_s", "mean_height_m", "cot"):
-        vals = [c["metrics"][k] for c in cases]
-        spread[k] = {"min": float(min(vals)), "max": float(max(vals)), "nominal": phys[k] if phys else None}
-    return {"target": f"up for {spec.physics.periods} periods in MuJoCo with the realised speed within "
-                      f"{int(SPEED_TOL * 100)} % of V",
-            "cases": cases, "met": sum(bool(c["target_met"]) for c in cases), "total": len(cases), "spread": spread,
-            "sim_steps": steps}
+        s = _physics_summary(p, a.phys["cot"], job.target)
+        cases.append(CaseResult(c.name, c.label, {
+            "stays_up": s["stays_up"], "speed_m_s": s["speed_m_s"], "mean_height_m": s["mean_height_m"],
+            "cot": s["cot"], "periods_completed": s["periods_completed"],
+            "drift_angle_rad": s["drift_per_period"].get("angle_rad")}, s["target_met"]))
+        job.analysis.tick(1, {"phase": "robustness", "case": c.name, "stays_up": s["stays_up"]})
+    return Robustness(job.target.text, cases, _spread(cases, a.phys), {"sim_steps": steps})
 
 
-def _summary(spec, best, gait, links, geom, phys, phys_other, controls, analysis, robustness, st, wall, done):
+def _spread(cases: list[CaseResult], nominal: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Energy's range is over the cases alone, the nominal stated beside it (evidence.spread
+    would take the nominal into the range: a nominal outside the cases' range would move
+    min or max), so the nominal is left out of the call and written after."""
+    out = spread({}, [c.to_json() for c in cases], _SPREAD_KEYS)
+    for k, v in out.items():
+        v["nominal"] = nominal[k]
+    return out
+
+
+# -- the summary ------------------------------------------------------------------------------
+
+def _result(job: _Job, found: _Searches, a: _Answer, ev: _Evidence) -> JobResult:
+    done = found.evaluations + job.analysis.done
+    wall = found.wall_s + time.perf_counter() - found.t_end  # the searches over every attempt, then this analysis
+    summary = _summary(job, found, a, ev) | {"timing": _timing(a.best, wall, done)}
+    model_xml = build_spec(dataclasses.replace(a.geom, timestep=job.spec.physics.timestep_s)).to_xml()
+    rob_steps = ev.robustness.extra["sim_steps"] if ev.robustness is not None else 0
+    return JobResult(summary=summary, history=found.history, traces=_traces(a.best, a.phys_raw), model_xml=model_xml,
+                     evaluations=done, sim_steps=int(a.sim_steps + rob_steps))
+
+
+def _summary(job: _Job, found: _Searches, a: _Answer, ev: _Evidence) -> dict[str, Any]:
+    spec, best = job.spec, a.best
     s: dict[str, Any] = {"kind": "energy", "robot": spec.robot, "seed": spec.seed,
                          "task": spec.task.model_dump(), "family": spec.gait.family,
-                         "gait": _gait_summary(gait), "links_m": list(links),
-                         "link_masses_kg": geom.masses().tolist(), "total_mass_kg": geom.total_mass,
-                         "inertia": geom.inertia, "feasible": best["feasible"], "failed": best["failed"],
+                         "gait": _gait_summary(a.gait), "links_m": list(a.links),
+                         "link_masses_kg": a.geom.masses().tolist(), "total_mass_kg": a.geom.total_mass,
+                         "inertia": a.geom.inertia, "feasible": best["feasible"], "failed": best["failed"],
                          "J": best["fitness"]}
     if "cot" in best:
-        s["cot"] = dict(best["cot"]) | {"physics": phys["cot"] if phys else None}
-        s["objective"] = {"J": best["fitness"], "cot": best["objective_terms"]["cot"],
-                          "jerk_term_N_s": best["jerk_term_N_s"], "jerk_weight_s": spec.model.jerk_weight}
-        s["eps"] = best["eps"]
-        s["eps_ratio_nlp_over_qp"] = best["eps"]["nlp"]["norm"] / max(best["eps"]["qp"]["norm"], 1e-12)
-        s["periodicity_error"] = best["periodicity_error"]
-        s["periodicity"] = best["periodicity"]
-        s["periodicity_tolerance"] = PERIODICITY_TOL
-        s["nlp_forward_periodicity_error"] = best.get("nlp_forward_periodicity_error")
-        s["nlp"] = {k: v for k, v in best["nlp"].items() if k != "seconds"}
-    s["physics"] = phys
-    s["physics_other_feedback"] = phys_other
-    if st is not None:
+        s |= _stages(best, a.phys, spec.model.jerk_weight)
+    s["physics"] = a.phys
+    s["physics_other_feedback"] = a.phys_other
+    if found.ga is not None:
+        out = found.ga.out
         s["search"] = {"optimizer": "ga", "population": spec.search.population, "generations": spec.search.generations,
-                       "evaluations": st["evaluations"], "best_J": st["best"]["row"]["fitness"],
-                       "stop_reason": st["stop_reason"], "generations_run": st["generations_run"]}
-    s["analysis"] = analysis
-    s["controls"] = controls
-    if robustness is not None:
-        s["robustness"] = robustness
-    s["timing"] = {"wall_s": wall, "evaluations": done}
-    if "nlp" in s:  # measured times live under timing: the rest is the same for the same spec and seed
-        s["timing"]["fitness_eval_s"] = best["timings_s"] | {"nlp_solver": best["nlp"].get("seconds")}
+                       "evaluations": out.evaluations, "best_J": found.ga.row["fitness"],
+                       "stop_reason": out.stop_reason, "generations_run": out.generations_run}
+    s["analysis"] = ev.analysis
+    s["controls"] = [c.to_json() for c in ev.controls]
+    if ev.robustness is not None:
+        s["robustness"] = ev.robustness.to_json()
     return s
+
+
+def _stages(best: dict, phys: dict | None, jerk_weight: float) -> dict[str, Any]:
+    """The answer's every stage (NLP, QP, forward check), when they all ran."""
+    return {"cot": dict(best["cot"]) | {"physics": phys["cot"] if phys else None},
+            "objective": {"J": best["fitness"], "cot": best["objective_terms"]["cot"],
+                          "jerk_term_N_s": best["jerk_term_N_s"], "jerk_weight_s": jerk_weight},
+            "eps": best["eps"],
+            "eps_ratio_nlp_over_qp": best["eps"]["nlp"]["norm"] / max(best["eps"]["qp"]["norm"], 1e-12),
+            "periodicity_error": best["periodicity_error"], "periodicity": best["periodicity"],
+            "periodicity_tolerance": PERIODICITY_TOL,
+            "nlp_forward_periodicity_error": best.get("nlp_forward_periodicity_error"),
+            "nlp": {k: v for k, v in best["nlp"].items() if k != "seconds"}}
+
+
+def _timing(best: dict, wall: float, done: int) -> dict[str, Any]:
+    """Measured times live here: the rest of the summary is the same for the same spec and seed."""
+    out: dict[str, Any] = {"wall_s": wall, "evaluations": done}
+    if "cot" in best:  # every stage ran
+        out["fitness_eval_s"] = best["timings_s"] | {"nlp_solver": best["nlp"].get("seconds")}
+    return out
+
+
+def _gait_summary(gait: Gait) -> dict[str, Any]:
+    return {"period_s": gait.period, "touchdown_s": list(gait.touchdown), "duty": list(gait.duty), "legs": list(LEGS)}
 
 
 def _traces(best: dict, phys: dict | None) -> dict[str, dict[str, np.ndarray]]:
