@@ -94,162 +94,287 @@ def _penalty(kind: str, amount: float) -> float:
     return PENALTY[kind] * (1.0 + min(max(amount, 0.0), 1e3))
 
 
+class _Infeasible(Exception):
+    """A stage found the candidate infeasible: the evaluation ends with its penalty."""
+
+    def __init__(self, kind: str, amount: float, **extra: Any):
+        super().__init__(kind)
+        self.kind, self.amount, self.extra = kind, amount, extra
+
+
+def _check_reach(legs) -> None:
+    if not legs.reach_ok.all():
+        raise _Infeasible("ik_reach", float((~legs.reach_ok).mean()))
+
+
+class _Laps:
+    """Wall time per stage (reported under the summary's timing, never in a result)."""
+
+    def __init__(self):
+        self.start = self.t0 = time.perf_counter()
+        self.timings: dict[str, float] = {}
+
+    def lap(self, name: str) -> None:
+        self.timings[name] = time.perf_counter() - self.t0
+        self.t0 = time.perf_counter()
+
+    def total(self) -> float:
+        return time.perf_counter() - self.start
+
+
+@dataclasses.dataclass
+class _Grid:
+    """One candidate's model on its time grid: K + 1 knots over the period for the NLP,
+    the K/2 odd ones (``smp``, at times ``ts``, ``dts`` apart) for everything after it."""
+
+    wb: WholeBody
+    geom: QuadrupedGeometry
+    gait: Gait
+    task: Task
+    cfg: EvalConfig
+    tk: np.ndarray
+    smp: np.ndarray
+    feet: np.ndarray  # world foot paths on the knots
+
+    @property
+    def K(self) -> int:
+        return self.cfg.knots
+
+    @property
+    def T(self) -> float:
+        return self.gait.period
+
+    @property
+    def ts(self) -> np.ndarray:
+        return self.tk[self.smp]
+
+    @property
+    def dts(self) -> float:
+        return 2 * self.T / self.K
+
+
+@dataclasses.dataclass
+class _NLPStage:
+    """The last NLP pass (its path, legs and whole-body state on the knots) and the first,
+    the paper's own, which Fig. 3 and 4 and CoT_NLP are about."""
+
+    sol: Any
+    legs: Any
+    qpos_k: np.ndarray
+    qvel_k: np.ndarray
+    qacc_k: np.ndarray
+    first: Any
+    legs_first: Any
+    eps_first: np.ndarray
+    tau_first: np.ndarray
+    passes: int  # residual iterations run after the first
+    seconds: float
+
+
+@dataclasses.dataclass
+class _Forces:
+    """One set of contact forces on the samples: the trunk wrench they make, what is left of
+    the full equations (eps) and the joint torques they need."""
+
+    f: np.ndarray
+    wrench: np.ndarray  # J^T f on every DoF
+    eps: np.ndarray
+    tau: np.ndarray
+
+
 def evaluate(geom: QuadrupedGeometry, gait: Gait, task: Task, cfg: EvalConfig = EvalConfig(),
              detail: bool = False) -> dict[str, Any]:
     """Fitness J and its parts for one candidate; ``detail`` adds every stage's trajectories."""
-    t_start = time.perf_counter()
-    timings: dict[str, float] = {}
+    laps = _Laps()
     out: dict[str, Any] = {"feasible": False, "failed": None}
-
-    def lap(name, t0):
-        timings[name] = time.perf_counter() - t0
-        return time.perf_counter()
-
-    t0 = time.perf_counter()
-    wb = WholeBody(geom)
-    K, T = cfg.knots, gait.period
-    t0 = lap("model", t0)
-    legs0, fl, ml = dummy_leg_wrench(wb, gait, task, K)
-    if not legs0.reach_ok.all():
-        out.update(failed="ik_reach", fitness=_penalty("ik_reach", float((~legs0.reach_ok).mean())))
-        out["seconds"] = time.perf_counter() - t_start
+    try:
+        wb = WholeBody(geom)
+        laps.lap("model")
+        legs0, fl, ml = dummy_leg_wrench(wb, gait, task, cfg.knots)
+        _check_reach(legs0)
+        laps.lap("dummy_legs")
+        g = _grid(wb, geom, gait, task, cfg)
+        nlp = _nlp(g, fl, ml)
+    except _Infeasible as bad:
+        out.update(failed=bad.kind, fitness=_penalty(bad.kind, bad.amount), **bad.extra)
+        out["seconds"] = laps.total()
         return out
-    t0 = lap("dummy_legs", t0)
-    tk = np.arange(K + 1) * T / K
-    feet = feet_world(gait, task, geom, tk)
+    laps.lap("nlp")
+    sol = nlp.sol
+    out["nlp"] = {"success": sol.success, "message": sol.message, "iterations": sol.iterations,
+                  "residual_iterations": nlp.passes, "constraint_violation": sol.constraint_violation,
+                  "seconds": nlp.seconds, "jerk_N2_s": sol.jerk}
+    qpos, qvel, qacc = nlp.qpos_k[g.smp], nlp.qvel_k[g.smp], nlp.qacc_k[g.smp]
+    f_nlp = sol.forces[g.smp]
+    qfrc, jtf_nlp, _ = wb.inverse(qpos, qvel, qacc, forces=f_nlp)
+    at_nlp = _forces(g, qfrc, jtf_nlp, f_nlp)
+    laps.lap("residual")
+    f_qp, stance, qp_status = _qp(g, sol, qfrc, f_nlp)
+    _, jtf_qp, _ = wb.inverse(qpos, qvel, qacc, forces=f_qp)
+    at_qp = _forces(g, qfrc, jtf_qp, f_qp)
+    laps.lap("qp")
+    # The forward check with the QP forces, linear between samples and zero at every leg's
+    # touchdown and lift-off instant (the force ramps up from contact, as in Fig. 2).
+    fwd = _integrate(g, sol, nlp.legs, _sampled_force(gait, g.ts, f_qp))
+    laps.lap("forward")
+    w, w_parts = periodicity_error(fwd, task.speed, g.T)
+    final = _final_forces(g, fwd, f_qp)
+    laps.lap("torques")
+    out.update(_score(g, nlp, at_nlp, at_qp, final, fwd, w, w_parts, qp_status))
+    out["timings_s"] = laps.timings | {"total": laps.total()}
+    out["seconds"] = out["timings_s"]["total"]
+    if detail:
+        out |= _detail(g, nlp, at_nlp, at_qp, final, fwd, stance, fl, ml)
+    return out
+
+
+def _grid(wb: WholeBody, geom: QuadrupedGeometry, gait: Gait, task: Task, cfg: EvalConfig) -> _Grid:
+    K = cfg.knots
+    tk = np.arange(K + 1) * gait.period / K
+    return _Grid(wb=wb, geom=geom, gait=gait, task=task, cfg=cfg, tk=tk, smp=np.arange(1, K, 2),
+                 feet=feet_world(gait, task, geom, tk))
+
+
+def _close(a: np.ndarray) -> np.ndarray:
+    """A periodic series on K knots closed by its first row (K + 1 rows)."""
+    return np.vstack([a, a[:1]])
+
+
+def _nlp(g: _Grid, fl: np.ndarray, ml: np.ndarray) -> _NLPStage:
+    """The NLP, then ``residual_iterations`` re-solves with the legs' true pull on the trunk
+    along the last path in place of the dummy legs' (beyond the paper: two point feet
+    cannot make a moment about the line through them, so what the SRB model gets wrong
+    about that axis no force redistribution can remove)."""
+    K, cfg, geom = g.K, g.cfg, g.geom
     if cfg.leg_dynamics:
-        mass, fl1, ml1 = geom.trunk_mass, np.vstack([fl, fl[:1]]), np.vstack([ml, ml[:1]])
+        mass, fl1, ml1 = geom.trunk_mass, _close(fl), _close(ml)
     else:
         mass, fl1, ml1 = geom.total_mass, np.zeros((K + 1, 3)), np.zeros((K + 1, 3))
-    r_nom, _ = nominal_body(task, tk)
+    r_nom, _ = nominal_body(g.task, g.tk)
     n_iter = cfg.residual_iterations if cfg.leg_dynamics else 0
-    smp = np.arange(1, K, 2)
-    ts, dts = tk[smp], 2 * T / K
-    eps_first = None
-    nlp_seconds = 0.0
+    seconds, first = 0.0, None
     for it in range(n_iter + 1):
-        prob = SRBProblem(gait=gait, mass=mass, inertia=np.asarray(geom.trunk_inertia), speed=task.speed,
-                          height=task.height, friction=task.friction, feet=feet, f_legs=fl1, m_legs=ml1, k=cfg.k,
-                          weight=geom.total_mass * GRAVITY)
-        sol = SRBNLP(prob).solve(r_nom, polish=cfg.polish)
-        nlp_seconds += sol.seconds
-        if not sol.success:
-            out.update(failed="nlp", fitness=_penalty("nlp", sol.constraint_violation),
-                       nlp={"success": False, "message": sol.message, "iteration": it})
-            out["seconds"] = time.perf_counter() - t_start
-            return out
-        # Residual of the NLP solution in the full equations (Eq. 9), on every knot.
-        legs1 = leg_motion(wb, gait, task, tk[:K], sol.r[:K], sol.theta[:K])
-        if not legs1.reach_ok.all():
-            out.update(failed="ik_reach", fitness=_penalty("ik_reach", float((~legs1.reach_ok).mean())))
-            out["seconds"] = time.perf_counter() - t_start
-            return out
-        qpos_k = wb.qpos(sol.r[:K], sol.theta[:K], legs1.q)
-        qvel_k = wb.qvec(sol.v[:K], sol.omega[:K], legs1.qd)
-        qacc_k = wb.qvec(sol.a[:K], sol.alpha[:K], legs1.qdd)
-        qfrc_k, _, _ = wb.inverse(qpos_k, qvel_k, qacc_k)
-        eps_k = qfrc_k[:, :6] - wb.body_wrench_of_forces(sol.r[:K], sol.theta[:K], feet[:K], sol.forces[:K])
+        sol, legs, qpos_k, qvel_k, qacc_k, eps_k, secs = _nlp_pass(g, mass, fl1, ml1, r_nom, it)
+        seconds += secs
         if it == 0:
-            eps_first = eps_k[smp]
-            sol_first, legs_first = sol, legs1
             # The paper's CoT_NLP: Eq. 3's torques along the first NLP's path with its forces.
-            qf, jf, _ = wb.inverse(qpos_k[smp], qvel_k[smp], qacc_k[smp], forces=sol.forces[smp])
-            tau_first = wb.joint_torques(qf, jf)
-        # The legs' true pull on the trunk along this path replaces the dummy legs' (beyond the
-        # paper: two point feet cannot make a moment about the line through them, so what the
-        # SRB model gets wrong about that axis no force redistribution can remove).
+            smp = g.smp
+            qf, jf, _ = g.wb.inverse(qpos_k[smp], qvel_k[smp], qacc_k[smp], forces=sol.forces[smp])
+            first = (sol, legs, eps_k[smp], g.wb.joint_torques(qf, jf))
         Rk = rotation(sol.theta[:K])
-        fl_it = fl1[:K] - eps_k[:, :3]
-        ml_it = ml1[:K] - np.einsum("kij,kj->ki", Rk, eps_k[:, 3:])
-        fl1, ml1 = np.vstack([fl_it, fl_it[:1]]), np.vstack([ml_it, ml_it[:1]])
-    t0 = lap("nlp", t0)
-    out["nlp"] = {"success": sol.success, "message": sol.message, "iterations": sol.iterations,
-                  "residual_iterations": n_iter, "constraint_violation": sol.constraint_violation,
-                  "seconds": nlp_seconds, "jerk_N2_s": sol.jerk}
-    qpos, qvel, qacc = qpos_k[smp], qvel_k[smp], qacc_k[smp]
-    f_nlp = sol.forces[smp]
-    qfrc, jtf_nlp, _ = wb.inverse(qpos, qvel, qacc, forces=f_nlp)
-    eps_nlp = qfrc[:, :6] - jtf_nlp[:, :6]
-    tau_nlp = wb.joint_torques(qfrc, jtf_nlp)
-    t0 = lap("residual", t0)
-    # --- QP (Eq. 10) -------------------------------------------------------------------
-    _, stance = gait.phase(ts)
+        fl1 = _close(fl1[:K] - eps_k[:, :3])
+        ml1 = _close(ml1[:K] - np.einsum("kij,kj->ki", Rk, eps_k[:, 3:]))
+    return _NLPStage(sol, legs, qpos_k, qvel_k, qacc_k, *first, passes=n_iter, seconds=seconds)
+
+
+def _nlp_pass(g: _Grid, mass: float, fl1: np.ndarray, ml1: np.ndarray, r_nom: np.ndarray, it: int):
+    """One NLP solve and the residual of its solution in the full equations (Eq. 9) on
+    every knot."""
+    K, geom, task, wb = g.K, g.geom, g.task, g.wb
+    prob = SRBProblem(gait=g.gait, mass=mass, inertia=np.asarray(geom.trunk_inertia), speed=task.speed,
+                      height=task.height, friction=task.friction, feet=g.feet, f_legs=fl1, m_legs=ml1, k=g.cfg.k,
+                      weight=geom.total_mass * GRAVITY)
+    sol = SRBNLP(prob).solve(r_nom, polish=g.cfg.polish)
+    if not sol.success:
+        raise _Infeasible("nlp", sol.constraint_violation,
+                          nlp={"success": False, "message": sol.message, "iteration": it})
+    legs = leg_motion(wb, g.gait, task, g.tk[:K], sol.r[:K], sol.theta[:K])
+    _check_reach(legs)
+    qpos_k = wb.qpos(sol.r[:K], sol.theta[:K], legs.q)
+    qvel_k = wb.qvec(sol.v[:K], sol.omega[:K], legs.qd)
+    qacc_k = wb.qvec(sol.a[:K], sol.alpha[:K], legs.qdd)
+    qfrc_k, _, _ = wb.inverse(qpos_k, qvel_k, qacc_k)
+    eps_k = qfrc_k[:, :6] - wb.body_wrench_of_forces(sol.r[:K], sol.theta[:K], g.feet[:K], sol.forces[:K])
+    return sol, legs, qpos_k, qvel_k, qacc_k, eps_k, sol.seconds
+
+
+def _forces(g: _Grid, qfrc: np.ndarray, jtf: np.ndarray, f: np.ndarray) -> _Forces:
+    """Forces ``f`` (making ``jtf``) against the generalised forces ``qfrc`` the motion needs."""
+    return _Forces(f=f, wrench=jtf, eps=qfrc[:, :6] - jtf[:, :6], tau=g.wb.joint_torques(qfrc, jtf))
+
+
+def _qp(g: _Grid, sol, qfrc: np.ndarray, f_nlp: np.ndarray):
+    """The residual QP (Eq. 10): forces nearest the NLP's that leave no residual."""
+    _, stance = g.gait.phase(g.ts)
     first, last = _stance_edges(stance)
-    R = rotation(sol.theta[smp])
-    arms = feet[smp] - sol.r[smp][:, None, :]
-    f_qp, qp_status = residual_qp(qfrc[:, :6], arms, R, stance, first, last, f_nlp, task.friction,
-                                  geom.total_mass * GRAVITY)
-    _, jtf_qp, _ = wb.inverse(qpos, qvel, qacc, forces=f_qp)
-    eps_qp = qfrc[:, :6] - jtf_qp[:, :6]
-    tau_qp = wb.joint_torques(qfrc, jtf_qp)
-    t0 = lap("qp", t0)
-    # --- forward check with the QP forces, linear between samples and zero at every leg's
-    # touchdown and lift-off instant (the force ramps up from contact, as in Fig. 2).
-    qp_force = _sampled_force(gait, ts, f_qp)
-    legs_k = (np.vstack([legs1.q, legs1.q[:1]]), np.vstack([legs1.qd, legs1.qd[:1]]),
-              np.vstack([legs1.qdd, legs1.qdd[:1]]))
-    th0 = sol.theta[0]
-    fwd = integrate(wb, gait, task, tk, sol.r[0], quat(th0[None])[0], sol.v[0], sol.omega[0], qp_force, *legs_k,
-                    substeps=cfg.substeps, passes=cfg.forward_passes)
-    t0 = lap("forward", t0)
-    w, w_parts = periodicity_error(fwd, task.speed, T)
+    R = rotation(sol.theta[g.smp])
+    arms = g.feet[g.smp] - sol.r[g.smp][:, None, :]
+    f_qp, status = residual_qp(qfrc[:, :6], arms, R, stance, first, last, f_nlp, g.task.friction,
+                               g.geom.total_mass * GRAVITY)
+    return f_qp, stance, status
+
+
+def _integrate(g: _Grid, sol, legs, force_at) -> ForwardPath:
+    """The full equations integrated from the solution's first knot, the legs on their path,
+    the contacts pushing ``force_at(times)``."""
+    return integrate(g.wb, g.gait, g.task, g.tk, sol.r[0], quat(sol.theta[:1])[0], sol.v[0], sol.omega[0],
+                     force_at, _close(legs.q), _close(legs.qd), _close(legs.qdd),
+                     substeps=g.cfg.substeps, passes=g.cfg.forward_passes)
+
+
+def _final_forces(g: _Grid, fwd: ForwardPath, f_qp: np.ndarray) -> _Forces:
+    """The QP forces along the forward check's own path: the final torques."""
+    smp, wb = g.smp, g.wb
     qpos_f = wb.qpos(fwd.r[smp], fwd.theta[smp], fwd.q[smp])
     qpos_f[:, 3:7] = fwd.quat[smp]
     qvel_f = wb.qvec(fwd.v[smp], fwd.omega[smp], fwd.qd[smp])
     qacc_f = wb.qvec(fwd.a[smp], fwd.alpha[smp], fwd.qdd[smp])
     qfrc_f, jtf_f, _ = wb.inverse(qpos_f, qvel_f, qacc_f, forces=f_qp)
-    eps_final = qfrc_f[:, :6] - jtf_f[:, :6]
-    tau_f = wb.joint_torques(qfrc_f, jtf_f)
-    t0 = lap("torques", t0)
-    mt = geom.total_mass
-    d_nlp = task.speed * T
+    return _forces(g, qfrc_f, jtf_f, f_qp)
+
+
+def _score(g: _Grid, nlp: _NLPStage, at_nlp: _Forces, at_qp: _Forces, final: _Forces, fwd: ForwardPath, w: float,
+           w_parts: dict[str, float], qp_status: np.ndarray) -> dict[str, Any]:
+    """CoT per stage, Eq. 11's J and the feasibility verdict (penalties ordered as the
+    module's docstring says)."""
+    smp, dts, mt = g.smp, g.dts, g.geom.total_mass
+    d_nlp = g.task.speed * g.T
     d_fwd = float(fwd.r[-1, 0] - fwd.r[0, 0])
     cot = {
-        "nlp_first": _cot(tau_first, legs_first.qd[smp], dts, mt, d_nlp),
-        "nlp": _cot(tau_nlp, legs1.qd[smp], dts, mt, d_nlp),
-        "qp": _cot(tau_qp, legs1.qd[smp], dts, mt, d_nlp),
-        "final": _cot(tau_f, fwd.qd[smp], dts, mt, d_fwd),
+        "nlp_first": _cot(nlp.tau_first, nlp.legs_first.qd[smp], dts, mt, d_nlp),
+        "nlp": _cot(at_nlp.tau, nlp.legs.qd[smp], dts, mt, d_nlp),
+        "qp": _cot(at_qp.tau, nlp.legs.qd[smp], dts, mt, d_nlp),
+        "final": _cot(final.tau, fwd.qd[smp], dts, mt, d_fwd),
     }
-    jerk = _jerk_term(f_qp, dts, T)
+    jerk = _jerk_term(at_qp.f, dts, g.T)
     feasible = w <= 1.0 and fwd.reach_ok
-    fitness = cot["final"]["cot"] + cfg.jerk_weight * jerk
-    out.update(
-        feasible=bool(feasible),
-        failed=None if feasible else ("ik_reach" if not fwd.reach_ok else "periodicity"),
-        fitness=float(fitness) if feasible else _penalty("periodicity", w),
+    if feasible:
+        failed, fitness = None, float(cot["final"]["cot"] + g.cfg.jerk_weight * jerk)
+    elif not fwd.reach_ok:
+        failed, fitness = "ik_reach", _penalty("ik_reach", 0.0)
+    else:
+        failed, fitness = "periodicity", _penalty("periodicity", w)
+    return dict(
+        feasible=bool(feasible), failed=failed, fitness=fitness,
         cot={k: v["cot"] for k, v in cot.items()},
         cot_detail=cot,
         jerk_term_N_s=jerk,
-        objective_terms={"cot": cot["final"]["cot"], "jerk": cfg.jerk_weight * jerk},
-        eps={"nlp": _eps(eps_first), "nlp_iterated": _eps(eps_nlp), "qp": _eps(eps_qp), "final": _eps(eps_final)},
+        objective_terms={"cot": cot["final"]["cot"], "jerk": g.cfg.jerk_weight * jerk},
+        eps={"nlp": _eps(nlp.eps_first), "nlp_iterated": _eps(at_nlp.eps), "qp": _eps(at_qp.eps),
+             "final": _eps(final.eps)},
         periodicity_error=w,
         periodicity=w_parts,
         qp_failures=int(qp_status.sum()),
         distance_m=d_fwd,
     )
-    if not fwd.reach_ok and feasible is False and out["failed"] == "ik_reach":
-        out["fitness"] = _penalty("ik_reach", 0.0)
-    timings["total"] = time.perf_counter() - t_start
-    out["timings_s"] = timings
-    out["seconds"] = timings["total"]
-    if detail:
-        legs_f = tuple(np.vstack([a, a[:1]]) for a in (legs_first.q, legs_first.qd, legs_first.qdd))
-        s1 = sol_first
-        fwd_nlp = integrate(wb, gait, task, tk, s1.r[0], quat(s1.theta[:1])[0], s1.v[0], s1.omega[0],
-                            lambda times: _interp_forces(tk, s1.forces, times), *legs_f,
-                            substeps=cfg.substeps, passes=cfg.forward_passes)
-        w_nlp, _ = periodicity_error(fwd_nlp, task.speed, T)
-        out["nlp_forward_periodicity_error"] = w_nlp
-        out["trajectories"] = {
-            "t_knots": tk, "t_samples": ts, "nlp": sol, "forward_nlp": fwd_nlp, "final": fwd,
-            "f_nlp": f_nlp, "f_qp": f_qp, "eps_nlp": eps_nlp, "eps_qp": eps_qp, "eps_final": eps_final,
-            "tau_nlp": tau_nlp, "tau_qp": tau_qp, "tau_final": tau_f, "legs_nlp": legs1, "stance": stance,
-            "dummy_f_legs": fl, "dummy_m_legs": ml, "wrench_nlp": jtf_nlp[:, :6], "wrench_qp": jtf_qp[:, :6],
-            # The paper's NLP (first pass, dummy legs only): Fig. 3's and Fig. 4's black curves.
-            "nlp_first": s1, "f_nlp_first": s1.forces[smp], "eps_nlp_first": eps_first,
-            "wrench_nlp_first": wb.body_wrench_of_forces(s1.r[smp], s1.theta[smp], feet[smp], s1.forces[smp]),
-        }
-    return out
+
+
+def _detail(g: _Grid, nlp: _NLPStage, at_nlp: _Forces, at_qp: _Forces, final: _Forces, fwd: ForwardPath,
+            stance: np.ndarray, fl: np.ndarray, ml: np.ndarray) -> dict[str, Any]:
+    """Every stage's trajectories, and the forward check with the first NLP's own forces
+    (how far the paper's single pass is from periodic)."""
+    s1, smp, tk = nlp.first, g.smp, g.tk
+    fwd_nlp = _integrate(g, s1, nlp.legs_first, lambda times: _interp_forces(tk, s1.forces, times))
+    w_nlp, _ = periodicity_error(fwd_nlp, g.task.speed, g.T)
+    return {"nlp_forward_periodicity_error": w_nlp, "trajectories": {
+        "t_knots": tk, "t_samples": g.ts, "nlp": nlp.sol, "forward_nlp": fwd_nlp, "final": fwd,
+        "f_nlp": at_nlp.f, "f_qp": at_qp.f, "eps_nlp": at_nlp.eps, "eps_qp": at_qp.eps, "eps_final": final.eps,
+        "tau_nlp": at_nlp.tau, "tau_qp": at_qp.tau, "tau_final": final.tau, "legs_nlp": nlp.legs, "stance": stance,
+        "dummy_f_legs": fl, "dummy_m_legs": ml, "wrench_nlp": at_nlp.wrench[:, :6], "wrench_qp": at_qp.wrench[:, :6],
+        # The paper's NLP (first pass, dummy legs only): Fig. 3's and Fig. 4's black curves.
+        "nlp_first": s1, "f_nlp_first": s1.forces[smp], "eps_nlp_first": nlp.eps_first,
+        "wrench_nlp_first": g.wb.body_wrench_of_forces(s1.r[smp], s1.theta[smp], g.feet[smp], s1.forces[smp]),
+    }}
 
 
 def _sampled_force(gait: Gait, ts: np.ndarray, f: np.ndarray):
