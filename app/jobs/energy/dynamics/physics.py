@@ -95,27 +95,46 @@ def _model(geom: QuadrupedGeometry, cfg: PhysicsConfig, friction: float) -> mujo
     return m
 
 
-def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: PhysicsConfig = PhysicsConfig()) -> dict[str, Any]:
+@dataclasses.dataclass
+class _Sim:
+    """A play-back under way: the model, its data and the indices the controller uses."""
+
+    geom: QuadrupedGeometry
+    ref: Reference
+    cfg: PhysicsConfig
+    m: mujoco.MjModel
+    d: mujoco.MjData
+    qadr: np.ndarray
+    vadr: np.ndarray
+    trunk: int
+    sites: list[int]
+    jac: np.ndarray
+
+
+def _start(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: PhysicsConfig) -> _Sim:
+    """The robot placed on the reference's first knot, moving as it does there."""
     m = _model(geom, cfg, cfg.friction if cfg.friction is not None else friction)
     d = mujoco.MjData(m)
-    qadr, vadr = qpos_index(m), dof_index(m)
-    trunk = m.body("trunk").id
-    sites = [m.site(f"{l}_tip").id for l in LEGS]
+    sim = _Sim(geom, ref, cfg, m, d, qpos_index(m), dof_index(m), m.body("trunk").id,
+               [m.site(f"{l}_tip").id for l in LEGS], np.zeros((3, m.nv)))
     s0 = ref.at(0.0)
     d.qpos[:3], d.qpos[3:7] = s0["r"], quat(s0["theta"][None])[0]
-    d.qpos[qadr] = s0["q"]
+    d.qpos[sim.qadr] = s0["q"]
     d.qvel[:3], d.qvel[3:6] = s0["v"], s0["omega"]
-    d.qvel[vadr] = s0["qd"]
+    d.qvel[sim.vadr] = s0["qd"]
     mujoco.mj_forward(m, d)
-    jac = np.zeros((3, m.nv))
+    return sim
+
+
+def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: PhysicsConfig = PhysicsConfig()) -> dict[str, Any]:
+    sim = _start(geom, ref, friction, cfg)
+    m, d, vadr = sim.m, sim.d, sim.vadr
     steps = int(round(cfg.periods * ref.period / cfg.timestep))
-    mass = float(m.body_subtreemass[trunk])
     work = work_ff = 0.0
     fell_at = None
     frames_t, frames_q = [], []
     boundary = []
     per_period = int(round(ref.period / cfg.timestep))
-    contact_err = []
     for step in range(steps + 1):
         t = step * cfg.timestep
         if step % per_period == 0:
@@ -125,53 +144,85 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
             frames_q.append(d.qpos.copy())
         if step == steps:
             break
-        ref_t = ref.at(t)
-        q, qd = d.qpos[qadr], d.qvel[vadr]
-        tau_ff = ref_t["tau"]
-        q_target = ref_t["q"]
-        if cfg.foot_placement_s > 0.0:
-            q_target = _place_swing_feet(geom, ref, t, ref_t, d, trunk, cfg.foot_placement_s)
-        tau = tau_ff + cfg.kp_joint * (q_target - q) + cfg.kd_joint * (ref_t["qd"] - qd)
-        if cfg.balance:
-            R = d.xmat[trunk].reshape(3, 3)
-            th = euler(d.qpos[3:7][None])[0]
-            e_th = ref_t["theta"] - th
-            e_th[2] = (e_th[2] + np.pi) % (2 * np.pi) - np.pi
-            w_world = R @ d.qvel[3:6]
-            dW = np.concatenate([cfg.kp_pos * (ref_t["r"] - d.qpos[:3]) + cfg.kd_pos * (ref_t["v"] - d.qvel[:3]),
-                                 cfg.kp_att * e_th + cfg.kd_att * (R @ ref_t["omega"] - w_world)])
-            legs = np.flatnonzero(ref_t["stance"])
-            if legs.size:
-                A = np.zeros((6, 3 * legs.size))
-                for j, i in enumerate(legs):
-                    a = d.site_xpos[sites[i]] - d.xipos[trunk]
-                    A[:3, 3 * j:3 * j + 3] = np.eye(3)
-                    A[3:, 3 * j:3 * j + 3] = [[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]]
-                df = np.linalg.lstsq(A, dW, rcond=None)[0]
-                for j, i in enumerate(legs):
-                    mujoco.mj_jacSite(m, d, jac, None, sites[i])
-                    cols = vadr[3 * i:3 * i + 3]
-                    tau[3 * i:3 * i + 3] -= jac[:, cols].T @ df[3 * j:3 * j + 3]
+        tau, tau_ff = _torques(sim, t)
         d.ctrl[:] = tau
         mujoco.mj_step(m, d)
         applied = d.actuator_force.copy()
         work += abs(applied @ d.qvel[vadr]) * cfg.timestep
         work_ff += abs(tau_ff @ d.qvel[vadr]) * cfg.timestep
-        z = d.qpos[2]
-        rp = euler(d.qpos[3:7][None])[0][:2]
-        if fell_at is None and (z < 0.5 * ref.r[:, 2].mean() or np.abs(rp).max() > 0.5 or not np.isfinite(z)):
+        if _fallen(d, ref):
             fell_at = t
             break
+    return _report(sim, fell_at, step, work, work_ff, np.asarray(frames_t), np.asarray(frames_q),
+                   np.asarray(boundary))
+
+
+def _torques(sim: _Sim, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the joint torques to apply at ``t``, their feed-forward part): the solution's
+    torques, joint PD on its leg angles (swing targets moved by foot placement) and the
+    balance feedback, each as the module's docstring says."""
+    cfg, d = sim.cfg, sim.d
+    ref_t = sim.ref.at(t)
+    q, qd = d.qpos[sim.qadr], d.qvel[sim.vadr]
+    tau_ff = ref_t["tau"]
+    q_target = ref_t["q"]
+    if cfg.foot_placement_s > 0.0:
+        q_target = _place_swing_feet(sim.geom, sim.ref, t, ref_t, d, sim.trunk, cfg.foot_placement_s)
+    tau = tau_ff + cfg.kp_joint * (q_target - q) + cfg.kd_joint * (ref_t["qd"] - qd)
+    if cfg.balance:
+        _balance(sim, ref_t, tau)
+    return tau, tau_ff
+
+
+def _balance(sim: _Sim, ref_t: dict[str, np.ndarray], tau: np.ndarray) -> None:
+    """Adds to ``tau`` the stance legs' share of the trunk damping wrench: least-norm foot
+    forces df = A^+ dW, applied through each foot's Jacobian."""
+    cfg, m, d, trunk = sim.cfg, sim.m, sim.d, sim.trunk
+    R = d.xmat[trunk].reshape(3, 3)
+    th = euler(d.qpos[3:7][None])[0]
+    e_th = ref_t["theta"] - th
+    e_th[2] = (e_th[2] + np.pi) % (2 * np.pi) - np.pi
+    w_world = R @ d.qvel[3:6]
+    dW = np.concatenate([cfg.kp_pos * (ref_t["r"] - d.qpos[:3]) + cfg.kd_pos * (ref_t["v"] - d.qvel[:3]),
+                         cfg.kp_att * e_th + cfg.kd_att * (R @ ref_t["omega"] - w_world)])
+    legs = np.flatnonzero(ref_t["stance"])
+    if not legs.size:
+        return
+    A = np.zeros((6, 3 * legs.size))
+    for j, i in enumerate(legs):
+        a = d.site_xpos[sim.sites[i]] - d.xipos[trunk]
+        A[:3, 3 * j:3 * j + 3] = np.eye(3)
+        A[3:, 3 * j:3 * j + 3] = [[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]]
+    df = np.linalg.lstsq(A, dW, rcond=None)[0]
+    for j, i in enumerate(legs):
+        mujoco.mj_jacSite(m, d, sim.jac, None, sim.sites[i])
+        cols = sim.vadr[3 * i:3 * i + 3]
+        tau[3 * i:3 * i + 3] -= sim.jac[:, cols].T @ df[3 * j:3 * j + 3]
+
+
+def _fallen(d: mujoco.MjData, ref: Reference) -> bool:
+    """The trunk below half the reference's mean height, rolled or pitched past 0.5 rad, or
+    no longer finite."""
+    z = d.qpos[2]
+    rp = euler(d.qpos[3:7][None])[0][:2]
+    return bool(z < 0.5 * ref.r[:, 2].mean() or np.abs(rp).max() > 0.5 or not np.isfinite(z))
+
+
+def _drift(boundary: np.ndarray) -> dict[str, float]:
+    """Mean change of the trunk state from one period boundary to the next."""
+    if len(boundary) < 2:
+        return {}
+    diff = np.abs(np.diff(boundary, axis=0))
+    return {"pos_m": float(diff[:, 1:3].max(axis=1).mean()), "angle_rad": float(diff[:, 3:6].max(axis=1).mean()),
+            "vel_m_s": float(diff[:, 6:9].max(axis=1).mean()), "rate_rad_s": float(diff[:, 9:12].max(axis=1).mean())}
+
+
+def _report(sim: _Sim, fell_at: float | None, step: int, work: float, work_ff: float, frames_t: np.ndarray,
+            frames: np.ndarray, boundary: np.ndarray) -> dict[str, Any]:
+    cfg, ref = sim.cfg, sim.ref
     duration = step * cfg.timestep if fell_at is None else fell_at
-    x_end = d.qpos[0]
-    distance = float(x_end - ref.r[0, 0])
-    boundary = np.asarray(boundary)
-    drift = {}
-    if len(boundary) >= 2:
-        diff = np.abs(np.diff(boundary, axis=0))
-        drift = {"pos_m": float(diff[:, 1:3].max(axis=1).mean()), "angle_rad": float(diff[:, 3:6].max(axis=1).mean()),
-                 "vel_m_s": float(diff[:, 6:9].max(axis=1).mean()), "rate_rad_s": float(diff[:, 9:12].max(axis=1).mean())}
-    frames = np.asarray(frames_q)
+    distance = float(sim.d.qpos[0] - ref.r[0, 0])
+    mass = float(sim.m.body_subtreemass[sim.trunk])
     mgd = mass * GRAVITY * max(abs(distance), 1e-9)
     return {
         "stays_up": fell_at is None,
@@ -181,12 +232,12 @@ def simulate(geom: QuadrupedGeometry, ref: Reference, friction: float, cfg: Phys
         "mean_height_m": float(frames[:, 2].mean()),
         "cot": work / mgd,
         "cot_feedforward_part": work_ff / mgd,
-        "drift_per_period": drift,
+        "drift_per_period": _drift(boundary),
         "duration_s": duration,
-        "frames_t": np.asarray(frames_t),
+        "frames_t": frames_t,
         "frames_qpos": frames,
         "steps": step,
-        "model": m,
+        "model": sim.m,
     }
 
 
