@@ -16,12 +16,12 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
-from app.jobs.freegait.run import target_met
 from app.jobs.freegait.planner.geometry import Motion, kinematic_margin
 from app.jobs.freegait.planner.params import GaitParams, nominal_re, r1
 from app.jobs.freegait.planner.route import Change, Route
 from app.jobs.freegait.planner.search import SearchInput, candidate_grid, search
 from app.jobs.freegait.planner.walk import WalkConfig, stand_pose, walk
+from app.jobs.freegait.spec import target_met
 from app.robots.silo6 import SILO6, TRIPODS
 from app.jobs.freegait.terrain import Minefield, make_minefield, make_terrain
 
@@ -337,11 +337,12 @@ def sweep(p: SweepParams, log: Callable[[str], None]) -> str:
         for d in dens:
             ter, fld = _world(p.distance_m + 2.5, 3.0, p.roughness_m, 1000 + f, d, 2000 + f)
             for aware in ((True, False) if p.unaware else (True,)):
-                s = walk(ter, fld, WalkConfig(route=route, aware=aware, seed=f)).summary()
+                cfg = WalkConfig(route=route, aware=aware, seed=f)
+                s = walk(ter, fld, cfg).summary()
                 rows.append({"density": d, "field": f, "aware": aware, **{k: s[k] for k in (
                     "outcome", "finished", "footholds", "footholds_in_zones", "stop_time_s", "min_sm_m",
                     "tracking_error_max_m", "tracking_error_final_m", "mean_speed_m_s", "failed_touchdowns")},
-                    "target_met": target_met(s, 0.05)})
+                    "target_met": target_met(s, cfg.params.sm_min)})
                 if partial:
                     with partial.open("a") as fh:
                         fh.write(json.dumps(rows[-1], default=float) + "\n")

@@ -14,6 +14,8 @@ import numpy as np  # noqa: E402
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table  # noqa: E402
 from app.core.plots import _save  # noqa: E402
+from app.jobs.evidence import controls_of, robustness_of  # noqa: E402
+from app.jobs.freegait.spec import TARGET, target_parts  # noqa: E402
 
 HISTORY_COLUMNS = {
     "transfer": "transfer number, from 0",
@@ -52,20 +54,22 @@ def damage_text(spec) -> str:
 
 
 def headline(s: dict) -> list[HeadlineRow]:
+    sm_min = s.get("sm_min_m", 0.05)
+    met = target_parts(s, sm_min)  # the target's parts, each beside its value
     rows = [
-        headline_row("footholds in forbidden zones", s.get("footholds_in_zones"), "", "lower", "0", s.get("footholds_in_zones") == 0),
-        headline_row("route finished", bool(s.get("finished")), "", "higher", "finishes", bool(s.get("finished"))),
-        headline_row("minimum stability margin SM", s.get("min_sm_m"), "m", "higher", f"> SM_min = {s.get('sm_min_m', 0.05):g} m",
-                     None if s.get("min_sm_m") is None else s["min_sm_m"] > s.get("sm_min_m", 0.05)),
+        headline_row("footholds in forbidden zones", s.get("footholds_in_zones"), "", "lower", "0", met["no_zone_footholds"]),
+        headline_row("route finished", bool(s.get("finished")), "", "higher", "finishes", met["finished"]),
+        headline_row("minimum stability margin SM", s.get("min_sm_m"), "m", "higher", f"> SM_min = {sm_min:g} m",
+                     met["sm_above_min"]),
         headline_row("minimum kinematic margin K_R", s.get("min_k_r_m"), "m", "higher"),
         headline_row("body stopped", s.get("stop_time_s"), "s", "lower"),
         headline_row("mean speed", s.get("mean_speed_m_s"), "m/s", "higher"),
         headline_row("tracking error (max)", s.get("tracking_error_max_m"), "m", "lower"),
         headline_row("footholds / transfers", f"{s.get('footholds')} / {s.get('transfers')}", ""),
     ]
-    ctl = {c["name"]: c for c in s.get("controls", [])}
+    ctl = {c.name: c for c in controls_of(s)}
     if "unaware" in ctl:
-        rows.append(headline_row("footholds in zones, zones ignored (control)", ctl["unaware"]["metrics"]["footholds_in_zones"],
+        rows.append(headline_row("footholds in zones, zones ignored (control)", ctl["unaware"].metrics["footholds_in_zones"],
                                  "", None))
     return rows
 
@@ -86,20 +90,21 @@ def summary_tables(s: dict) -> list[Table]:
                 _fmt(round(m["stop_time_s"], 1)), _fmt(round(m["mean_speed_m_s"], 4)),
                 _fmt(round(m["tracking_error_max_m"], 3)), _fmt(met)]
 
+    controls = controls_of(s)
     rows = [row("walk", s, s.get("target_met"))]
-    rows += [row(c["name"], c["metrics"], c["target_met"]) for c in s.get("controls", [])]
-    notes = [f"target: {s.get('target', '')}",
+    rows += [row(c.name, c.metrics, c.target_met) for c in controls]
+    notes = [f"target: {TARGET.text}",
              f"field: {s['field']['zones']} zones ({s['field']['density_per_m2']:g}/m2), ground "
              f"{s['field']['roughness_m']:g} m peak to valley; walk: {s.get('footholds')} footholds, "
              f"{s.get('footholds_in_safe_areas')} in safe areas (closest zone centre {_fmt(s.get('closest_zone_m'))} m), "
              f"{s.get('transfers')} transfers, min K_R {_fmt(s.get('min_k_r_m'))} m, touchdowns within "
              f"{_fmt(s.get('foothold_error_max_m'))} m of the planned footholds"]
-    notes += [f"{c['name']}: {c['label']}" for c in s.get("controls", [])]
+    notes += [f"{c.name}: {c.label}" for c in controls]
     out = [table("Walk and controls on the same field", cols, rows, notes)]
-    rb = s.get("robustness")
-    if rb:
-        out.append(table(f"Robustness ({rb['met']}/{rb['total']} meet the target)", cols,
-                         [row(c["name"], c["metrics"], c["target_met"]) for c in rb["cases"]], [rb["target"]]))
+    rb = robustness_of(s)
+    if rb is not None:
+        out.append(table(f"Robustness ({rb.met}/{rb.total} meet the target)", cols,
+                         [row(c.name, c.metrics, c.target_met) for c in rb.cases], [rb.target]))
     causes = {k: v for k, v in (s.get("stop_time_by_cause_s") or {}).items() if v}
     if causes:
         out.append(table("Body stops by cause (s)", list(causes), [[_fmt(v) for v in causes.values()]],

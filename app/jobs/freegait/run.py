@@ -5,42 +5,45 @@ the zones ignored (or known, when the job's planner ignores them), a periodic al
 tripod with fixed footholds (no foothold planner at all), and Ev replaced by a uniformly
 random valid tripod (so what Eq. 24 earns is measured). Robustness: the same walk with the
 planner's ground-height estimate off by +-I_T/2, friction x0.7 and x1.3, every mass +10 %,
-and the physics timestep halved. Each unit's summary is checkpointed; the walk and the
-first control are re-simulated on a resume for their traces (same numbers: deterministic).
+and the physics timestep halved and quartered. The three groups are the job's phases
+(``evidence.Phases``): each unit's summary lands in its phase's checkpoint entry; the walk
+and the first control are re-simulated on a resume for their traces (same numbers:
+deterministic).
+
+Steps: ``set_up`` (world, units, what a resumed job already has), ``run_phase`` for the
+walk, the controls and the robustness re-runs, then ``control_rows``, ``robustness_block``
+and ``result``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from typing import NamedTuple
 
 import numpy as np
 
+from app.jobs import evidence
 from app.jobs.base import Cancelled, JobResult, RunContext
-from app.jobs.freegait.spec import ROBUSTNESS_CASES, FreegaitSpec
+from app.jobs.evidence import Case, CaseResult, ControlRow, PhaseContext, Phases, Robustness
 from app.jobs.freegait.planner.walk import STOP_CAUSES, WalkConfig, WalkResult, stand_pose, walk, zones_near_route
-from app.robots.silo6 import SILO6
+from app.jobs.freegait.spec import ROBUSTNESS_CASES, TARGET, FreegaitSpec, GroundError, target_met
 from app.jobs.freegait.terrain import Minefield, Terrain, make_minefield, make_terrain
+from app.robots.silo6 import SILO6
 
-TARGET = "finishes the route, 0 footholds in forbidden zones, SM > SM_min throughout"
-CONTROL_LABELS = {
-    "unaware": "same planner, forbidden zones ignored (Fig. 9a)",
-    "aware": "same planner, forbidden zones known",
-    "periodic": "periodic alternating tripod, fixed footholds, no foothold planner",
-    "random_valid": "foothold planner with Ev replaced by a random valid tripod",
-}
-ROBUST_LABELS = {
-    "ground_error_+": "planner's ground estimate I_T/2 too high",
-    "ground_error_-": "planner's ground estimate I_T/2 too low",
-    "friction_0.7": "friction x0.7",
-    "friction_1.3": "friction x1.3",
-    "mass_+10pct": "every mass +10 %",
-    "dt_half": "physics timestep halved (1 ms)",
-    "dt_quarter": "physics timestep quartered (0.5 ms)",
+CONTROLS = {  # name: (label, note)
+    "unaware": ("same planner, forbidden zones ignored (Fig. 9a)",
+                "the same field and route; footholds are checked against the zones after the fact"),
+    "aware": ("same planner, forbidden zones known", "the same field and route with the zones known"),
+    "periodic": ("periodic alternating tripod, fixed footholds, no foothold planner",
+                 "no search: each leg steps to a fixed point of its workspace; lifts alternate"),
+    "random_valid": ("foothold planner with Ev replaced by a random valid tripod",
+                     "random draws from the job seed {seed}"),
 }
 METRICS = ("finished", "footholds_in_zones", "footholds_in_safe_areas", "closest_zone_m", "min_sm_m", "min_k_r_m",
            "stop_time_s", "mean_speed_m_s", "tracking_error_max_m", "foothold_error_max_m", "transfers",
            "failed_touchdowns", "time_s")
+SPREAD_KEYS = ("footholds_in_zones", "min_sm_m", "stop_time_s", "mean_speed_m_s", "tracking_error_max_m")
 
 
 def world(spec: FreegaitSpec) -> tuple[Terrain, Minefield]:
@@ -57,26 +60,33 @@ def config(spec: FreegaitSpec, **kw) -> WalkConfig:
     return dataclasses.replace(base, **kw)
 
 
-def unit_configs(spec: FreegaitSpec) -> list[tuple[str, str, WalkConfig]]:
-    """(group, name, config) of every unit in run order: the walk, controls, robustness."""
-    units = [("walk", "walk", config(spec))]
+def case_config(spec: FreegaitSpec, case: Case) -> WalkConfig:
+    """The walk under one robustness case: the standard scales applied to the walk's world,
+    the kind's own ground-estimate error as the planner's ground bias."""
+    base = config(spec)
+    bias = case.sign * (spec.terrain.roughness_m / 2) if isinstance(case, GroundError) else base.ground_bias
+    return dataclasses.replace(base, ground_bias=bias, friction_scale=base.friction_scale * case.friction_scale,
+                               mass_scale=base.mass_scale * case.mass_scale,
+                               timestep=base.timestep * case.timestep_scale)
+
+
+class Unit(NamedTuple):
+    group: str  # its phase: walk, control or robustness
+    name: str
+    cfg: WalkConfig
+
+
+def unit_configs(spec: FreegaitSpec) -> list[Unit]:
+    """Every unit in run order: the walk, controls, robustness."""
+    units = [Unit("walk", "walk", config(spec))]
     if spec.evidence.controls:
         other = "unaware" if spec.forbidden.known else "aware"
-        units += [("control", other, config(spec, aware=not spec.forbidden.known)),
-                  ("control", "periodic", config(spec, chooser="periodic")),
-                  ("control", "random_valid", config(spec, chooser="random"))]
+        units += [Unit("control", other, config(spec, aware=not spec.forbidden.known)),
+                  Unit("control", "periodic", config(spec, chooser="periodic")),
+                  Unit("control", "random_valid", config(spec, chooser="random"))]
     if spec.evidence.robustness:
-        half = spec.terrain.roughness_m / 2
-        kws = {"ground_error_+": {"ground_bias": half}, "ground_error_-": {"ground_bias": -half},
-               "friction_0.7": {"friction_scale": 0.7}, "friction_1.3": {"friction_scale": 1.3},
-               "mass_+10pct": {"mass_scale": 1.1}, "dt_half": {"timestep": 0.001},
-               "dt_quarter": {"timestep": 0.0005}}
-        units += [("robustness", n, config(spec, **kws[n])) for n in ROBUSTNESS_CASES]
+        units += [Unit("robustness", c.name, case_config(spec, c)) for c in ROBUSTNESS_CASES]
     return units
-
-
-def target_met(s: dict, sm_min: float) -> bool:
-    return bool(s["finished"] and s["footholds_in_zones"] == 0 and s["min_sm_m"] is not None and s["min_sm_m"] > sm_min)
 
 
 def _metrics(s: dict) -> dict:
@@ -95,90 +105,144 @@ def footholds_out(r: WalkResult) -> list[dict]:
     return [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in f.items()} for f in r.footholds]
 
 
-def run(spec: FreegaitSpec, ctx: RunContext) -> JobResult:
+@dataclasses.dataclass
+class Job:
+    """A freegait job under way: its world, its units and what they gave so far."""
+
+    spec: FreegaitSpec
+    terrain: Terrain
+    field: Minefield
+    units: list[Unit]
+    phases: Phases
+    done: dict[str, dict]  # unit name -> {"summary", "footholds"}, as checkpointed
+    wall_before: float  # wall time of the attempts before a resume
+    t0: float
+    keep: dict[str, WalkResult] = dataclasses.field(default_factory=dict)  # the walks the result draws
+
+    def of(self, group: str) -> list[Unit]:
+        return [u for u in self.units if u.group == group]
+
+    @property
+    def first_control(self) -> str | None:
+        return next((u.name for u in self.of("control")), None)
+
+    def summary(self, name: str) -> dict:
+        return self.done[name]["summary"]
+
+    def wall(self) -> float:
+        return self.wall_before + time.perf_counter() - self.t0
+
+
+def set_up(spec: FreegaitSpec, ctx: RunContext) -> Job:
     t0 = time.perf_counter()
-    ckpt = ctx.load_checkpoint() or {}
-    done: dict[str, dict] = ckpt.get("units", {})
-    wall_before = ckpt.get("wall_s", 0.0)
     terrain, field = world(spec)
     units = unit_configs(spec)
-    total = len(units)
-    keep: dict[str, WalkResult] = {}
-    sim_steps = ckpt.get("sim_steps", 0)
+    sizes: dict[str, int] = {}
+    for u in units:
+        sizes[u.group] = sizes.get(u.group, 0) + 1
+    phases = Phases(ctx, sizes)
+    saved = [phases.context(g).load_checkpoint() or {} for g in sizes]
+    done = {name: unit for entry in saved for name, unit in entry.get("units", {}).items()}
+    wall_before = max((entry.get("wall_s", 0.0) for entry in saved), default=0.0)
+    return Job(spec, terrain, field, units, phases, done, wall_before, t0)
 
-    for i, (group, name, cfg) in enumerate(units):
-        if ctx.is_cancelled():
-            raise Cancelled()
-        need_trace = i <= 1  # the walk and the first control are drawn and replayed
-        if name in done and not need_trace:
-            continue
-        r = walk(terrain, field, cfg, cancel=ctx.is_cancelled)
-        if r.outcome == "cancelled":
-            raise Cancelled()
-        if need_trace:
-            keep[name] = r
-        if name not in done:
-            s = r.summary()
-            done[name] = {"group": group, "summary": s, "footholds": footholds_out(r) if need_trace else None}
-            sim_steps += r.sim_steps
-            ctx.save_checkpoint({"units": done, "wall_s": wall_before + time.perf_counter() - t0, "sim_steps": sim_steps})
-        s = done[name]["summary"]
-        ctx.progress(i + 1, total, {"run": name, "finished": s["finished"], "in_zones": s["footholds_in_zones"],
-                                    "min_sm_m": s["min_sm_m"]})
 
-    main = keep["walk"]
-    ms = done["walk"]["summary"]
-    sm_min = spec.planner.sm_min_m
-    controls = []
-    for group, name, _ in units:
-        if group != "control":
-            continue
-        s = done[name]["summary"]
-        note = {"unaware": "the same field and route; footholds are checked against the zones after the fact",
-                "aware": "the same field and route with the zones known",
-                "periodic": "no search: each leg steps to a fixed point of its workspace; lifts alternate",
-                "random_valid": f"random draws from the job seed {spec.seed}"}[name]
-        controls.append({"name": name, "label": CONTROL_LABELS[name], "evaluations": 1, "metrics": _metrics(s),
-                         "target_met": target_met(s, sm_min), "note": note})
-    robustness = None
-    if spec.evidence.robustness:
-        cases = [{"name": n, "label": ROBUST_LABELS[n], "metrics": _metrics(done[n]["summary"]),
-                  "target_met": target_met(done[n]["summary"], sm_min)} for n in ROBUSTNESS_CASES]
-        spread = {}
-        for m in ("footholds_in_zones", "min_sm_m", "stop_time_s", "mean_speed_m_s", "tracking_error_max_m"):
-            vals = [c["metrics"][m] for c in cases if c["metrics"][m] is not None]
-            spread[m] = {"min": min(vals, default=None), "max": max(vals, default=None), "nominal": ms[m]}
-        robustness = {"target": TARGET, "cases": cases, "met": sum(c["target_met"] for c in cases), "total": len(cases),
-                      "spread": spread}
+def run_phase(job: Job, group: str) -> None:
+    """The units of one phase in order, each checkpointed in the phase's entry and counted
+    on the progress bar; a unit a resumed job already has runs again only to be drawn."""
+    pc = job.phases.context(group)
+    entry = {"units": {u.name: job.done[u.name] for u in job.of(group) if u.name in job.done}}
+    for u in job.of(group):
+        pc.check()
+        _run_unit(job, pc, u, entry)
+        s = job.summary(u.name)
+        pc.tick(1, {"run": u.name, "finished": s["finished"], "in_zones": s["footholds_in_zones"],
+                    "min_sm_m": s["min_sm_m"]})
 
-    wall = wall_before + time.perf_counter() - t0
-    first_control = next((n for g, n, _ in units if g == "control"), None)
+
+def _run_unit(job: Job, pc: PhaseContext, u: Unit, entry: dict) -> None:
+    drawn = u.name in ("walk", job.first_control)  # the result holds their traces and footholds
+    if u.name in job.done and not drawn:
+        return
+    r = walk(job.terrain, job.field, u.cfg, cancel=pc.is_cancelled)
+    if r.outcome == "cancelled":
+        raise Cancelled()
+    if drawn:
+        job.keep[u.name] = r
+    if u.name not in job.done:
+        job.done[u.name] = entry["units"][u.name] = {"summary": r.summary(),
+                                                     "footholds": footholds_out(r) if drawn else None}
+        entry["wall_s"] = job.wall()
+        pc.save_checkpoint(entry)
+
+
+def control_rows(job: Job) -> list[dict]:
+    sm_min = job.spec.planner.sm_min_m
+    rows = []
+    for u in job.of("control"):
+        s = job.summary(u.name)
+        label, note = CONTROLS[u.name]
+        rows.append(ControlRow(u.name, label, _metrics(s), target_met(s, sm_min), evaluations=1,
+                               note=note.format(seed=job.spec.seed)).to_json())
+    return rows
+
+
+def robustness_block(job: Job) -> dict | None:
+    if not job.spec.evidence.robustness:
+        return None
+    sm_min = job.spec.planner.sm_min_m
+    cases = [CaseResult(c.name, c.label, _metrics(job.summary(c.name)), target_met(job.summary(c.name), sm_min))
+             for c in ROBUSTNESS_CASES]
+    # The spread is the range over the re-simulations alone, the nominal walk's value beside
+    # it (not inside the range, as evidence.spread would put it: these are the numbers every
+    # freegait result has shown).
+    over_cases = evidence.spread({}, [c.to_json() for c in cases], SPREAD_KEYS, as_float=False)
+    nominal = job.summary("walk")
+    spread = {k: {"min": over_cases.get(k, {}).get("min"), "max": over_cases.get(k, {}).get("max"),
+                  "nominal": nominal[k]} for k in SPREAD_KEYS}
+    return Robustness(TARGET.text, cases, spread).to_json()
+
+
+def result(job: Job, controls: list[dict], robustness: dict | None) -> JobResult:
+    spec, terrain, field = job.spec, job.terrain, job.field
+    ms = job.summary("walk")
+    first_control = job.first_control
+    sim_steps = sum(unit["summary"]["sim_steps"] for unit in job.done.values())
     summary = {
         "kind": "freegait", "robot": spec.robot, "seed": spec.seed,
         "route": spec.route.model_dump(), "gait": spec.route.gait, "aware": spec.forbidden.known,
-        "sm_min_m": sm_min, "k_ev": spec.planner.k_ev, "candidates_per_leg": spec.planner.candidates_per_leg,
+        "sm_min_m": spec.planner.sm_min_m, "k_ev": spec.planner.k_ev, "candidates_per_leg": spec.planner.candidates_per_leg,
         "field": {"zones": int(len(field.centres)), "density_per_m2": spec.forbidden.density_per_m2,
                   "zone_radius_m": field.zone_radius, "safe_radius_m": field.safe_radius,
                   "x_range_m": list(terrain.x_range), "y_range_m": list(terrain.y_range),
                   "roughness_m": terrain.roughness},
         "zones": np.round(zones_near_route(field, spec.route.build()).centres, 4).tolist(),  # drawn ones
         **{k: ms[k] for k in ms},
-        "target": TARGET, "target_met": target_met(ms, sm_min),
+        "target": TARGET.text, "target_met": target_met(ms, spec.planner.sm_min_m),
         "stop_causes": list(STOP_CAUSES[1:]),
-        "footholds_list": done["walk"]["footholds"],
-        "control_footholds": {"name": first_control, "footholds": done[first_control]["footholds"]} if first_control else None,
+        "footholds_list": job.done["walk"]["footholds"],
+        "control_footholds": {"name": first_control, "footholds": job.done[first_control]["footholds"]} if first_control else None,
         "controls": controls,
-        "timing": {"wall_s": wall, "sim_steps": sim_steps, "sim_time_s": ms["time_s"],
+        "timing": {"wall_s": job.wall(), "sim_steps": sim_steps, "sim_time_s": ms["time_s"],
                    "realtime_factor": ms["time_s"] / max(ms["wall_s"], 1e-9)},
     }
     summary.pop("wall_s", None)
     if robustness is not None:
         summary["robustness"] = robustness
+    main = job.keep["walk"]
     # one row per transfer; its number is the history's x column (Kind.history_x). A row's
     # "index" is the chosen candidate of each leg, not a number: it stays out of history.csv.
     history = [{"transfer": i} | {k: v for k, v in row.items() if k != "index"} for i, row in enumerate(main.transfers)]
     traces = {"walk": trace_of(main)}
     if first_control:
-        traces[first_control] = trace_of(keep[first_control])
+        traces[first_control] = trace_of(job.keep[first_control])
     return JobResult(summary=summary, history=history, traces=traces, model_xml=main.model_xml,
-                     evaluations=len(done), sim_steps=sim_steps)
+                     evaluations=len(job.done), sim_steps=sim_steps)
+
+
+def run(spec: FreegaitSpec, ctx: RunContext) -> JobResult:
+    job = set_up(spec, ctx)
+    for group in job.phases.sizes:
+        run_phase(job, group)
+    # no phases.finish(): every unit ticks, so the last one's report is already the full bar
+    return result(job, control_rows(job), robustness_block(job))

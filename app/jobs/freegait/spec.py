@@ -3,12 +3,16 @@ planner's parameters (Sec. 5 defaults) and which evidence runs to add."""
 
 from __future__ import annotations
 
-from typing import ClassVar, Literal
+import dataclasses
+from collections.abc import Mapping
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from app.jobs import evidence
 from app.jobs.base import SpecBase, SpecError, StrictModel
+from app.jobs.evidence import Case, Target
 from app.jobs.freegait.planner.params import GaitParams
 from app.jobs.freegait.planner.route import Change, Route
 from app.jobs.freegait.planner.search import MAX_TRIPODS
@@ -128,8 +132,9 @@ class FreegaitSpec(SpecBase):
 
     budget_formula: ClassVar[str] = (
         "1 walk, plus 3 control walks on the same field when evidence.controls (zone-unaware planner, periodic tripod "
-        "with fixed footholds, a random valid tripod instead of the best Ev), plus 6 re-simulations of the walk when "
-        "evidence.robustness (ground-height estimate +-I_T/2, friction x0.7 and x1.3, masses +10 %, timestep halved)")
+        "with fixed footholds, a random valid tripod instead of the best Ev), plus 7 re-simulations of the walk when "
+        "evidence.robustness (ground-height estimate +-I_T/2, friction x0.7 and x1.3, masses +10 %, timestep halved "
+        "and quartered)")
 
     @property
     def evaluations_budget(self) -> int:
@@ -192,5 +197,45 @@ class FreegaitSpec(SpecBase):
         return self.planner.build()
 
 
-ROBUSTNESS_CASES = ("ground_error_+", "ground_error_-", "friction_0.7", "friction_1.3", "mass_+10pct", "dt_half",
-                    "dt_quarter")
+# -- the evidence: the target every walk is judged by, the robustness cases ----------------
+
+def target_parts(m: Mapping[str, Any], sm_min: float) -> dict[str, bool | None]:
+    """The target's three parts judged on a walk's metrics (the SM part None when no SM
+    was measured), so that the headline can show each beside its value."""
+    sm = m.get("min_sm_m")
+    return {"finished": bool(m.get("finished")), "no_zone_footholds": m.get("footholds_in_zones") == 0,
+            "sm_above_min": None if sm is None else sm > sm_min}
+
+
+def _reached(m: Mapping[str, Any]) -> bool:
+    return all(target_parts(m, m["sm_min_m"]).values())
+
+
+TARGET = Target("finishes the route, 0 footholds in forbidden zones, SM > SM_min throughout", _reached)
+"""Judges metrics that carry the SM_min the walk was planned with (``sm_min_m``, as the
+job's summary does); ``target_met`` adds it to a walk's own metrics."""
+
+
+def target_met(metrics: Mapping[str, Any], sm_min: float) -> bool:
+    return TARGET.met({**metrics, "sm_min_m": sm_min})
+
+
+@dataclasses.dataclass(frozen=True)
+class GroundError(Case):
+    """The kind's own robustness case: the planner's estimate of the ground height under a
+    new foothold off by ``sign`` x I_T/2 (the walk's ``ground_bias``), the uncertainty
+    Sec. 2.3 sizes H3 for."""
+
+    sign: float = 0.0
+
+
+# the kind's labels kept (they are what every stored summary shows)
+ROBUSTNESS_CASES: tuple[Case, ...] = (
+    GroundError("ground_error_+", "planner's ground estimate I_T/2 too high", sign=1.0),
+    GroundError("ground_error_-", "planner's ground estimate I_T/2 too low", sign=-1.0),
+    evidence.case("friction_0.7", "friction x0.7"),
+    evidence.case("friction_1.3", "friction x1.3"),
+    evidence.case("mass_+10pct", "every mass +10 %"),
+    evidence.case("dt_half", "physics timestep halved (1 ms)"),
+    evidence.case("dt_quarter", "physics timestep quartered (0.5 ms)"),
+)

@@ -12,6 +12,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from app.jobs.freegait.spec import TARGET
+
 METHOD, CONTROL, ZONE, SAFE = "#0b5cad", "#c2410c", "#111111", "#b8bec7"
 MAX_POINTS = 1500
 
@@ -78,6 +80,8 @@ def minefield_view(s: dict, traces: Mapping) -> dict:
     cap = (f"Forbidden zones (black, {2 * f.get('zone_radius_m', 0.025):g} m) with their safe areas (grey, "
            f"{2 * f.get('safe_radius_m', 0.075):g} m) seen from above; circles are the footholds where the feet "
            f"touched down in MuJoCo. Walk: {n_bad} of {len(feet)} footholds in zones.")
+    if s.get("target_met") is not None:
+        cap += f" Target ({TARGET.text}): {'met' if s['target_met'] else 'not met'}."
     if ctl.get("footholds"):
         cap += (f" Control ({ctl['name']}, click its legend entry): {n_ctl} of {len(ctl['footholds'])} in zones.")
     layout = {"xaxis": _axis("x (m)", range=[float(lo[0]), float(hi[0])]),
