@@ -74,14 +74,19 @@ def _write(out: str, name: str, md: str, summary: dict) -> None:
         (p / f"{name}.json").write_text(json.dumps(summary, indent=1))
 
 
+def _reproduce(data: dict, out: str, name: str, log: Callable[[str], None]) -> str:
+    """Run one spec, and return (and write under ``out``, as ``name``) its docs tables."""
+    summary, wall, spec_json = _run_spec(data, log)
+    md = report(summary, wall, spec_json)
+    _write(out, name, md, summary)
+    return md
+
+
 def _trot(params: TrotParams, log: Callable[[str], None]) -> str:
     data = {"kind": "energy", "search": {"population": params.population, "generations": params.generations,
                                          "seed": params.seed, "workers": params.workers}}
     log(f"energy: GA {params.population} x ({params.generations} + 1) on the trot, with controls and robustness ...")
-    summary, wall, spec_json = _run_spec(data, log)
-    md = report(summary, wall, spec_json)
-    _write(params.out, "energy_trot", md, summary)
-    return md
+    return _reproduce(data, params.out, "energy_trot", log)
 
 
 class Table1Params(BaseModel):
@@ -93,10 +98,7 @@ def _table1(params: Table1Params, log: Callable[[str], None]) -> str:
     data = {"kind": "energy", "search": {"optimizer": "none"}, "task": {"swing_height_m": params.swing_height_m},
             "evidence": {"random_search": False}}
     log("energy: Table 1's trot (T = 0.46 s, Table 1 links), no search ...")
-    summary, wall, spec_json = _run_spec(data, log)
-    md = report(summary, wall, spec_json)
-    _write(params.out, "energy_table1", md, summary)
-    return md
+    return _reproduce(data, params.out, "energy_table1", log)
 
 
 class KnotsParams(BaseModel):

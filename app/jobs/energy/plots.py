@@ -16,6 +16,15 @@ FINAL_STYLE = dict(color=hex_color("method"), lw=1.8, label="final (QP)")
 FWD_STYLE = dict(color=hex_color("reference"), lw=1.2, label="NLP forces in the full equations")
 
 
+def _finish(fig, axes, title: str, out: Path, stem: str) -> list[Path]:
+    """A grid of panels over time: the time axis on the bottom row, the legend in the first panel."""
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle(title)
+    return _save(fig, out, stem)
+
+
 def forces(traces: dict, out: Path) -> list[Path]:
     """Fig. 3: contact forces per leg and axis, NLP against the final (QP) solution."""
     f = traces["forces"]
@@ -32,11 +41,7 @@ def forces(traces: dict, out: Path) -> list[Path]:
                 ax.set_ylabel(f"{name} (N)")
             if a == 0:
                 ax.set_title(leg)
-    for ax in axes[-1]:
-        ax.set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Contact forces per leg (Fig. 3); NLP dashed, final solid")
-    return _save(fig, out, "forces")
+    return _finish(fig, axes, "Contact forces per leg (Fig. 3); NLP dashed, final solid", out, "forces")
 
 
 def wrench(traces: dict, out: Path) -> list[Path]:
@@ -79,11 +84,7 @@ def body(traces: dict, speed: float, out: Path) -> list[Path]:
             ax.plot(t, y, **style)
         ax.set_ylabel(labels[j])
         ax.grid(alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Trunk motion over one period (Fig. 4)")
-    return _save(fig, out, "body_motion")
+    return _finish(fig, axes, "Trunk motion over one period (Fig. 4)", out, "body_motion")
 
 
 def gait_diagram(summary: dict, out: Path) -> list[Path]:

@@ -21,6 +21,12 @@ LINK_NAMES = ("hip", "thigh", "calf")
 Pair = Annotated[list[Annotated[float, Field(ge=0.0, le=2.0)]], Field(min_length=2, max_length=2)]
 
 
+def _even(v: int, why: str) -> int:
+    if v % 2:
+        raise ValueError(f"must be even ({why}); got {v}")
+    return v
+
+
 class Task(BaseModel):
     model_config = Strict
     speed_m_s: float = Field(1.0, gt=0.0, le=3.0)  # V
@@ -119,9 +125,7 @@ class Model(BaseModel):
     @field_validator("knots")
     @classmethod
     def _even(cls, v):
-        if v % 2:
-            raise ValueError(f"must be even (the QP samples are the odd knots); got {v}")
-        return v
+        return _even(v, "the QP samples are the odd knots")
 
 
 class Search(BaseModel):
@@ -135,9 +139,7 @@ class Search(BaseModel):
     @field_validator("population")
     @classmethod
     def _even(cls, v):
-        if v % 2:
-            raise ValueError(f"must be even (crossover makes pairs); got {v}")
-        return v
+        return _even(v, "crossover makes pairs")
 
 
 class Physics(BaseModel):
