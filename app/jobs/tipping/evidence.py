@@ -7,11 +7,15 @@ convergence check. Every number here comes from a full MuJoCo run of ``run_tilt`
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from typing import Callable
+from collections.abc import Mapping
+from typing import Any, Callable
 
 import numpy as np
 
+from app.jobs import evidence as protocol
+from app.jobs.evidence import Case, CaseResult, ControlRow, Robustness, Target
 from app.robots.heavy_hexapod import HEAVY, HeavyHexapodGeometry, scaled_masses
 from app.jobs.tipping.scenario import CliffScenario, ControllerConfig, TiltScenario, first_catch, run_cliff, run_tilt
 
@@ -57,17 +61,46 @@ def outcome(r: dict) -> dict:
     return out
 
 
-def target_met(metrics: dict, target_margin_deg: float) -> bool:
-    """The recovery's target: the robot stays up to the end of the run and, if a leg was
-    caught, the margin 0.5 s after its landing is at least ``target_margin_deg``."""
+# -- the target -------------------------------------------------------------------------------
+
+def _upright_with_margin(margin_deg: float, metrics: Mapping[str, Any]) -> bool:
     if metrics["tipped"]:
         return False
     after = metrics.get("margin_after_landing_deg")
-    return after is None or after >= target_margin_deg
+    return after is None or after >= margin_deg
 
 
-def target_text(target_margin_deg: float) -> str:
-    return f"stays upright to the end of the run; margin 0.5 s after the caught leg lands >= {target_margin_deg:g} deg"
+def recovery_target(margin_deg: float = 0.0) -> Target:
+    """The recovery's target, the one the job's evidence, its pages and the experiments all
+    judge by: the robot stays up to the end of the run and, if a leg was caught, the margin
+    0.5 s after its landing is at least ``margin_deg`` (the spec's
+    ``evidence.target_margin_deg``). It reads an ``outcome`` or a run's summary alike."""
+    return Target(f"stays upright to the end of the run; margin 0.5 s after the caught leg lands >= {margin_deg:g} deg",
+                  functools.partial(_upright_with_margin, margin_deg))
+
+
+def target_of(summary: Mapping[str, Any]) -> Target:
+    """The target a stored summary was judged by."""
+    return recovery_target(summary.get("target_margin_deg", 0.0))
+
+
+# -- finished simulations, by key -------------------------------------------------------------
+
+class Units:
+    """The finished simulations of one phase by key, so that a resumed job does not repeat
+    them; ``on_done(key, value)`` runs after each new one (checkpoint, progress, cancel)."""
+
+    def __init__(self, done: dict | None = None, on_done: Callable[[str, dict], None] | None = None):
+        self.done = {} if done is None else done
+        self.on_done = on_done
+
+    def get(self, key: str, make: Callable[[], dict]) -> dict:
+        if key not in self.done:
+            self.done[key] = make()
+            if self.on_done is not None:
+                self.on_done(key, self.done[key])
+        return self.done[key]
+
 
 
 # -- survivable tilt band ---------------------------------------------------------------------
@@ -108,6 +141,23 @@ def band_runs(lo: float, hi: float, tol: float) -> int:
     return 2 + max(0, math.ceil(math.log2((hi - lo) / tol)))
 
 
+def _band_probe(units: Units, name: str, s: Setup) -> dict:
+    return units.get(f"band:{name}:{s.scen.max_tilt_deg:.4f}", lambda: {"tipped": bool(simulate(s)["tipped"])})
+
+
+def band(setup: Setup, plan: EvidencePlan, units: Units | None = None) -> dict:
+    """The survivable tilt with and without recovery, and what recovery gains."""
+    units = Units() if units is None else units
+    out: dict = {}
+    for name, cfg in (("with_recovery", setup.cfg), ("without_recovery", dataclasses.replace(setup.cfg, recovery=False))):
+        out[name] = survivable_tilt(setup.with_(cfg=cfg), plan.band_lo_deg, plan.band_hi_deg, plan.band_tol_deg,
+                                    run=functools.partial(_band_probe, units, name))
+    a, b = out["with_recovery"]["max_upright_deg"], out["without_recovery"]["max_upright_deg"]
+    out["gain_deg"] = None if a is None or b is None else a - b
+    out["tolerance_deg"] = plan.band_tol_deg
+    return out
+
+
 # -- controls ---------------------------------------------------------------------------------
 
 CONTROLS = (
@@ -123,39 +173,66 @@ def control_setups(setup: Setup) -> list[tuple[str, str, Setup]]:
     return [(name, label, setup.with_(cfg=dataclasses.replace(setup.cfg, **kw))) for name, label, kw in CONTROLS]
 
 
+def control_rows(setup: Setup, baseline: dict, target: Target, units: Units | None = None) -> list[dict]:
+    """``summary["controls"]``: the job's own run without recovery (``baseline``), then the
+    method with each part switched off, on the same scenario."""
+    units = Units() if units is None else units
+    rows = [ControlRow("no_recovery", CONTROLS[0][1], baseline, target.met(baseline), 1, "the job's baseline run")]
+    for name, label, s in control_setups(setup)[1:]:
+        m = units.get(f"control:{name}", lambda s=s: outcome(simulate(s)))
+        rows.append(ControlRow(name, label, m, target.met(m), 1,
+                               "same scenario, same physics; one simulation like the method"))
+    return [r.to_json() for r in rows]
+
+
 # -- robustness -------------------------------------------------------------------------------
 
 ROBUSTNESS_CASES = ("dt_half", "dt_quarter", "friction_0.7", "friction_1.3", "mass_+10pct", "mass_-10pct", "payload")
+PAYLOAD_KG = 500.0  # on top of the body: raises the CoG of a 5 t robot
 
 
-def robustness_setups(setup: Setup) -> list[tuple[str, str, Setup]]:
-    g, f = setup.geom, setup.friction
-    return [
-        ("dt_half", f"physics step {g.timestep / 2 * 1e3:g} ms", setup.with_(geom=dataclasses.replace(g, timestep=g.timestep / 2))),
-        ("dt_quarter", f"physics step {g.timestep / 4 * 1e3:g} ms",
-         setup.with_(geom=dataclasses.replace(g, timestep=g.timestep / 4))),
-        ("friction_0.7", f"friction x0.7 ({0.7 * f:.2f})", setup.with_(friction=0.7 * f)),
-        ("friction_1.3", f"friction x1.3 ({1.3 * f:.2f})", setup.with_(friction=1.3 * f)),
-        ("mass_+10pct", "every link mass +10 %", setup.with_(geom=scaled_masses(g, 1.1))),
-        ("mass_-10pct", "every link mass -10 %", setup.with_(geom=scaled_masses(g, 0.9))),
-        ("payload", "500 kg payload on top of the body (CoG raised)",
-         setup.with_(geom=dataclasses.replace(g, payload_kg=500.0))),
-    ]
+def _label(c: Case, setup: Setup) -> str:
+    """The kind's words for a standard case: the step or friction it becomes, the payload."""
+    if c.timestep_scale != 1.0:
+        return f"physics step {setup.geom.timestep * c.timestep_scale * 1e3:g} ms"
+    if c.friction_scale != 1.0:
+        return f"friction x{c.friction_scale:g} ({c.friction_scale * setup.friction:.2f})"
+    if c.mass_scale != 1.0:
+        return f"every link mass {round(100 * (c.mass_scale - 1)):+d} %"
+    if c.name == "payload":
+        return f"{PAYLOAD_KG:g} kg payload on top of the body (CoG raised)"
+    raise ValueError(f"tipping does not run the robustness case {c.name!r}")
+
+
+def robustness_cases(setup: Setup) -> list[Case]:
+    return [protocol.case(name, _label(protocol.case(name), setup)) for name in ROBUSTNESS_CASES]
+
+
+def perturbed(setup: Setup, c: Case) -> Setup:
+    """``setup`` in the world of case ``c``."""
+    g = setup.geom
+    if c.timestep_scale != 1.0:
+        g = dataclasses.replace(g, timestep=g.timestep * c.timestep_scale)
+    if c.mass_scale != 1.0:
+        g = scaled_masses(g, c.mass_scale)
+    if c.name == "payload":
+        g = dataclasses.replace(g, payload_kg=PAYLOAD_KG)
+    return setup.with_(geom=g, friction=c.friction_scale * setup.friction)
 
 
 ROBUST_METRICS = ("margin_after_landing_deg", "detection_time_s", "time_to_tip_s", "final_margin_deg", "max_slip_m",
                   "friction_demand")
 
 
-def spread(nominal: dict, cases: list[dict]) -> dict:
-    out = {}
-    for k in ROBUST_METRICS:
-        vals = [c["metrics"][k] for c in cases if c["metrics"].get(k) is not None]
-        if nominal.get(k) is None and not vals:
-            continue
-        allv = vals + ([nominal[k]] if nominal.get(k) is not None else [])
-        out[k] = {"min": min(allv), "max": max(allv), "nominal": nominal.get(k)}
-    return out
+def robustness(setup: Setup, nominal: dict, target: Target, units: Units | None = None) -> Robustness:
+    """The recovery answer ``setup`` (whose outcome is ``nominal``) re-simulated under each
+    case; the spread keeps each metric as the runs gave it."""
+    units = Units() if units is None else units
+    cases = []
+    for c in robustness_cases(setup):
+        m = units.get(f"robust:{c.name}", lambda c=c: outcome(simulate(perturbed(setup, c))))
+        cases.append(CaseResult(c.name, c.label, m, target.met(m)).to_json())
+    return Robustness.build(target.text, nominal, cases, keys=ROBUST_METRICS, as_float=False)
 
 
 # -- numerical convergence --------------------------------------------------------------------
@@ -190,60 +267,31 @@ class EvidencePlan:
     band_tol_deg: float = 1.0
     target_margin_deg: float = 0.0
 
-    def runs(self, tilt: bool, n_robust: int = len(ROBUSTNESS_CASES)) -> int:
-        """Upper bound on the simulations ``run_evidence`` makes."""
-        n = len(CONTROLS) - 1 if self.controls else 0  # no_recovery is the job's own baseline run
-        n += n_robust if self.robustness else 0
+    @property
+    def target(self) -> Target:
+        return recovery_target(self.target_margin_deg)
+
+    def sizes(self, tilt: bool) -> dict[str, int]:
+        """Upper bound on the simulations of each evidence phase, in the order they run."""
+        out = {}
+        if self.controls:
+            out["controls"] = len(CONTROLS) - 1  # no_recovery is the job's own baseline run
+        if self.robustness:
+            out["robustness"] = len(ROBUSTNESS_CASES)
         if self.band and tilt:
-            n += 2 * band_runs(self.band_lo_deg, self.band_hi_deg, self.band_tol_deg)
-        return n
+            out["band"] = 2 * band_runs(self.band_lo_deg, self.band_hi_deg, self.band_tol_deg)
+        return out
 
 
-def run_evidence(setup: Setup, nominal: dict, baseline: dict, plan: EvidencePlan,
-                 before: Callable[[str], None] = lambda key: None, cache: dict | None = None,
-                 on_done: Callable[[str, dict], None] = lambda key, value: None) -> dict:
+def run_evidence(setup: Setup, nominal: dict, baseline: dict, plan: EvidencePlan) -> dict:
     """Controls, robustness and the survivable tilt band for the recovery answer ``setup``
     (whose outcome is ``nominal``; ``baseline`` is the same scenario without recovery), in
-    the shared result format. ``before(key)`` runs before every simulation (progress and
-    cancel); finished units are looked up in / reported to ``cache`` / ``on_done`` by key so
-    a resumed job does not repeat them."""
-    cache = {} if cache is None else cache
-
-    def unit(key: str, make: Callable[[], dict]) -> dict:
-        if key not in cache:
-            before(key)
-            cache[key] = make()
-            on_done(key, cache[key])
-        return cache[key]
-
-    tgt = plan.target_margin_deg
+    the shared result format, all at once (a job runs them as phases: app.jobs.tipping.run)."""
     out: dict = {}
     if plan.controls:
-        rows = [{"name": "no_recovery", "label": CONTROLS[0][1], "evaluations": 1, "metrics": baseline,
-                 "target_met": target_met(baseline, tgt), "note": "the job's baseline run"}]
-        for name, label, s in control_setups(setup)[1:]:
-            m = unit(f"control:{name}", lambda s=s: outcome(simulate(s)))
-            rows.append({"name": name, "label": label, "evaluations": 1, "metrics": m, "target_met": target_met(m, tgt),
-                         "note": "same scenario, same physics; one simulation like the method"})
-        out["controls"] = rows
+        out["controls"] = control_rows(setup, baseline, plan.target)
     if plan.robustness:
-        cases = []
-        for name, label, s in robustness_setups(setup):
-            m = unit(f"robust:{name}", lambda s=s: outcome(simulate(s)))
-            cases.append({"name": name, "label": label, "metrics": m, "target_met": target_met(m, tgt)})
-        out["robustness"] = {"target": target_text(tgt), "cases": cases,
-                             "met": sum(bool(c["target_met"]) for c in cases), "total": len(cases),
-                             "spread": spread(nominal, cases)}
+        out["robustness"] = robustness(setup, nominal, plan.target).to_json()
     if plan.band and isinstance(setup.scen, TiltScenario):
-        band = {}
-        for name, cfg in (("with_recovery", setup.cfg), ("without_recovery", dataclasses.replace(setup.cfg, recovery=False))):
-            def run_probe(s: Setup, name=name) -> dict:
-                key = f"band:{name}:{s.scen.max_tilt_deg:.4f}"
-                return unit(key, lambda: {"tipped": bool(simulate(s)["tipped"])})
-            band[name] = survivable_tilt(setup.with_(cfg=cfg), plan.band_lo_deg, plan.band_hi_deg, plan.band_tol_deg,
-                                         run=run_probe)
-        a, b = band["with_recovery"]["max_upright_deg"], band["without_recovery"]["max_upright_deg"]
-        band["gain_deg"] = None if a is None or b is None else a - b
-        band["tolerance_deg"] = plan.band_tol_deg
-        out["band"] = band
+        out["band"] = band(setup, plan)
     return out

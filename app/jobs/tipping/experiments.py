@@ -15,6 +15,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 from app.jobs.base import BenchEntry, Experiment
+from app.jobs.evidence import controls_of
 from app.robots.heavy_hexapod import HEAVY
 from app.jobs.tipping.evidence import CONVERGENCE_TOL, EvidencePlan, Setup, convergence_row, outcome, run_evidence, simulate
 from app.jobs.tipping.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
@@ -78,7 +79,7 @@ def markdown(rows: list[dict]) -> str:
            "| margin after landing (deg): same order | survivable final tilt with / without recovery (deg) |"
            "\n|---|---|---|---|\n")
     for r in rows:
-        ctl = {c["name"]: c["metrics"] for c in r.get("controls", [])}
+        ctl = {c.name: c.metrics for c in controls_of(r)}
         order = ["no_qp", "position_stance", "fixed_swing"]
         up = " / ".join(["yes" if not r["tipped_with"] else "no"]
                         + ["yes" if not ctl[k]["tipped"] else "no" for k in order if k in ctl])

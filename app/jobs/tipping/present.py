@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+from app.jobs.evidence import CaseResult, ControlRow, controls_of, robustness_of
+from app.jobs.tipping.evidence import target_of
 
 HISTORY_COLUMNS = {
     "run": "simulation index (0 = without recovery, 1 = with recovery; sweep runs follow)",
@@ -51,8 +53,9 @@ def headline(s: dict) -> list[HeadlineRow]:
     rows = [headline_row("tips without recovery", bool(base.get("tipped")), "", None)]
     if "recovery" in runs:
         rec = runs["recovery"]
-        rows += [headline_row("stays upright with recovery", not rec["tipped"], "", "higher", "stays upright",
-                              not rec["tipped"]),
+        target = target_of(s)
+        rows += [headline_row("stays upright with recovery", not rec["tipped"], "", "higher"),
+                 headline_row("recovery meets the target", target.met(rec), "", None, target.text, target.met(rec)),
                  headline_row("adjustment leg", s.get("adjustment_leg"), "", None),
                  headline_row("foothold (body frame)", s.get("foothold_body_m"), "m", None),
                  headline_row("detected at", s.get("detection_time_s"), "s", None),
@@ -69,10 +72,10 @@ def headline(s: dict) -> list[HeadlineRow]:
                  headline_row("largest final tilt survived without recovery", wo["max_upright_deg"], "deg", None),
                  headline_row("survivable tilt gained by recovery", band.get("gain_deg"), "deg", "higher", "> 0",
                               None if band.get("gain_deg") is None else band["gain_deg"] > 0)]
-    rob = s.get("robustness")
+    rob = robustness_of(s)
     if rob:
-        rows.append(headline_row("robustness: perturbed re-runs meeting the target", f"{rob['met']}/{rob['total']}", "",
-                                 None, rob["target"], rob["met"] == rob["total"]))
+        rows.append(headline_row("robustness: perturbed re-runs meeting the target", f"{rob.met}/{rob.total}", "",
+                                 None, rob.target, rob.met == rob.total))
     if s.get("sweep"):
         rows.append(headline_row("sweep success rate", s["sweep"].get("overall_success_rate"), "", "higher"))
     return rows
@@ -92,18 +95,22 @@ EVIDENCE_COLUMNS = (("tipped", "tipped"), ("margin_after_landing_deg", "margin a
                     ("friction_demand", "friction demand"))
 
 
+def _evidence_row(c: ControlRow | CaseResult) -> list[str]:
+    return [c.name] + [_num(c.metrics.get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c.target_met)]
+
+
 def evidence_tables(s: dict) -> list[Table]:
     out = []
     heads = ["run"] + [h for _, h in EVIDENCE_COLUMNS] + ["target met"]
-    if s.get("controls"):
-        out.append(table("controls: the same scenario with parts of the method switched off", heads,
-                         [[c["name"]] + [_num(c["metrics"].get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c["target_met"])]
-                          for c in s["controls"]], [f"{c['name']}: {c['label']}" for c in s["controls"]]))
-    rob = s.get("robustness")
+    controls = controls_of(s)
+    if controls:
+        out.append(table(f"controls: the same scenario with parts of the method switched off; target: "
+                         f"{target_of(s).text}", heads,
+                         [_evidence_row(c) for c in controls], [f"{c.name}: {c.label}" for c in controls]))
+    rob = robustness_of(s)
     if rob:
-        out.append(table(f"robustness: the recovery re-simulated; target: {rob['target']}", heads,
-                         [[c["name"]] + [_num(c["metrics"].get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c["target_met"])]
-                          for c in rob["cases"]], [f"{rob['met']} of {rob['total']} meet the target"]))
+        out.append(table(f"robustness: the recovery re-simulated; target: {rob.target}", heads,
+                         [_evidence_row(c) for c in rob.cases], [f"{rob.met} of {rob.total} meet the target"]))
     band = s.get("band")
     if band:
         out.append(table(f"survivable final tilt (bisection to {band['tolerance_deg']:g} deg on real runs)",

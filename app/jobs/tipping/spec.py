@@ -10,7 +10,7 @@ from pydantic import Field, field_validator, model_validator
 
 from app.jobs.base import SpecBase, StrictModel
 from app.robots.heavy_hexapod import HEAVY, TRIPODS
-from app.jobs.tipping.evidence import ROBUSTNESS_CASES, EvidencePlan
+from app.jobs.tipping.evidence import EvidencePlan
 from app.jobs.tipping.scenario import CliffScenario, ControllerConfig, TiltScenario, paper_direction
 
 Tripod = Annotated[list[Annotated[int, Field(ge=1, le=6)]], Field(max_length=6)]
@@ -199,12 +199,17 @@ class TippingSpec(SpecBase):
 
     @property
     def evaluations_budget(self) -> int:
-        n = 1
+        return sum(self.phase_sizes().values())
+
+    def phase_sizes(self) -> dict[str, int]:
+        """Simulations per phase of the job, in the order they run (at most: the band's
+        bisection may stop early)."""
+        sizes = {"runs": 2 if self.recovery.enabled else 1}
         if self.recovery.enabled:
-            n += 1 + self.evidence.plan().runs(self.scenario.type == "tilt", len(ROBUSTNESS_CASES))
+            sizes |= self.evidence.plan().sizes(self.scenario.type == "tilt")
         if self.sweep.enabled:
-            n += 2 * self.sweep.directions * len(self.sweep.stances)
-        return n
+            sizes["sweep"] = 2 * self.sweep.directions * len(self.sweep.stances)
+        return sizes
 
     def duration(self) -> float:
         if self.sim.duration_s is not None:

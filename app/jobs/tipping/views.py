@@ -11,6 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from app.jobs import viewkit as kit
+from app.jobs.tipping.evidence import target_of
 from app.jobs.tipping.present import replay_style
 
 # labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
@@ -178,15 +179,18 @@ def adjustments_table(summary: dict) -> dict | None:
 
 
 def runs_table(summary: dict) -> dict:
+    target = target_of(summary)
     rows = []
     for i, (name, r) in enumerate(summary.get("runs", {}).items()):
         label, _ = _style(name, i)
-        rows.append([label, kit.cell(r.get("tipped"), met=not r.get("tipped"), text="tipped" if r.get("tipped") else "upright"),
+        met = target.met(r) if "tipped" in r else None
+        rows.append([label, kit.cell(r.get("tipped"), met=met, text="tipped" if r.get("tipped") else "upright"),
                      r.get("tipped_at_s"), r.get("first_below_threshold_s"), r.get("min_margin_deg"),
                      r.get("final_margin_deg"), r.get("final_body_tilt_deg"), r.get("static_tip_deg"), r.get("max_tilt_deg")])
     cols = ["run", "outcome", "tipped at (s)", "first below threshold (s)", "min margin (°)", "final margin (°)",
             "final body tilt (°)", "static tip angle (°)", "max platform tilt (°)"]
-    return kit.panel("runs", "Runs with and without recovery", "'met': the robot ends upright.", table=kit.table(cols, rows))
+    return kit.panel("runs", "Runs with and without recovery", f"'met': the run meets the target: {target.text}.",
+                     table=kit.table(cols, rows))
 
 
 def views(summary: dict, traces: Mapping) -> list[dict]:

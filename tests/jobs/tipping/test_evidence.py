@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from app.robots.heavy_hexapod import HEAVY
-from app.jobs.tipping.evidence import (CONVERGENCE_TOL, Setup, convergence_row, outcome, simulate, survivable_tilt,
-                                    target_met)
+from app.jobs.tipping.evidence import (CONVERGENCE_TOL, Setup, convergence_row, outcome, recovery_target, simulate,
+                                       survivable_tilt)
 from app.jobs.tipping.stability.fasm import TipDetector
 from app.jobs.tipping.scenario import ControllerConfig, TiltScenario
 
@@ -110,8 +110,10 @@ def test_bisection_brackets_the_switch():
 
 def test_target_and_convergence_rules():
     up = {"tipped": False, "margin_after_landing_deg": 15.0, "detection_time_s": 5.0}
-    assert target_met(up, 0.0) and not target_met(up, 20.0)
-    assert not target_met(dict(up, tipped=True), 0.0)
+    assert recovery_target(0.0).met(up) and not recovery_target(20.0).met(up)
+    assert not recovery_target(0.0).met(dict(up, tipped=True))
+    assert recovery_target(20.0).met(dict(up, margin_after_landing_deg=None))  # no leg caught: upright is enough
+    assert "upright" in recovery_target(20.0).text and "20 deg" in recovery_target(20.0).text
     assert convergence_row(up, dict(up, margin_after_landing_deg=16.5))["ok"]
     assert not convergence_row(up, dict(up, margin_after_landing_deg=15.0 + 2.5))["ok"]
     assert not convergence_row(up, dict(up, tipped=True))["ok"]

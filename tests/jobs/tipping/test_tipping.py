@@ -134,10 +134,13 @@ def test_controls_robustness_and_band_are_real_reruns(climbing):
     w, wo = band["with_recovery"], band["without_recovery"]
     assert wo["max_upright_deg"] < w["max_upright_deg"] and band["gain_deg"] > 0
     assert wo["min_tipped_deg"] - wo["max_upright_deg"] <= 10.0
-    # Every simulation is counted and announced before it runs; the budget holds all of them.
+    # Every simulation is counted once it has run, then the job reports itself done; the
+    # budget holds all of them.
     assert res.evaluations == spec.evaluations_budget == len(ctx.progress_calls) - 1
     assert all(t == spec.evaluations_budget for _, t, _ in ctx.progress_calls)
-    assert [d for d, _, _ in ctx.progress_calls] == list(range(res.evaluations + 1))
+    assert [d for d, _, _ in ctx.progress_calls] == list(range(1, res.evaluations + 1)) + [res.evaluations]
+    assert [i["phase"] for _, _, i in ctx.progress_calls] == (["runs"] * 2 + ["controls"] * 3 + ["robustness"] * 7
+                                                             + ["band"] * 8 + ["done"])
 
 
 def test_cancel_is_checked_between_evidence_runs(tmp_path):
@@ -146,7 +149,7 @@ def test_cancel_is_checked_between_evidence_runs(tmp_path):
     with pytest.raises(Cancelled):
         run(spec, ctx)
     assert len(ctx.progress_calls) == 4
-    assert set(ctx.checkpoints[-1]["evidence"]) == {"control:no_qp", "control:position_stance"}
+    assert set(ctx.checkpoints[-1]["controls"]["units"]) == {"control:no_qp", "control:position_stance"}
 
 
 def test_cliff_walk_margin_band_then_detection(tmp_path):
@@ -182,7 +185,7 @@ def test_sweep_table_and_checkpointed_resume(tmp_path):
                        "recovery": {"enabled": False}, "sim": {"duration_s": 2.0}})
     done = [{"run": i, "downhill_deg": 180.0 * (i // 2), "stance": "135", "recovery": i % 2, "tipped": 1 - i % 2,
              "sim_steps": 0} for i in range(4)]
-    ctx = Ctx(tmp_path, checkpoint={"rows": done, "wall_s": 1.0})
+    ctx = Ctx(tmp_path, checkpoint={"sweep": {"rows": done, "wall_s": 1.0}})
     res = run(spec, ctx)
     assert res.summary["sweep"]["success_rate"] == [1.0, 1.0] and res.summary["sweep"]["recovered_rate"] == [1.0, 1.0]
     assert res.summary["timing"]["wall_s"] > 1.0
