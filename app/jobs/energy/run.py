@@ -310,11 +310,11 @@ def _controls(job: _Job, found: _Searches, a: _Answer, ev: _Evidence) -> None:
     progress names the control about to run, counting the evaluations of those before it."""
     if found.rs is not None:
         ev.controls.append(_random_search_row(found.rs, a.best))
-    done = 0
+    ran = 0  # the evaluations of the control before: counted when the next one is announced
     for name, control in _CONTROLS:
-        job.analysis.tick(done, {"step": "control", "control": name})
-        done = control(job, a, ev)
-    job.analysis.tick(done, {"step": "controls"})
+        job.analysis.tick(ran, {"step": "control", "control": name})
+        ran = control(job, a, ev)
+    job.analysis.tick(ran, {"step": "controls"})
 
 
 def _random_search_row(rs: _Searched, best: dict) -> ControlRow:
