@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import importlib
+import difflib
+import inspect
 import json
 import sys
 from collections.abc import Callable
@@ -252,25 +253,42 @@ class Kind(abc.ABC):
 
     Everything outside the package (CLI, API, store, worker, bundle, replay, bench,
     dashboard) reaches a kind only through these attributes and methods, never by its
-    name. Subclasses set the class attributes and implement ``run``, ``headline``,
-    ``summary_tables`` and ``figures``; the rest have defaults that fit most kinds.
+    name. This class declares every member a kind may provide, each with its default:
+    a kind sets the required attributes (``REQUIRED``) and implements ``run``,
+    ``headline``, ``summary_tables`` and ``figures``; the rest have defaults that fit most
+    kinds. A kind that sets a name the contract does not declare (a misspelt optional
+    member would otherwise be ignored in silence) is refused at registration
+    (``check_kind``, called by app/jobs/registry.py).
 
     Counting convention (every population search, see app/jobs/loop.py): generation 0 is
     the initial population; a search of G generations evaluates P x (G + 1) candidates.
     """
 
-    name: ClassVar[str]  # the spec's ``kind``
-    title: ClassVar[str]  # a short human title
-    paper: ClassVar[str]  # the citation of the paper it implements
+    name: ClassVar[str]
+    """The spec's ``kind`` (required)."""
+    title: ClassVar[str]
+    """A short human title (required)."""
+    paper: ClassVar[str]
+    """The citation of the paper it implements (required)."""
     Spec: ClassVar[type[SpecBase]]
-    robots: ClassVar[dict[str, str]]  # robot name -> description (for /api/robots)
-    # history.csv: the x column and what every column means (same meaning across optimizers)
+    """The kind's spec model, on ``SpecBase`` (required)."""
+    robots: ClassVar[dict[str, str]]
+    """Robot name -> description, for /api/robots (required)."""
     history_x: ClassVar[str] = "generation"
+    """history.csv's x column."""
     history_columns: ClassVar[dict[str, str]] = {}
-    # trajectories/<name>.npz: what each trace is (bundle README, dashboard)
+    """history.csv: what every column means (the same across optimisers); a "best" column
+    makes the default ``history_axis``."""
     trace_descriptions: ClassVar[dict[str, str]] = {}
-    # plots/<stem>.svg|png: what each figure shows (bundle README, dashboard)
+    """trajectories/<name>.npz: what each trace is (bundle README, dashboard)."""
     figure_descriptions: ClassVar[dict[str, str]] = {}
+    """plots/<stem>.svg|png: what each figure shows (bundle README, dashboard); a key
+    ending in ``*`` matches every stem it starts."""
+    form_open: ClassVar[tuple[str, ...] | list[str]] = ()
+    """The spec groups (dotted paths, e.g. "damage", "recovery.enabled") the dashboard's
+    form shows opened first; default none."""
+
+    REQUIRED: ClassVar[tuple[str, ...]] = ("name", "title", "paper", "Spec", "robots")
 
     # -- the job ------------------------------------------------------------------------
     @abc.abstractmethod
@@ -289,6 +307,7 @@ class Kind(abc.ABC):
         return {}
 
     def default_spec(self) -> SpecBase:
+        """The spec with every default (``{"kind": name}`` parsed)."""
         return self.Spec.parse({"kind": self.name})
 
     def damage_text(self, spec: SpecBase) -> str:
@@ -326,6 +345,8 @@ class Kind(abc.ABC):
         return out
 
     def describe_file(self, path: str) -> str:
+        """What one bundle member is: the common files, history.csv from ``history_columns``,
+        traces from ``trace_descriptions``, plots from ``figure_descriptions``."""
         if path in COMMON_FILES:
             return COMMON_FILES[path]
         if path == "history.csv":
@@ -367,9 +388,12 @@ class Kind(abc.ABC):
 
     # -- reproduction, benchmarks, dashboard ----------------------------------------------
     def experiments(self) -> list[Experiment]:
+        """The paper reproductions, the first one the kind's ``gaitmend reproduce <kind>``;
+        default none."""
         return []
 
     def bench(self) -> list[BenchEntry]:
+        """The figure groups ``gaitmend bench`` measures for this kind; default none."""
         return []
 
     def study_views(self, study: dict, points: list[dict]) -> list[dict]:
@@ -385,11 +409,22 @@ class Kind(abc.ABC):
         "figure": {"data", "layout"} (a plotly figure) or "table": {"columns", "rows"}}, cells
         plain values or {"value", "unit", "met", "better", "note"} (app/jobs/viewkit.py builds
         both); a bare plotly figure dict is accepted too. ``traces``: the bundle's
-        trajectories by name (lazy .npz mappings). Optional companions the dashboard asks
-        for with getattr: ``history_axis(spec) -> {"x", "x_note", "y", "better", "series"}``
-        (what history.csv's objective means; default read from ``history_columns``) and
-        ``form_open`` (the spec groups its form opens first)."""
+        trajectories by name (lazy .npz mappings)."""
         return []
+
+    def history_axis(self, spec: dict) -> dict | None:
+        """What history.csv's columns mean for a job of ``spec`` (the dict as stored), for
+        the job and compare pages: {"x": the x column, "x_note": what it counts, "y": the
+        objective's label, "better": "higher", "lower" or None, "series": {column: label}
+        to draw}. None when the history holds no objective (e.g. one row per run).
+        Default: read from ``history_columns`` (a column's text up to its first ';' is its
+        label), direction unknown; None without a "best" column."""
+        cols = self.history_columns or {}
+        if "best" not in cols:
+            return None
+        series = {k: cols[k].split(";")[0] for k in ("best", "generation_best", "mean", "worst") if k in cols}
+        return {"x": self.history_x, "x_note": cols.get(self.history_x), "y": series["best"], "better": None,
+                "series": series}
 
     def form(self) -> list[dict[str, Any]]:
         """The fields a user sets in the dashboard's form, derived from the Spec's JSON
@@ -402,75 +437,20 @@ class Kind(abc.ABC):
 
 
 class PackageKind(Kind):
-    """A kind laid out as ``app/jobs/<name>/`` (docs/architecture.md): each method forwards to
-    the function of the same name in the package's module where it lives, imported when
-    first called, so a kind's ``__init__`` holds only what is its own (name, Spec, robots,
-    smoke spec ...). Where: ``run.run``; ``present``: headline, summary_tables, figures,
-    damage_text(spec), replay_style, progress_text; ``views`` (or ``present``): views,
-    history_axis, study_views; ``experiments.EXPERIMENTS``; ``bench.BENCH`` (or
-    ``experiments.BENCH``). An optional one that is missing keeps the Kind default.
+    """A kind laid out as ``app/jobs/<name>/`` (docs/architecture.md). Its ``__init__``
+    subclasses this and supplies each member explicitly: values as class attributes, the
+    functions of its modules as ``staticmethod(present.headline)`` (modules imported with
+    the package: present, views), and members whose module is slow to import (run,
+    experiments, bench) as methods that import it when first called. A member it does not
+    supply keeps the ``Kind`` default; one the contract does not declare is refused at
+    registration.
 
     ``builtin_studies`` reads the package's ``studies/<name>.json`` (package data, so they
     ship in the wheel): those named in ``study_order`` first, in that order (the paper's
     table first), then the rest sorted by name."""
 
-    study_order: ClassVar[tuple[str, ...]] = ()  # built-in studies listed first, in this order
-
-    def _find(self, *places: str) -> Any:
-        pkg = type(self).__module__
-        for place in places:
-            module, attr = place.rsplit(".", 1)
-            try:
-                mod = importlib.import_module(f"{pkg}.{module}")
-            except ModuleNotFoundError as e:
-                if e.name == f"{pkg}.{module}":
-                    continue
-                raise
-            if hasattr(mod, attr):
-                return getattr(mod, attr)
-        return None
-
-    def run(self, spec: Any, ctx: RunContext) -> JobResult:
-        return self._find("run.run")(spec, ctx)
-
-    def damage_text(self, spec: SpecBase) -> str:
-        fn = self._find("present.damage_text")
-        return fn(spec) if fn else super().damage_text(spec)
-
-    def headline(self, summary: dict) -> list[HeadlineRow]:
-        return self._find("present.headline")(summary)
-
-    def summary_tables(self, summary: dict) -> list[Table]:
-        return self._find("present.summary_tables")(summary)
-
-    def figures(self, result: JobResult, out_dir: Path) -> list[Path]:
-        return self._find("present.figures")(result, out_dir)
-
-    def progress_text(self, info: dict[str, Any]) -> str:
-        fn = self._find("present.progress_text")
-        return fn(info) if fn else super().progress_text(info)
-
-    def replay_style(self, trace_names: list[str]) -> list[ReplayTrack]:
-        fn = self._find("present.replay_style")
-        return fn(trace_names) if fn else super().replay_style(trace_names)
-
-    def views(self, summary: dict, traces: dict[str, dict[str, Any]]) -> list[dict]:
-        fn = self._find("views.views", "present.views")
-        return fn(summary, traces) if fn else []
-
-    def study_views(self, study: dict, points: list[dict]) -> list[dict]:
-        fn = self._find("views.study_views", "present.study_views")
-        return fn(study, points) if fn else []
-
-    @property
-    def history_axis(self) -> Callable[[dict], dict] | None:  # optional: the dashboard asks with getattr
-        return self._find("views.history_axis", "present.history_axis")
-
-    def experiments(self) -> list[Experiment]:
-        return self._find("experiments.EXPERIMENTS") or []
-
-    def bench(self) -> list[BenchEntry]:
-        return self._find("bench.BENCH", "experiments.BENCH") or []
+    study_order: ClassVar[tuple[str, ...]] = ()
+    """Built-in studies listed first, in this order (the paper's table first)."""
 
     def builtin_studies(self) -> dict[str, dict[str, Any]]:
         module = sys.modules[type(self).__module__]
@@ -483,6 +463,79 @@ class PackageKind(Kind):
             raise ValueError(f"{type(self).__name__}.study_order names no file {package}/studies/<name>.json: {missing}")
         names = [*self.study_order, *sorted(n for n in files if n not in self.study_order)]
         return {n: json.loads(files[n].read_text()) for n in names}
+
+
+# -- checking a kind against the contract ------------------------------------------------------
+
+_DECLARING = (Kind, PackageKind)  # the classes that declare the contract's members
+
+
+def contract_members(kind_cls: type[Kind]) -> dict[str, Any]:
+    """{name: its declaration} of every member ``kind_cls`` may set: those Kind declares,
+    and PackageKind's too for a PackageKind."""
+    out: dict[str, Any] = {}
+    for c in reversed(kind_cls.__mro__):
+        if c in _DECLARING:
+            names = [*c.__dict__.get("__annotations__", {}), *vars(c)]
+            out.update({n: c.__dict__.get(n) for n in names if not n.startswith("_") and n != "REQUIRED"})
+    return out
+
+
+def _supplied(kind: Kind) -> list[tuple[str, str, Any, bool]]:
+    """(where, name, value, on a class) of every public name the kind's own classes and
+    instance set."""
+    out = []
+    for c in type(kind).__mro__:
+        if c in _DECLARING or c is object or not issubclass(c, Kind):
+            continue
+        names = [*c.__dict__.get("__annotations__", {}), *vars(c)]
+        out += [(c.__qualname__, n, c.__dict__.get(n), True) for n in dict.fromkeys(names) if not n.startswith("_")]
+    out += [(f"{type(kind).__qualname__}()", n, v, False) for n, v in vars(kind).items() if not n.startswith("_")]
+    return out
+
+
+def _signature_error(where: str, name: str, declared: Callable, value: Any, bound: bool) -> str | None:
+    """Why ``value`` cannot stand in for the method ``declared`` (None when it can).
+    ``bound``: a function set on the class (it gets the kind as its first argument)."""
+    if isinstance(value, property):
+        return None
+    if isinstance(value, (staticmethod, classmethod)):
+        fn, first = value.__func__, (["cls"] if isinstance(value, classmethod) else [])
+    elif callable(value):
+        fn, first = value, (["self"] if bound and inspect.isfunction(value) else [])
+    else:
+        return f"{where}.{name} must be callable like Kind.{name}, not a {type(value).__name__}"
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):  # no signature to read (a builtin): trusted
+        return None
+    args = [*first, *list(inspect.signature(declared).parameters)[1:]]
+    try:
+        sig.bind(*args)
+    except TypeError:
+        return (f"{where}.{name}{sig} cannot be called as Kind.{name}{inspect.signature(declared)} "
+                "(a module's function is given as staticmethod(function))")
+    return None
+
+
+def check_kind(kind: Kind) -> None:
+    """Refuse (TypeError naming the member) a kind that sets a name the contract does not
+    declare, gives a method's place something that cannot be called like it, or lacks a
+    required attribute. app/jobs/registry.py calls it for every kind it registers."""
+    members = contract_members(type(kind))
+    for where, name, value, on_class in _supplied(kind):
+        if name not in members:
+            close = difflib.get_close_matches(name, members, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise TypeError(f"{where}.{name} is not a member of the kind contract (app/jobs/base.py Kind){hint}")
+        declared = members[name]
+        if inspect.isfunction(declared):
+            err = _signature_error(where, name, declared, value, bound=on_class)
+            if err:
+                raise TypeError(err)
+    missing = [n for n in Kind.REQUIRED if not hasattr(kind, n)]
+    if missing:
+        raise TypeError(f"{type(kind).__qualname__} does not set the required member(s) {missing}")
 
 
 def form_fields(spec_cls: type[BaseModel]) -> list[dict[str, Any]]:

@@ -13,14 +13,28 @@ import importlib
 import os
 from typing import Any
 
-from app.jobs.base import Kind, SpecError
+from app.jobs.base import Kind, SpecError, check_kind
 from app.jobs.energy import KIND as _energy
 from app.jobs.freegait import KIND as _freegait
 from app.jobs.multigait import KIND as _multigait
 from app.jobs.recovery import KIND as _recovery
 from app.jobs.tipping import KIND as _tipping
 
-KINDS: dict[str, Kind] = {k.name: k for k in (_recovery, _multigait, _tipping, _freegait, _energy)}
+KINDS: dict[str, Kind] = {}
+
+
+def register(kind: Kind) -> Kind:
+    """Add a kind (the first of a name stays). Refused with a TypeError naming the member
+    when it sets a name the contract (app/jobs/base.py Kind) does not declare, a method
+    that cannot be called as the contract's, or lacks a required member."""
+    if not isinstance(kind, Kind):
+        raise TypeError(f"{kind!r} is not a Kind")
+    check_kind(kind)
+    return KINDS.setdefault(kind.name, kind)
+
+
+for _kind in (_recovery, _multigait, _tipping, _freegait, _energy):
+    register(_kind)
 
 
 def _load_extra(spec: str) -> None:
@@ -29,7 +43,7 @@ def _load_extra(spec: str) -> None:
         kind = getattr(importlib.import_module(module), attr or "KIND")
         if not isinstance(kind, Kind):
             raise TypeError(f"GAITMEND_EXTRA_KINDS: {item} is not a Kind")
-        KINDS.setdefault(kind.name, kind)
+        register(kind)
 
 
 _load_extra(os.environ.get("GAITMEND_EXTRA_KINDS", ""))

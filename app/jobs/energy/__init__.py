@@ -20,12 +20,38 @@ class EnergyKind(PackageKind):
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
 
+    # -- members supplied by the package's modules ------------------------------------
+    damage_text = staticmethod(present.damage_text)
+    headline = staticmethod(present.headline)
+    summary_tables = staticmethod(present.summary_tables)
+    figures = staticmethod(present.figures)
+    replay_style = staticmethod(present.replay_style)
+    progress_text = staticmethod(present.progress_text)
+    views = staticmethod(present.views)
+    history_axis = staticmethod(present.history_axis)
+
     def robot_info(self, robot):
         return describe(QUADRUPED25)
 
     def smoke_spec(self):
         return {"kind": "energy", "search": {"population": 4, "generations": 1, "workers": 1}, "model": {"knots": 48},
                 "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
+
+    # -- members whose modules are slow to import: imported when first called ---------
+    def run(self, spec, ctx):
+        from app.jobs.energy.run import run
+
+        return run(spec, ctx)
+
+    def experiments(self):
+        from app.jobs.energy.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.energy.experiments import BENCH
+
+        return BENCH
 
 
 KIND = EnergyKind()

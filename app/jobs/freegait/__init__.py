@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from app.jobs.base import PackageKind
 from app.jobs.freegait import present
+from app.jobs.freegait import views as kind_views
 from app.jobs.freegait.spec import FreegaitSpec
 
 
@@ -24,6 +25,15 @@ class FreegaitKind(PackageKind):
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
 
+    # -- members supplied by the package's modules ------------------------------------
+    damage_text = staticmethod(present.damage_text)
+    headline = staticmethod(present.headline)
+    summary_tables = staticmethod(present.summary_tables)
+    figures = staticmethod(present.figures)
+    replay_style = staticmethod(present.replay_style)
+    progress_text = staticmethod(present.progress_text)
+    views = staticmethod(kind_views.views)
+
     def robot_info(self, robot):
         from app.robots.silo6 import describe
 
@@ -32,6 +42,22 @@ class FreegaitKind(PackageKind):
     def smoke_spec(self):
         return {"kind": "freegait", "route": {"distance_m": 0.3}, "terrain": {"length_m": 3.0, "width_m": 3.0},
                 "forbidden": {"density_per_m2": 6.0}}
+
+    # -- members whose modules are slow to import: imported when first called ---------
+    def run(self, spec, ctx):
+        from app.jobs.freegait.run import run
+
+        return run(spec, ctx)
+
+    def experiments(self):
+        from app.jobs.freegait.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.freegait.experiments import BENCH
+
+        return BENCH
 
 
 KIND = FreegaitKind()

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from app.jobs.base import PackageKind
 from app.jobs.multigait import present
-from app.jobs.multigait.views import FORM_OPEN
+from app.jobs.multigait import views as kind_views
 from app.jobs.multigait.spec import MultigaitSpec
 from app.robots.modular import SHAPES
 
@@ -19,7 +19,17 @@ class MultigaitKind(PackageKind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
-    form_open = FORM_OPEN  # form groups the dashboard opens first
+    form_open = kind_views.FORM_OPEN  # form groups the dashboard opens first
+
+    # -- members supplied by the package's modules ------------------------------------
+    damage_text = staticmethod(present.damage_text)
+    headline = staticmethod(present.headline)
+    summary_tables = staticmethod(present.summary_tables)
+    figures = staticmethod(present.figures)
+    replay_style = staticmethod(present.replay_style)
+    progress_text = staticmethod(present.progress_text)
+    views = staticmethod(kind_views.views)
+    history_axis = staticmethod(kind_views.history_axis)
 
     def robot_info(self, robot):
         return SHAPES[robot].describe()
@@ -28,6 +38,22 @@ class MultigaitKind(PackageKind):
         return {"kind": "multigait", "robot": "lizard", "search": {"particles": 4, "generations": 2, "seed": 1},
                 "planner": {"iterations": 10}, "gait_duration_s": 3.0, "reuse": {"plans": 2, "iterations": 10},
                 "verify": {"nodes": 3}}
+
+    # -- members whose modules are slow to import: imported when first called ---------
+    def run(self, spec, ctx):
+        from app.jobs.multigait.run import run
+
+        return run(spec, ctx)
+
+    def experiments(self):
+        from app.jobs.multigait.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.multigait.experiments import BENCH
+
+        return BENCH
 
 
 KIND = MultigaitKind()

@@ -7,7 +7,7 @@ import itertools
 
 from app.jobs.base import PackageKind
 from app.jobs.recovery import present
-from app.jobs.recovery.views import FORM_OPEN
+from app.jobs.recovery import views as kind_views
 from app.jobs.recovery.spec import RecoverySpec
 from app.robots.catalog import ROBOTS
 
@@ -22,8 +22,19 @@ class RecoveryKind(PackageKind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
-    form_open = FORM_OPEN  # form groups the dashboard opens first
+    form_open = kind_views.FORM_OPEN  # form groups the dashboard opens first
     study_order = ("recovery_table2", "recovery_atlas")  # the paper's Table II first
+
+    # -- members supplied by the package's modules ------------------------------------
+    damage_text = staticmethod(present.damage_text)
+    headline = staticmethod(present.headline)
+    summary_tables = staticmethod(present.summary_tables)
+    figures = staticmethod(present.figures)
+    replay_style = staticmethod(present.replay_style)
+    progress_text = staticmethod(present.progress_text)
+    views = staticmethod(kind_views.views)
+    history_axis = staticmethod(kind_views.history_axis)
+    study_views = staticmethod(kind_views.study_views)
 
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
@@ -48,6 +59,22 @@ class RecoveryKind(PackageKind):
         except InfeasibleMorphology as e:
             return str(e) or "no statically stable gait on the remaining legs"
         return None
+
+    # -- members whose modules are slow to import: imported when first called ---------
+    def run(self, spec, ctx):
+        from app.jobs.recovery.run import run
+
+        return run(spec, ctx)
+
+    def experiments(self):
+        from app.jobs.recovery.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.recovery.bench import BENCH
+
+        return BENCH
 
 
 KIND = RecoveryKind()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from app.jobs.base import PackageKind
 from app.jobs.tipping import present
-from app.jobs.tipping.views import FORM_OPEN
+from app.jobs.tipping import views as kind_views
 from app.jobs.tipping.spec import TippingSpec
 from app.robots.heavy_hexapod import HEAVY, describe
 
@@ -22,7 +22,18 @@ class TippingKind(PackageKind):
     history_columns = present.HISTORY_COLUMNS
     trace_descriptions = present.TRACES
     figure_descriptions = present.FIGURES
-    form_open = FORM_OPEN  # form groups the dashboard opens first
+    form_open = kind_views.FORM_OPEN  # form groups the dashboard opens first
+
+    # -- members supplied by the package's modules ------------------------------------
+    damage_text = staticmethod(present.damage_text)
+    headline = staticmethod(present.headline)
+    summary_tables = staticmethod(present.summary_tables)
+    figures = staticmethod(present.figures)
+    replay_style = staticmethod(present.replay_style)
+    progress_text = staticmethod(present.progress_text)
+    views = staticmethod(kind_views.views)
+    history_axis = staticmethod(kind_views.history_axis)
+    study_views = staticmethod(kind_views.study_views)
 
     def smoke_spec(self):
         # Five short simulations (the runs with and without recovery, three controls): the
@@ -32,6 +43,22 @@ class TippingKind(PackageKind):
 
     def robot_info(self, robot):
         return describe(HEAVY)
+
+    # -- members whose modules are slow to import: imported when first called ---------
+    def run(self, spec, ctx):
+        from app.jobs.tipping.run import run
+
+        return run(spec, ctx)
+
+    def experiments(self):
+        from app.jobs.tipping.experiments import EXPERIMENTS
+
+        return EXPERIMENTS
+
+    def bench(self):
+        from app.jobs.tipping.experiments import BENCH
+
+        return BENCH
 
 
 KIND = TippingKind()
