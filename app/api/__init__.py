@@ -85,9 +85,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
     install_docs(app)
-    from app.api.routes.dashboard import install_dashboard
+    from app.api.routes import dashboard
 
-    install_dashboard(app)  # the browser dashboard at / (app/api/routes/dashboard.py)
+    dashboard.install(app)  # the browser dashboard at / (app/api/routes/dashboard.py)
 
     def openapi():
         if app.openapi_schema is None:

@@ -7,11 +7,10 @@ import dataclasses
 import ipaddress
 
 from fastapi import Request
-from fastapi.concurrency import run_in_threadpool
 
+from app.api.deps import db_of
 from app.api.errors import ApiError
 from app.store import repo
-from app.store.db import session_scope
 
 LOCAL_OWNER = "local"
 
@@ -52,13 +51,7 @@ async def principal(request: Request) -> Principal:
     if scheme.lower() != "bearer" or not token.strip():
         raise ApiError(401, "Authorization must be 'Bearer <token>'", field="Authorization",
                        headers={"WWW-Authenticate": "Bearer"})
-    url = request.app.state.settings.db_url
-
-    def lookup():
-        with session_scope(url) as s:
-            return repo.resolve_token_id(s, token.strip())
-
-    found = await run_in_threadpool(lookup)
+    found = await db_of(request).write(lambda s: repo.resolve_token_id(s, token.strip()))
     if found is None:
         raise ApiError(401, "unknown API token", field="Authorization", headers={"WWW-Authenticate": "Bearer"})
     return Principal(found[0], restricted=True, token_id=found[1])

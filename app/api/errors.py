@@ -79,11 +79,16 @@ def _message(req: Request, e: dict) -> str:
     return msg
 
 
-def _methods_for(req: Request) -> list[str]:
-    from starlette.routing import Match
+HTTP_METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
 
-    methods: set[str] = set()
-    for route in req.app.router.routes:
-        if getattr(route, "methods", None) and route.matches({**req.scope, "method": "GET"})[0] != Match.NONE:
-            methods |= set(route.methods)
-    return sorted(methods)
+
+def _methods_for(req: Request) -> list[str]:
+    """The methods some route answers at the request's path. Asked of every route with each
+    method in turn: routes of an included router sit behind one entry of app.router.routes
+    (FastAPI includes them lazily), which answers for all of them. Mounts (static files)
+    answer any method and are left out."""
+    from starlette.routing import Match, Mount
+
+    routes = [r for r in req.app.router.routes if not isinstance(r, Mount)]
+    return sorted(m for m in HTTP_METHODS
+                  if any(r.matches({**req.scope, "method": m})[0] == Match.FULL for r in routes))

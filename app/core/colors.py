@@ -21,6 +21,16 @@ ROLES: dict[str, str] = {
 PALETTE: list[str] = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"]
 
 
+# the dashboard's convergence plot: history.csv column -> role (other columns: the palette)
+HISTORY_ROLES: dict[str, str] = {"best": "method", "baseline": "baseline", "mean": "mean", "worst": "worst"}
+
+
+def page_table() -> dict:
+    """The table as the dashboard's pages get it (JSON in every page's head, read by
+    web/static/common.js): roles, palette, and the roles of the history's columns."""
+    return {"roles": dict(ROLES), "palette": list(PALETTE), "history": dict(HISTORY_ROLES)}
+
+
 def hex_color(role: str | None, index: int = 0) -> str:
     """The colour of a role, or the palette's ``index``-th for an unnamed trace."""
     if role is not None and role in ROLES:

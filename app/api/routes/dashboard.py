@@ -2,8 +2,9 @@
 
 Everything the browser loads comes from this project (web/) or from installed Python
 packages (plotly's plotly.min.js, viser's client build), so the dashboard works offline.
-The routes here reuse the job service's auth dependency and repository functions, so a
-token holder sees exactly the jobs the REST API shows them.
+The routes (``router``; ``install`` adds them with the static files) reuse the job
+service's auth and database dependencies and repository functions, so a token holder
+sees exactly the jobs the REST API shows them.
 """
 
 from __future__ import annotations
@@ -18,20 +19,22 @@ import os
 import secrets
 import time
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
-from fastapi import Depends, FastAPI, Path as PathParam, Query, Request
+from fastapi import APIRouter, Depends, FastAPI, Path as PathParam, Query, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from app.api.auth import LOCAL_OWNER, Principal, principal
+from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
+from app.core import colors
 from app.core.assets import asset_dir
 from app.store import repo
-from app.store.db import session_scope
 
 WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
 # page name -> (template, title, the nav link marked as the current page)
@@ -45,6 +48,7 @@ LINK_TTL_S = 3600
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
 
 
+@functools.lru_cache(maxsize=1)
 def _plotly_js() -> Path:
     import plotly
 
@@ -129,22 +133,6 @@ def _kind(name: str | None):
     return KINDS.get(name) if isinstance(name, str) else None
 
 
-def history_axis(kind, spec: dict) -> dict | None:
-    """What the history's columns mean for this job: x column, the objective with its
-    units and direction, and the series to draw. The kind says it (``history_axis``) or it
-    is read from ``history_columns``; None when the history has no objective."""
-    if kind is None:
-        return None
-    fn = getattr(kind, "history_axis", None)
-    if callable(fn):
-        return fn(spec)
-    cols = getattr(kind, "history_columns", {}) or {}
-    if "best" not in cols:
-        return None
-    series = {k: cols[k].split(";")[0] for k in ("best", "generation_best", "mean", "worst") if k in cols}
-    return {"x": kind.history_x, "x_note": cols.get(kind.history_x), "y": series["best"], "better": None, "series": series}
-
-
 def _panels_of_tables(tables: list[dict]) -> list[dict]:
     return [{"id": f"table-{i}", "title": t.get("title", ""), "caption": " ".join(t.get("notes") or []),
              "table": {"columns": list(t.get("columns", [])), "rows": [list(r) for r in t.get("rows", [])]}}
@@ -220,174 +208,190 @@ def _form_schema(spec_cls) -> dict[str, Any]:
 def _kinds() -> list[dict]:
     from app.jobs.registry import KINDS
 
-    return [{"name": name, "title": kind.title, "paper": getattr(kind, "paper", ""),
-             "description": kind.title, "schema": _form_schema(kind.Spec),
-             "open": list(getattr(kind, "form_open", []) or [])} for name, kind in KINDS.items()]
+    return [{"name": name, "title": kind.title, "paper": kind.paper, "description": kind.title,
+             "schema": _form_schema(kind.Spec), "open": list(kind.form_open)} for name, kind in KINDS.items()]
 
 
 def render_page(path: Path, title: str, current: str | None) -> str:
     """A page template with the shared head and header (``templates/_header.html``) put in
-    place of its first line's mark; the current page's nav link gets ``aria-current``."""
+    place of its first line's mark; the current page's nav link gets ``aria-current``; the
+    colour table of app/core/colors.py goes into the head as JSON (common.js reads it)."""
     current_attr = ' aria-current="page"'
     nav = "".join(f'<a href="{href}"{current_attr if href == current else ""}>{text}</a>' for href, text in NAV)
     header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
+    header = header.replace("{colors}", json.dumps(colors.page_table()).replace("</", "<\\/"))
     return path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
 
 
 # -- routes ------------------------------------------------------------------------------------
 
-def install_dashboard(app: FastAPI) -> None:
-    """Pages at /, /jobs/{id}, /compare; static files; plotly and viser's client; the read
-    routes under /api/web and /api/jobs/{id}/files."""
-    link_key = secrets.token_bytes(32)
-    settings = app.state.settings
+router = APIRouter()
 
-    def page(name: str):
-        template, title, current = PAGES[name]
-        path = WEB_DIR / "templates" / template
 
-        async def handler():
-            if not path.is_file():
-                return HTMLResponse(f"<h1>gaitmend</h1><p>The dashboard files are missing ({path}); "
-                                    "the API is at <a href='/docs'>/docs</a>.</p>", status_code=503)
-            return HTMLResponse(render_page(path, title, current), headers={"Cache-Control": "no-cache"})
-
-        return handler
-
-    app.add_api_route("/", page("jobs"), include_in_schema=False, methods=["GET"])
-    app.add_api_route("/jobs/{job_id}", page("job"), include_in_schema=False, methods=["GET"])
-    app.add_api_route("/compare", page("compare"), include_in_schema=False, methods=["GET"])
-    app.add_api_route("/studies", page("studies"), include_in_schema=False, methods=["GET"])
-    app.add_api_route("/studies/{study_id}", page("studies"), include_in_schema=False, methods=["GET"])
+def install(app: FastAPI) -> None:
+    """The dashboard on ``app``: its routes (``router``), the static files, plotly and
+    viser's client, and the key of this process's signed links."""
+    app.state.link_key = secrets.token_bytes(32)
+    app.include_router(router)
     if (WEB_DIR / "static").is_dir():
         app.mount("/static", StaticFiles(directory=WEB_DIR / "static"), name="static")
     app.mount("/viser", StaticFiles(directory=_viser_client(), html=True), name="viser-client")
 
-    plotly_js = _plotly_js()
 
-    @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    async def plotly_min():
-        return FileResponse(plotly_js, media_type="text/javascript",
-                            headers={"Cache-Control": "public, max-age=86400"})
+def _link_key(request: Request) -> bytes:
+    return request.app.state.link_key
 
-    async def db(fn):
-        def call():
-            with session_scope(settings.db_url, readonly=True) as s:
-                return fn(s)
 
+def _page(name: str):
+    template, title, current = PAGES[name]
+    path = WEB_DIR / "templates" / template
+
+    async def handler():
+        if not path.is_file():
+            return HTMLResponse(f"<h1>gaitmend</h1><p>The dashboard files are missing ({path}); "
+                                "the API is at <a href='/docs'>/docs</a>.</p>", status_code=503)
+        return HTMLResponse(render_page(path, title, current), headers={"Cache-Control": "no-cache"})
+
+    return handler
+
+
+for _path, _name in (("/", "jobs"), ("/jobs/{job_id}", "job"), ("/compare", "compare"), ("/studies", "studies"),
+                     ("/studies/{study_id}", "studies")):
+    router.add_api_route(_path, _page(_name), include_in_schema=False, methods=["GET"])
+
+
+@router.get("/vendor/plotly.min.js", include_in_schema=False)
+async def plotly_min():
+    return FileResponse(_plotly_js(), media_type="text/javascript", headers={"Cache-Control": "public, max-age=86400"})
+
+
+async def _link_principal(db: Db, token_id: int | None) -> Principal | None:
+    if token_id is None:
+        return None
+    if token_id == 0:
+        return Principal(LOCAL_OWNER, restricted=False)
+    owner = await db.read(lambda s: repo.token_owner(s, token_id))
+    return Principal(owner, restricted=True, token_id=token_id) if owner else None  # revoked: dead link
+
+
+async def _bundle_of(db: Db, job_id: str, who: Principal | None) -> str:
+    owner = who.owner_filter if who is not None else None
+    job = await db.read(lambda s: repo.get_job(s, job_id, owner))
+    if job.status != "succeeded" or not job.bundle_path:
+        raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
+    if not Path(job.bundle_path).is_file():
+        raise ApiError(410, f"the bundle file is gone from the data folder: {Path(job.bundle_path).name}")
+    return job.bundle_path
+
+
+def _member_of(bundle: str, name: str) -> str:
+    if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
+        raise ApiError(404, f"the bundle has no file {name!r}", field="path")
+    return name
+
+
+@router.get("/api/jobs/{job_id}/files", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def list_files(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)) -> dict[str, int]:
+    """Members of the job's result bundle with their sizes in bytes."""
+    bundle = await _bundle_of(db, job_id, who)
+    return _members(bundle, os.stat(bundle).st_mtime_ns)
+
+
+@router.get("/api/jobs/{job_id}/file-link", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def file_link(request: Request, job_id: JobId,
+                    path: Annotated[str, Query(max_length=200, pattern=MEMBER_PATTERN)],
+                    who: Principal = Depends(principal), db: Db = Depends(get_db)):
+    """A link to one bundle member that works without the Authorization header for an
+    hour (for viser's ?playbackPath= and browser downloads)."""
+    name = _member_name(path)
+    _member_of(await _bundle_of(db, job_id, who), name)
+    url, exp = signed_url(_link_key(request), job_id, name, who.token_id)
+    return {"url": url, "expires_at": exp}
+
+
+MEDIA_TYPES = {".json": "application/json", ".csv": "text/csv", ".svg": "image/svg+xml", ".png": "image/png",
+               ".md": "text/markdown", ".xml": "application/xml"}
+
+
+@router.get("/api/jobs/{job_id}/files/{path:path}", tags=["dashboard"],
+            responses=ERROR_RESPONSES | {200: {"content": {"application/octet-stream": {}}}})
+async def read_file(request: Request, job_id: JobId,
+                    path: Annotated[str, PathParam(max_length=200, pattern=MEMBER_PATTERN)], exp: str | None = None,
+                    sig: str | None = None, db: Db = Depends(get_db)):
+    """One member of the result bundle (replay.viser, trajectories/best.csv, plots/...).
+    Authorised like the other job routes, or by a link from /file-link."""
+    name = _member_name(path)
+    who = await _link_principal(db, _link_token(_link_key(request), job_id, name, exp, sig)) \
+        or await principal(request)
+    bundle = await _bundle_of(db, job_id, who)
+    data = await run_in_threadpool(_read_member, bundle, _member_of(bundle, name))
+    media = MEDIA_TYPES.get(Path(name).suffix, "application/octet-stream")
+    return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
+
+
+@router.get("/api/web/kinds", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def kinds() -> list[dict]:
+    """Every registered job kind with the JSON schema of its spec (the form is built
+    from it) and the groups of fields the kind wants opened first."""
+    return await run_in_threadpool(_kinds)
+
+
+@router.post("/api/web/check", tags=["dashboard"], responses=ERROR_RESPONSES,
+             openapi_extra={"requestBody": {"required": True, "content": {
+                 "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
+async def check(request: Request, who: Principal = Depends(principal)):
+    """Validate a spec without queuing it: its evaluation budget (the spec's own
+    formula, the number the compare page shows) or the API's field errors."""
+    from app.api.routes.jobs import read_spec
+
+    spec = await read_spec(request, settings_of(request))  # the same edges as POST /api/jobs
+    return _budget(spec)
+
+
+def _stored_budget(spec: dict | None) -> dict[str, Any] | None:
+    from app.jobs.registry import parse_spec
+
+    try:
+        return _budget(parse_spec(spec))
+    except Exception:  # a spec stored by an older version: no budget shown, the rest still is
+        return None
+
+
+async def _result_views(bundle: str, link: Callable[[str], str]) -> dict[str, Any]:
+    """A succeeded job's page parts from its bundle: the kind's views and the evidence, every
+    member with a short-lived download link (``link(path)``) and what it is, and the plots."""
+    mtime = os.stat(bundle).st_mtime_ns
+    v = await run_in_threadpool(_bundle_views, bundle, mtime)
+    files = [{"path": n, "size": size, "what": v["describe"].get(n, ""), "url": link(n)}
+             for n, size in _members(bundle, mtime).items()]
+    figs: dict[str, dict] = {}
+    for f in files:
+        p = Path(f["path"])
+        if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
+            figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
+    # SVG, PNG or both: the contract asks for either
+    return {**{k: v[k] for k in ("headline", "panels", "evidence", "replay")}, "files": files,
+            "figures": list(figs.values())}
+
+
+@router.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def views(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
+    """What the job page shows, supplied by the job's kind: what its history columns mean
+    (units, which way is better), and once it succeeded its headline rows, tables and
+    plotly figures, the controls and robustness tables, and every bundle member with a
+    short-lived download link and what it is."""
+    job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
+    kind = _kind(job.kind)
+    out: dict[str, Any] = {"kind": job.kind, "status": job.status,
+                           "convergence": kind.history_axis(job.spec or {}) if kind is not None else None,
+                           "budget": _stored_budget(job.spec), "headline": [], "panels": [], "evidence": [],
+                           "files": [], "figures": [], "replay": []}
+    if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
+        key = _link_key(request)
+        out.update(await _result_views(job.bundle_path, lambda n: signed_url(key, job_id, n, who.token_id)[0]))
+    elif job.summary and kind is not None:
         try:
-            return await run_in_threadpool(call)
-        except repo.NotFound as e:
-            raise ApiError(404, f"no job {str(e)!r}", field="id") from None
-        except repo.Conflict as e:  # an id prefix shared by several jobs
-            raise ApiError(409, str(e), field=e.field) from None
-
-    async def _link_principal(token_id: int | None) -> Principal | None:
-        if token_id is None:
-            return None
-        if token_id == 0:
-            return Principal(LOCAL_OWNER, restricted=False)
-        owner = await db(lambda s: repo.token_owner(s, token_id))
-        return Principal(owner, restricted=True, token_id=token_id) if owner else None  # revoked: dead link
-
-    async def bundle_of(job_id: str, who: Principal | None) -> str:
-        owner = who.owner_filter if who is not None else None
-        job = await db(lambda s: repo.get_job(s, job_id, owner))
-        if job.status != "succeeded" or not job.bundle_path:
-            raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
-        if not Path(job.bundle_path).is_file():
-            raise ApiError(410, f"the bundle file is gone from the data folder: {Path(job.bundle_path).name}")
-        return job.bundle_path
-
-    @app.get("/api/jobs/{job_id}/files", tags=["dashboard"], responses=ERROR_RESPONSES)
-    async def list_files(job_id: JobId, who: Principal = Depends(principal)) -> dict[str, int]:
-        """Members of the job's result bundle with their sizes in bytes."""
-        bundle = await bundle_of(job_id, who)
-        return _members(bundle, os.stat(bundle).st_mtime_ns)
-
-    @app.get("/api/jobs/{job_id}/file-link", tags=["dashboard"], responses=ERROR_RESPONSES)
-    async def file_link(job_id: JobId, path: Annotated[str, Query(max_length=200, pattern=MEMBER_PATTERN)],
-                        who: Principal = Depends(principal)):
-        """A link to one bundle member that works without the Authorization header for an
-        hour (for viser's ?playbackPath= and browser downloads)."""
-        name = _member_name(path)
-        bundle = await bundle_of(job_id, who)
-        if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
-            raise ApiError(404, f"the bundle has no file {name!r}", field="path")
-        url, exp = signed_url(link_key, job_id, name, who.token_id)
-        return {"url": url, "expires_at": exp}
-
-    @app.get("/api/jobs/{job_id}/files/{path:path}", tags=["dashboard"],
-             responses=ERROR_RESPONSES | {200: {"content": {"application/octet-stream": {}}}})
-    async def read_file(request: Request, job_id: JobId,
-                        path: Annotated[str, PathParam(max_length=200, pattern=MEMBER_PATTERN)], exp: str | None = None,
-                        sig: str | None = None):
-        """One member of the result bundle (replay.viser, trajectories/best.csv, plots/...).
-        Authorised like the other job routes, or by a link from /file-link."""
-        name = _member_name(path)
-        who = await _link_principal(_link_token(link_key, job_id, name, exp, sig)) or await principal(request)
-        bundle = await bundle_of(job_id, who)
-        if name not in _members(bundle, os.stat(bundle).st_mtime_ns):
-            raise ApiError(404, f"the bundle has no file {name!r}", field="path")
-        data = await run_in_threadpool(_read_member, bundle, name)
-        media = {".json": "application/json", ".csv": "text/csv", ".svg": "image/svg+xml", ".png": "image/png",
-                 ".md": "text/markdown", ".xml": "application/xml"}.get(Path(name).suffix,
-                                                                          "application/octet-stream")
-        return Response(data, media_type=media, headers={"Cache-Control": "private, max-age=3600"})
-
-    @app.get("/api/web/kinds", tags=["dashboard"], responses=ERROR_RESPONSES)
-    async def kinds() -> list[dict]:
-        """Every registered job kind with the JSON schema of its spec (the form is built
-        from it) and the groups of fields the kind wants opened first."""
-        return await run_in_threadpool(_kinds)
-
-    @app.post("/api/web/check", tags=["dashboard"], responses=ERROR_RESPONSES,
-              openapi_extra={"requestBody": {"required": True, "content": {
-                  "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
-    async def check(request: Request, who: Principal = Depends(principal)):
-        """Validate a spec without queuing it: its evaluation budget (the spec's own
-        formula, the number the compare page shows) or the API's field errors."""
-        from app.api.routes.jobs import read_spec
-
-        spec = await read_spec(request, settings)  # the same edges as POST /api/jobs
-        return _budget(spec)
-
-    @app.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
-    async def views(job_id: JobId, who: Principal = Depends(principal)):
-        """What the job page shows, supplied by the job's kind: what its history columns mean
-        (units, which way is better), and once it succeeded its headline rows, tables and
-        plotly figures, the controls and robustness tables, and every bundle member with a
-        short-lived download link and what it is."""
-        owner = who.owner_filter if who is not None else None
-        job = await db(lambda s: repo.get_job(s, job_id, owner))
-        kind = _kind(job.kind)
-        conv = history_axis(kind, job.spec or {})
-        budget = None
-        try:
-            from app.jobs.registry import parse_spec
-
-            budget = _budget(parse_spec(job.spec))
-        except Exception:  # a spec stored by an older version: no budget shown, the rest still is
+            out["headline"] = _jsonable(list(kind.headline(job.summary)))
+        except Exception:  # a failed job's partial summary: no headline
             pass
-        out: dict[str, Any] = {"kind": job.kind, "status": job.status, "convergence": conv, "budget": budget,
-                               "headline": [], "panels": [], "evidence": [], "files": [], "figures": [], "replay": []}
-        if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
-            bundle = job.bundle_path
-            mtime = os.stat(bundle).st_mtime_ns
-            v = await run_in_threadpool(_bundle_views, bundle, mtime)
-            members = _members(bundle, mtime)
-            files = [{"path": n, "size": size, "what": v["describe"].get(n, ""),
-                      "url": signed_url(link_key, job_id, n, who.token_id)[0]} for n, size in members.items()]
-            figs = {}
-            for f in files:
-                p = Path(f["path"])
-                if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
-                    figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
-            out.update({k: v[k] for k in ("headline", "panels", "evidence", "replay")}, files=files,
-                       figures=list(figs.values()))  # SVG, PNG or both: the contract asks for either
-        elif job.summary and kind is not None:
-            try:
-                out["headline"] = _jsonable(list(kind.headline(job.summary)))
-            except Exception:  # a failed job's partial summary: no headline
-                pass
-        return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})
+    return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})

@@ -16,6 +16,7 @@ from sqlalchemy.exc import IntegrityError
 
 from app.api.auth import Principal, principal
 from app.api.body import BodyError, parse_json
+from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, JobList, JobOut, Status
 from app.service.dispatch import send
@@ -23,36 +24,12 @@ from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
 from app.core.settings import Settings
 from app.store import repo
-from app.store.db import session_scope
 from app.store.models import FINAL, utcnow
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
 ERRORS = ERROR_RESPONSES
-
-
-def _settings(request: Request) -> Settings:
-    return request.app.state.settings
-
-
-def _not_found(job_id: str) -> ApiError:
-    return ApiError(404, f"no job {job_id!r}", field="id")
-
-
-async def _db(request: Request, fn, readonly: bool = False):
-    url = _settings(request).db_url
-
-    def call():
-        with session_scope(url, readonly=readonly) as s:
-            return fn(s)
-
-    try:
-        return await run_in_threadpool(call)
-    except repo.NotFound as e:
-        raise _not_found(str(e)) from None
-    except repo.Conflict as e:
-        raise ApiError(409, str(e), field=e.field) from None
 
 
 async def _read_body(request: Request, limit: int) -> bytes:
@@ -106,15 +83,16 @@ async def read_spec(request: Request, settings: Settings):
              openapi_extra={"requestBody": {"required": True, "content": {
                  "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
 async def submit(request: Request, response: Response, who: Principal = Depends(principal),
-                 idempotency_key: Annotated[str | None, Header(min_length=1, max_length=200)] = None):
+                 idempotency_key: Annotated[str | None, Header(min_length=1, max_length=200)] = None,
+                 db: Db = Depends(get_db)):
     """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
     checked before anything is written."""
-    settings = _settings(request)
+    settings = settings_of(request)
     spec = await read_spec(request, settings)
     full = spec.model_dump(mode="json")
 
     def existing():
-        with session_scope(settings.db_url, readonly=True) as s:
+        with db.session(readonly=True) as s:
             job = repo.find_by_idempotency_key(s, who.name, idempotency_key)
         if job.spec != full:
             raise repo.Conflict("Idempotency-Key was used before with a different spec", field="Idempotency-Key")
@@ -123,7 +101,7 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     def create_and_send():
         # One trip to the thread pool: commit the row, then send its id.
         try:
-            with session_scope(settings.db_url) as s:
+            with db.session() as s:
                 job, created = repo.submit_job(
                     s, owner=who.name, kind=spec.kind, robot=getattr(spec, "robot", None), spec=full,
                     evaluations_budget=int(spec.evaluations_budget), max_attempts=settings.max_attempts,
@@ -150,7 +128,7 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
 
 
 @router.get("", response_model=JobList, responses=ERRORS)
-async def list_jobs(request: Request, who: Principal = Depends(principal),
+async def list_jobs(who: Principal = Depends(principal), db: Db = Depends(get_db),
                     status: Status | None = None,
                     kind: Annotated[str | None, Query(max_length=32)] = None,
                     robot: Annotated[str | None, Query(max_length=64)] = None,
@@ -164,25 +142,24 @@ async def list_jobs(request: Request, who: Principal = Depends(principal),
             before = repo.decode_cursor(cursor)
         except ValueError as e:
             raise ApiError(422, str(e), field="cursor") from None
-    rows, nxt = await _db(request, lambda s: repo.list_jobs(s, owner=who.owner_filter, status=status, kind=kind,
-                                                             robot=robot, limit=limit, before_seq=before),
-                          readonly=True)
+    rows, nxt = await db.read(lambda s: repo.list_jobs(s, owner=who.owner_filter, status=status, kind=kind,
+                                                        robot=robot, limit=limit, before_seq=before))
     return JobList(items=[JobOut.of(j, detail=False) for j in rows],
                    next_cursor=repo.encode_cursor(nxt) if nxt is not None else None)
 
 
 @router.get("/{job_id}", response_model=JobOut, responses=ERRORS)
-async def get_job(request: Request, job_id: JobId, who: Principal = Depends(principal)):
-    job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+async def get_job(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
+    job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
     return JobOut.of(job)
 
 
 @router.get("/{job_id}/history", responses=ERRORS | {200: {"content": {"application/json": {}, "text/csv": {}},
                                                            "description": "one row per generation"}})
-async def get_history(request: Request, job_id: JobId, who: Principal = Depends(principal),
+async def get_history(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db),
                       format: Literal["json", "csv"] = "json"):
     """Per-generation metrics: progress rows while running, the job's own history once done."""
-    rows = await _db(request, lambda s: repo.history(s, repo.get_job(s, job_id, who.owner_filter)), readonly=True)
+    rows = await db.read(lambda s: repo.history(s, repo.get_job(s, job_id, who.owner_filter)))
     if format == "json":
         return rows
     buf = io.StringIO()
@@ -195,9 +172,9 @@ async def get_history(request: Request, job_id: JobId, who: Principal = Depends(
 
 @router.get("/{job_id}/events", responses=ERRORS | {200: {"content": {"text/event-stream": {}},
                                                           "description": "progress events, then one final 'end'"}})
-async def events(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+async def events(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """Server-sent events: `progress` whenever the job changes, then `end` with its final state."""
-    first = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+    first = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
 
     async def stream():
         job, last, idle = first, None, 0.0
@@ -218,7 +195,7 @@ async def events(request: Request, job_id: JobId, who: Principal = Depends(princ
             await asyncio.sleep(0.5)
             idle += 0.5
             try:
-                job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+                job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
             except ApiError:  # deleted meanwhile
                 yield "event: end\ndata: {\"status\": \"deleted\"}\n\n"
                 return
@@ -228,29 +205,29 @@ async def events(request: Request, job_id: JobId, who: Principal = Depends(princ
 
 
 @router.post("/{job_id}/cancel", response_model=JobOut, status_code=202, responses=ERRORS)
-async def cancel(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+async def cancel(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """A queued job is cancelled at once and never starts; a running one stops within a generation."""
-    return JobOut.of(await _db(request, lambda s: repo.request_cancel(s, job_id, who.owner_filter)))
+    return JobOut.of(await db.write(lambda s: repo.request_cancel(s, job_id, who.owner_filter)))
 
 
 @router.post("/{job_id}/retry", response_model=JobOut, status_code=202, responses=ERRORS)
-async def retry(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+async def retry(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """Run a failed or cancelled job again; it resumes from its last checkpoint."""
     def do(s):
         job = repo.retry(s, job_id, who.owner_filter)
         job.dispatched_at = utcnow()
         return job
 
-    job = await _db(request, do)
-    await run_in_threadpool(send, _settings(request), [job.id])
+    job = await db.write(do)
+    await run_in_threadpool(send, settings_of(request), [job.id])
     return JobOut.of(job)
 
 
 @router.delete("/{job_id}", status_code=204, responses=ERRORS)
-async def delete(request: Request, job_id: JobId, who: Principal = Depends(principal)):
+async def delete(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """Delete a job that is not running, with its history, checkpoint and bundle."""
-    settings = _settings(request)
-    job = await _db(request, lambda s: repo.delete_job(s, job_id, who.owner_filter))
+    settings = settings_of(request)
+    job = await db.write(lambda s: repo.delete_job(s, job_id, who.owner_filter))
     if job.bundle_path:
         Path(job.bundle_path).unlink(missing_ok=True)
     shutil.rmtree(Path(settings.artifact_dir) / job.id, ignore_errors=True)
@@ -259,8 +236,8 @@ async def delete(request: Request, job_id: JobId, who: Principal = Depends(princ
 
 @router.get("/{job_id}/bundle", responses=ERRORS | {200: {"content": {"application/zip": {}},
                                                           "description": "the result bundle"}})
-async def bundle(request: Request, job_id: JobId, who: Principal = Depends(principal)):
-    job = await _db(request, lambda s: repo.get_job(s, job_id, who.owner_filter), readonly=True)
+async def bundle(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
+    job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
     if job.status != "succeeded" or not job.bundle_path:
         raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
     path = Path(job.bundle_path)

@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from fastapi.concurrency import run_in_threadpool
 from sqlalchemy import text
 
 from app.api.auth import principal
+from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
 from app.service.dispatch import broker_ok
 from app.jobs.registry import KINDS, robots as all_robots
 from app.store import repo
-from app.store.db import session_scope
 
 router = APIRouter(tags=["service"])
 
@@ -31,10 +31,10 @@ async def robots() -> list[dict]:
 
 
 @router.get("/health", response_model=Health, response_model_exclude_none=True)
-async def health(request: Request):
+async def health(request: Request, db: Db = Depends(get_db)):
     """Database, broker, and the workers seen in the last three housekeeping intervals.
     When tokens are required, only `status` without a valid one."""
-    settings = request.app.state.settings
+    settings = settings_of(request)
     trusted = not request.app.state.auth_required
     if not trusted and request.headers.get("authorization"):
         try:
@@ -44,20 +44,20 @@ async def health(request: Request):
 
     def check():
         try:
-            with session_scope(settings.db_url, readonly=True) as s:
+            with db.session(readonly=True) as s:
                 s.execute(text("SELECT 1"))
                 seen = repo.workers_seen(s, within_s=max(3 * settings.reaper_interval_s, 15.0))
-            db = "ok"
+            database = "ok"
         except Exception as e:
-            db, seen = f"{type(e).__name__}: {e}", []
+            database, seen = f"{type(e).__name__}: {e}", []
         ok, broker = broker_ok(settings)
-        return db, broker, seen
+        return database, broker, seen
 
-    db, broker, seen = await run_in_threadpool(check)
-    status = "ok" if db == "ok" and broker == "ok" else "degraded"
+    database, broker, seen = await run_in_threadpool(check)
+    status = "ok" if database == "ok" and broker == "ok" else "degraded"
     if not trusted:
         return Health(status=status)
     url = settings.broker_url.split("@")[-1] if "@" in settings.broker_url else settings.broker_url
-    return Health(status=status, database=db, broker=broker,
+    return Health(status=status, database=database, broker=broker,
                   broker_url=url, workers=[WorkerOut(name=w.name, broker=w.broker, started_at=w.started_at,
                                                      last_seen_at=w.last_seen_at) for w in seen])

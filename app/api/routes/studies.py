@@ -10,13 +10,13 @@ from fastapi.concurrency import run_in_threadpool
 
 from app.api.auth import Principal, principal
 from app.api.body import BodyError, parse_json
+from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import BuiltinStudyList
-from app.api.routes.jobs import ERRORS, _read_body, _require_json, _settings
+from app.api.routes.jobs import ERRORS, _read_body, _require_json
 from app.service.dispatch import send
 from app.jobs.base import SpecError
 from app.store import repo
-from app.store.db import session_scope
 from app.studies import catalog, store
 from app.studies.bundle import load_study_file, study_files, zip_bytes
 from app.studies.spec import expand
@@ -40,19 +40,6 @@ def _out(study, c: dict[str, int], jobs=None) -> dict[str, Any]:
     return out
 
 
-async def _db(request: Request, fn, readonly: bool = False):
-    url = _settings(request).db_url
-
-    def call():
-        with session_scope(url, readonly=readonly) as s:
-            return fn(s)
-
-    try:
-        return await run_in_threadpool(call)
-    except repo.NotFound as e:
-        raise ApiError(404, f"no study {str(e)!r}", field="id") from None
-
-
 def _study_schema() -> dict:
     """StudySpec's JSON schema with its definitions inlined (an operation's body schema
     cannot carry $defs of its own)."""
@@ -70,10 +57,11 @@ def _study_schema() -> dict:
 
 @router.post("", status_code=201, responses=ERRORS, openapi_extra={"requestBody": {"required": True, "content": {
              "application/json": {"schema": _study_schema()}}}})
-async def submit_study(request: Request, response: Response, who: Principal = Depends(principal)):
+async def submit_study(request: Request, response: Response, who: Principal = Depends(principal),
+                       db: Db = Depends(get_db)):
     """Queue a study: every point is validated first; one bad point rejects the whole study
     (the error names the point and the field) and nothing is written."""
-    settings = _settings(request)
+    settings = settings_of(request)
     _require_json(request)
     body = await _read_body(request, settings.max_body_bytes)
     try:
@@ -91,7 +79,7 @@ async def submit_study(request: Request, response: Response, who: Principal = De
                            field=f"points[{p['index']}].search.generations")
 
     def create_and_send():
-        with session_scope(settings.db_url) as s:
+        with db.session() as s:
             from app.studies.fair import window
 
             study, ids = store.create_study(s, plan, owner=who.name, max_attempts=settings.max_attempts,
@@ -100,7 +88,7 @@ async def submit_study(request: Request, response: Response, who: Principal = De
                                             window_=window(s, settings.reaper_interval_s))
             sid = study.id
         send(settings, ids)
-        with session_scope(settings.db_url, readonly=True) as s:
+        with db.session(readonly=True) as s:
             st = store.get_study(s, sid, None)
             return _out(st, store.counts(s, [sid])[sid], store.study_jobs(s, sid))
 
@@ -115,14 +103,14 @@ async def submit_study(request: Request, response: Response, who: Principal = De
 
 
 @router.get("", responses=ERRORS)
-async def list_studies(request: Request, who: Principal = Depends(principal),
+async def list_studies(who: Principal = Depends(principal), db: Db = Depends(get_db),
                        limit: Annotated[int, Query(ge=1, le=500)] = 50):
     def fn(s):
         rows = store.list_studies(s, who.owner_filter, limit)
         c = store.counts(s, [r.id for r in rows])
         return {"items": [_out(r, c[r.id]) for r in rows]}
 
-    return await _db(request, fn, readonly=True)
+    return await db.read(fn, missing="study")
 
 
 @router.get("/builtin", response_model=BuiltinStudyList, responses=ERRORS)
@@ -143,16 +131,16 @@ async def builtin_study(name: Annotated[str, PathParam(pattern=r"^[a-z0-9_]{1,64
 
 
 @router.get("/{study_id}", responses=ERRORS)
-async def get_study(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
+async def get_study(study_id: StudyId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     def fn(s):
         st = store.get_study(s, study_id, who.owner_filter)
         return _out(st, store.counts(s, [st.id])[st.id], store.study_jobs(s, st.id))
 
-    return await _db(request, fn, readonly=True)
+    return await db.read(fn, missing="study")
 
 
 @router.get("/{study_id}/views", responses=ERRORS)
-async def study_views(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
+async def study_views(study_id: StudyId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """The study's plots for its page: one chart per reported metric (median and range per
     group) and the panels the base's kind draws from the points (app/studies/views.py)."""
     from app.studies.views import study_views as views
@@ -162,21 +150,21 @@ async def study_views(request: Request, study_id: StudyId, who: Principal = Depe
         jobs = store.study_jobs(s, st.id)
         return {"panels": views(st.spec, store.point_rows(st, jobs), store.study_aggregate(st, jobs))}
 
-    return await _db(request, fn, readonly=True)
+    return await db.read(fn, missing="study")
 
 
 @router.post("/{study_id}/cancel", status_code=202, responses=ERRORS)
-async def cancel_study(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
+async def cancel_study(study_id: StudyId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     def fn(s):
         st = store.cancel_study(s, study_id, who.owner_filter)
         s.flush()
         return _out(st, store.counts(s, [st.id])[st.id], store.study_jobs(s, st.id))
 
-    return await _db(request, fn)
+    return await db.write(fn, missing="study")
 
 
 @router.get("/{study_id}/bundle", responses=ERRORS | {200: {"content": {"application/zip": {}}}})
-async def study_bundle(request: Request, study_id: StudyId, who: Principal = Depends(principal)):
+async def study_bundle(study_id: StudyId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     def fn(s):
         st = store.get_study(s, study_id, who.owner_filter)
         jobs = store.study_jobs(s, st.id)
@@ -184,6 +172,6 @@ async def study_bundle(request: Request, study_id: StudyId, who: Principal = Dep
         return st.id, zip_bytes(study_files(st.spec, rows, store.study_aggregate(st, jobs), st.plan["infeasible"],
                                             {"study_id": st.id}))
 
-    sid, data = await _db(request, fn, readonly=True)
+    sid, data = await db.read(fn, missing="study")
     return Response(data, media_type="application/zip",
                     headers={"Content-Disposition": f'attachment; filename="study-{sid[:12]}.zip"'})
