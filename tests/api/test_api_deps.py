@@ -1,8 +1,11 @@
 """What the routes share (app/api/deps.py): one database dependency serves the jobs,
 studies, service and dashboard routes; a 405 names every method of the path, those of
-included routers too."""
+included routers too; every page carries the colour table of app/core/colors.py."""
 
 from __future__ import annotations
+
+import json
+import re
 
 import pytest
 from fastapi.testclient import TestClient
@@ -10,6 +13,7 @@ from service_support import deployment, migrated
 
 from app.api import create_app
 from app.api.deps import Db, get_db
+from app.core import colors
 
 
 @pytest.fixture
@@ -55,3 +59,10 @@ def test_a_405_names_every_method_of_the_path(settings):
     r = client.post("/api/jobs/abc/views")  # a dashboard route
     assert r.status_code == 405 and r.headers["allow"] == "GET"
 
+
+def test_pages_carry_the_colour_table(settings):
+    html = TestClient(create_app(settings)).get("/").text
+    found = re.search(r'<script id="gm-colors" type="application/json">(.*?)</script>', html)
+    assert found and json.loads(found.group(1)) == colors.page_table()
+    table = colors.page_table()
+    assert table["roles"][table["history"]["best"]] == colors.ROLES["method"]

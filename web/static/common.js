@@ -1,12 +1,18 @@
 // Shared by every dashboard page: API calls (with an optional bearer token), formatting,
-// server-sent events read through fetch (so the token can ride in a header), plot defaults.
+// server-sent events read through fetch (so the token can ride in a header), plot defaults,
+// and the colour table (app/core/colors.py, which the server puts in every page's head).
 "use strict";
 
 const GM = (() => {
   const TOKEN_KEY = "gaitmend.token";
   const FINAL = new Set(["succeeded", "failed", "cancelled"]);
-  const COLORS = { best: "#0b5cad", baseline: "#c2410c", mean: "#5b6472", worst: "#b91c1c" };
-  const PALETTE = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"];
+  const TABLE = (() => {
+    try { return JSON.parse(document.getElementById("gm-colors").textContent); } catch (e) { return {}; }
+  })();
+  const ROLES = TABLE.roles || {};
+  const PALETTE = TABLE.palette || [];
+  // history column -> colour (best, mean, worst ...), by the role the table gives each
+  const COLORS = Object.fromEntries(Object.entries(TABLE.history || {}).map(([col, role]) => [col, ROLES[role]]));
 
   const token = () => localStorage.getItem(TOKEN_KEY) || "";
   const authHeaders = () => (token() ? { Authorization: `Bearer ${token()}` } : {});
@@ -103,19 +109,6 @@ const GM = (() => {
     return `${p.done}/${p.total} (${Math.round(100 * p.fraction)} %)`;
   }
 
-  function damageText(spec) {
-    const d = (spec && spec.damage) || {};
-    const parts = [];
-    if (d.lost_legs && d.lost_legs.length) parts.push(`lost ${d.lost_legs.join(",")}`);
-    for (const j of d.locked_joints || []) parts.push(`locked ${j.leg}.${j.joint}`);
-    for (const j of d.weak_joints || []) parts.push(`weak ${j.leg}.${j.joint}`);
-    for (const [k, v] of Object.entries(d)) { // other kinds' damage, e.g. stuck_modules
-      if (["lost_legs", "locked_joints", "weak_joints"].includes(k) || !Array.isArray(v) || !v.length) continue;
-      parts.push(`${k.replace(/_/g, " ")} ${v.map((x) => (typeof x === "object" ? JSON.stringify(x) : x)).join(",")}`);
-    }
-    return parts.join("; ") || "none";
-  }
-
   // Plotly with the same look everywhere; responsive, no logo, hover on.
   function plot(div, traces, layout = {}) {
     const base = {
@@ -178,6 +171,6 @@ const GM = (() => {
   }
 
   document.addEventListener("DOMContentLoaded", initAuth);
-  return { api, events, el, num, age, badge, progressText, damageText, plot, empty, download, token, authHeaders,
-           ApiError, FINAL, COLORS, PALETTE };
+  return { api, events, el, num, age, badge, progressText, plot, empty, download, token, authHeaders,
+           ApiError, FINAL, COLORS, PALETTE, ROLES };
 })();

@@ -6,7 +6,7 @@
 "use strict";
 
 (() => {
-  const { api, el, num, badge, damageText, plot, empty, PALETTE } = GM;
+  const { api, el, num, badge, plot, empty, PALETTE } = GM;
   const $ = (id) => document.getElementById(id);
   const params = new URLSearchParams(location.search);
   let ids = [...new Set((params.get("ids") || "").split(",").map((s) => s.trim()).filter(Boolean))];
@@ -20,7 +20,7 @@
   const short = (id) => id.slice(0, 8);
   const colorOf = (id) => PALETTE[ids.indexOf(id) % PALETTE.length];
   // A job as a person names it: its kind and damage, the id only to tell twins apart.
-  const nameOf = (c) => `${c.job.kind} · ${c.job.damage || damageText(c.job.spec)} · ${short(c.job.id)}`;
+  const nameOf = (c) => `${c.job.kind} · ${c.job.damage || "–"} · ${short(c.job.id)}`;
 
   function groupKey(c) {
     const conv = c.views && c.views.convergence;
@@ -40,7 +40,7 @@
 
   function metricRows(list) {
     const rows = [["Status", list.map((c) => badge(c.job.status))], ["Robot", list.map((c) => c.job.robot || "–")],
-                  ["Damage", list.map((c) => c.job.damage || damageText(c.job.spec))]];
+                  ["Damage", list.map((c) => c.job.damage || "–")]];
     if (list.some((c) => specText(c.job))) rows.push(["Search", list.map((c) => specText(c.job) || "–")]);
     rows.push(["Budget (evaluations, the spec's formula)", list.map((c) => (c.views && c.views.budget ? c.views.budget.evaluations : "–"))]);
     rows.push(["Wall time (s)", list.map((c) => (GM.FINAL.has(c.job.status) && typeof c.job.wall_s === "number" ? num(c.job.wall_s, 1) : "–"))]);

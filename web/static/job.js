@@ -6,7 +6,7 @@
 "use strict";
 
 (() => {
-  const { api, el, num, badge, progressText, damageText, plot, empty, FINAL, COLORS } = GM;
+  const { api, el, num, badge, progressText, plot, empty, FINAL, COLORS } = GM;
   const $ = (id) => document.getElementById(id);
   const jobId = decodeURIComponent(location.pathname.split("/").filter(Boolean).pop());
   let job = null;
@@ -39,7 +39,7 @@
     $("compare-link").href = `/compare?ids=${j.id}`;
     const spec = j.spec || {};
     const s = spec.search || {};
-    const facts = [["Robot", j.robot || "–"], ["Damage", j.damage || damageText(spec)]];
+    const facts = [["Robot", j.robot || "–"], ["Damage", j.damage || "–"]];
     if (s.optimizer && s.population !== undefined) {
       facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
     } else if (Object.keys(s).length) {
