@@ -44,7 +44,11 @@ class Settings(BaseSettings):
     lease_s: float = Field(30.0, ge=1.0, le=3600.0)  # renewed every lease_s / 3 while running
     max_attempts: int = Field(3, ge=1, le=20)  # worker deaths tolerated per job
     reaper_interval_s: float = Field(5.0, gt=0.0, le=600.0)
-    redispatch_after_s: float = Field(300.0, ge=1.0)  # re-send a queued job's message after this
+    # A queued job whose message was sent this long ago and not yet claimed is sent again
+    # when a worker slot sits idle or the broker holds fewer messages than such jobs (the
+    # message was lost: a killed worker, a broker that lost its data). Claiming twice is
+    # harmless. docs/faults.md.
+    redispatch_after_s: float = Field(30.0, ge=1.0, le=3600.0)
     max_job_s: int = Field(6 * 3600, ge=10)  # a running job past this fails
     visibility_timeout_s: int = Field(12 * 3600, ge=60)  # Redis redelivery; must exceed max_job_s
     worker_concurrency: int = Field(1, ge=1, le=64)
@@ -57,6 +61,32 @@ class Settings(BaseSettings):
     # Rollout threads per job (app/sim/threads.py); unset: the worker sets cores / concurrency.
     sim_threads: int | None = Field(None, ge=1, le=256)
     poll_interval_s: float = Field(0.2, gt=0.0, le=5.0)  # embedded broker polling
+
+    # Faults (docs/faults.md).
+    # SIGTERM: a worker stops taking jobs and hands its running job back at the next
+    # generation boundary (checkpointed, no attempt spent); one still inside a generation
+    # after this long is handed back from its last checkpoint and the process exits.
+    # Docker's default stop timeout is 10 s: keep this well under it.
+    stop_grace_s: float = Field(5.0, ge=0.0, le=600.0)
+    # /api/health is "degraded" when queued jobs have waited this long while worker slots
+    # sit idle (or no worker is connected to the broker).
+    stall_after_s: float = Field(60.0, ge=1.0, le=86400.0)
+    # /api/health is "degraded" below this much free space in the data folder.
+    min_free_mb: int = Field(512, ge=0, le=1024 * 1024)
+    # A file of this size kept in the data folder and given up when the disk is full, so
+    # that deleting jobs (the way to free space) still works; 0: none.
+    space_reserve_mb: int = Field(8, ge=0, le=1024)
+    # A job whose bundle or checkpoint cannot be written for lack of space waits this long
+    # for space (keeping its lease), then fails with a message naming the folder.
+    storage_wait_s: float = Field(600.0, ge=0.0, le=7 * 86400.0)
+    # Retention: bundles of jobs finished longer ago than this are deleted (0: kept forever);
+    # checkpoints of failed or cancelled jobs (what a retry resumes from) are deleted this
+    # long after the job finished (a succeeded job's checkpoint goes when it succeeds).
+    bundle_retention_days: float = Field(0.0, ge=0.0, le=36500.0)
+    checkpoint_retention_days: float = Field(7.0, ge=0.0, le=36500.0)
+    # Database writes of a running job that fail on a dropped connection are retried for
+    # up to the lease; API requests retry reads for this long before answering 503.
+    db_retry_s: float = Field(2.0, ge=0.0, le=60.0)
 
     # Client side (gaitmend submit / jobs / fetch).
     server: str = "http://127.0.0.1:8000"

@@ -6,7 +6,8 @@ from __future__ import annotations
 import datetime as dt
 from typing import Any
 
-from sqlalchemy import JSON, Boolean, DateTime, ForeignKey, Index, Integer, String, Text, TypeDecorator, UniqueConstraint
+from sqlalchemy import (JSON, Boolean, DateTime, ForeignKey, Index, Integer, String, Text, TypeDecorator, UniqueConstraint,
+                        false)
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 STATUSES = ("queued", "running", "succeeded", "failed", "cancelled")
@@ -71,6 +72,12 @@ class Job(Base):
     updated_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
     study_id: Mapped[str | None] = mapped_column(String(32), ForeignKey("studies.id"), index=True)  # app/studies
     study_point: Mapped[int | None] = mapped_column(Integer)  # the point's index in its study
+    # A study point not yet admitted to the owner's queue (app/studies/fair.py feeds them):
+    # shown as queued, not counted against GAITMEND_MAX_QUEUED_PER_OWNER, never sent.
+    held: Mapped[bool] = mapped_column(Boolean, default=False, server_default=false())
+    # When the worker running the job was asked to stop (SIGTERM): it hands the job back,
+    # and if it dies first the reaper requeues it without spending the attempt.
+    interrupted_at: Mapped[dt.datetime | None] = mapped_column()
 
     __table_args__ = (
         UniqueConstraint("owner", "idempotency_key", name="uq_jobs_owner_idempotency_key"),
@@ -133,7 +140,8 @@ class ApiToken(Base):
 
 
 class Worker(Base):
-    """Workers seen: each worker's main process writes here every reaper interval."""
+    """Workers seen: each worker's main process writes here every reaper interval while its
+    consumer is connected to the broker (a worker cut off from the broker is not live)."""
 
     __tablename__ = "workers"
 
@@ -141,3 +149,4 @@ class Worker(Base):
     broker: Mapped[str] = mapped_column(String(200))
     started_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
     last_seen_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+    slots: Mapped[int] = mapped_column(Integer, default=1, server_default="1")  # task slots (processes)

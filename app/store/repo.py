@@ -46,8 +46,9 @@ def find_by_idempotency_key(s: Session, owner: str, key: str) -> Job | None:
 
 
 def count_queued(s: Session, owner: str, cap: int | None = None) -> int:
-    """Queued jobs of an owner, counted up to `cap` (a limit check need not count further)."""
-    q = select(Job.seq).where(Job.owner == owner, Job.status == "queued")
+    """Queued jobs of an owner, counted up to `cap` (a limit check need not count further).
+    Study points not yet admitted (held) do not count: app/studies/fair.py admits them."""
+    q = select(Job.seq).where(Job.owner == owner, Job.status == "queued", Job.held.is_(False))
     if cap is not None:
         q = q.limit(cap)
     return s.scalar(select(func.count()).select_from(q.subquery()))
@@ -84,10 +85,10 @@ def submit_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: di
 
 
 def create_job(s: Session, *, owner: str, kind: str, robot: str | None, spec: dict, evaluations_budget: int,
-               max_attempts: int, idempotency_key: str | None = None) -> Job:
+               max_attempts: int, idempotency_key: str | None = None, held: bool = False) -> Job:
     job = Job(id=new_job_id(), owner=owner, kind=kind, robot=robot, status="queued", spec=spec,
               idempotency_key=idempotency_key, evaluations_budget=evaluations_budget, max_attempts=max_attempts,
-              attempt=0, cancel_requested=False, progress_done=0, progress_total=0)
+              attempt=0, cancel_requested=False, progress_done=0, progress_total=0, held=held)
     s.add(job)
     s.flush()
     return job
@@ -169,7 +170,8 @@ def history(s: Session, job: Job) -> list[dict]:
 
 
 def load_checkpoint(s: Session, job_id: str) -> str | None:
-    return s.scalar(select(JobCheckpoint.data).join(Job, Job.seq == JobCheckpoint.job_seq).where(Job.id == job_id))
+    data = s.scalar(select(JobCheckpoint.data).join(Job, Job.seq == JobCheckpoint.job_seq).where(Job.id == job_id))
+    return data or None  # "": the job succeeded and its checkpoint's data was dropped
 
 
 def checkpoint_saves(s: Session, job_id: str) -> int:
@@ -188,19 +190,26 @@ class Claim:
 
 
 def lost_reason(attempt: int, max_attempts: int) -> str:
-    return (f"worker lost {attempt} times while running this job (killed, out of memory or crashed); "
-            f"giving up after max_attempts={max_attempts}")
+    return (f"worker lost {attempt} times while running this job (killed, out of memory, crashed, or cut off "
+            f"from the database longer than its lease); giving up after max_attempts={max_attempts}")
 
 
-def claim(s: Session, job_id: str, *, worker: str, lease_s: float, now: dt.datetime | None = None) -> Claim | None:
+def claim(s: Session, job_id: str, *, worker: str, lease_s: float, now: dt.datetime | None = None,
+          token: str | None = None) -> Claim | None:
     """Take a queued job, or a running one whose lease expired, for one attempt.
-    None when there is nothing to run: finished, cancelled, held by a live lease, or out of
-    attempts (then the job is failed here, with the reason)."""
+    None when there is nothing to run: finished, cancelled, held by a live lease, a study
+    point not yet admitted, or out of attempts (then the job is failed here, with the reason).
+    `token`: the lease token to take it with; a retry after a commit whose answer was lost
+    finds the job already held by that token and gets the same claim back."""
     now = now or utcnow()
     job = s.scalar(select(Job).where(Job.id == job_id).with_for_update())
     if job is None or job.status in FINAL:
         return None
+    if token is not None and job.status == "running" and job.lease_token == token:
+        return Claim(job.id, job.seq, job.lease_token, job.attempt, dict(job.spec))
     if job.status == "running" and job.lease_expires_at is not None and job.lease_expires_at > now:
+        return None
+    if job.status == "queued" and job.held:
         return None
     if job.cancel_requested:
         _finish(job, "cancelled", now)
@@ -210,7 +219,8 @@ def claim(s: Session, job_id: str, *, worker: str, lease_s: float, now: dt.datet
         return None
     job.attempt += 1
     job.status = "running"
-    job.lease_token = uuid.uuid4().hex
+    job.interrupted_at = None
+    job.lease_token = token or uuid.uuid4().hex
     job.lease_expires_at = now + dt.timedelta(seconds=lease_s)
     job.worker = worker
     job.started_at = job.started_at or now
@@ -260,13 +270,56 @@ def cancel_requested(s: Session, job_id: str) -> bool:
     return bool(s.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
 
 
+def job_flags(s: Session, job_id: str) -> tuple[bool, bool]:
+    """(cancel requested, the worker running it was asked to stop)."""
+    row = s.execute(select(Job.cancel_requested, Job.interrupted_at).where(Job.id == job_id)).first()
+    return (False, False) if row is None else (bool(row[0]), row[1] is not None)
+
+
+def mark_interrupted(s: Session, claim_: Claim) -> bool:
+    """The worker running this claim was asked to stop (fenced by the lease)."""
+    r = s.execute(_fenced(claim_.job_id, claim_.lease_token).where(Job.interrupted_at.is_(None))
+                  .values(interrupted_at=utcnow()))
+    return r.rowcount == 1
+
+
+def interrupt_workers(s: Session, workers: list[str]) -> list[str]:
+    """Mark the running jobs of these worker processes (host:pid) as interrupted: their
+    worker is stopping. Returns their ids."""
+    if not workers:
+        return []
+    ids = list(s.scalars(select(Job.id).where(Job.status == "running", Job.worker.in_(workers),
+                                              Job.interrupted_at.is_(None))))
+    if ids:
+        s.execute(update(Job).where(Job.id.in_(ids), Job.status == "running").values(interrupted_at=utcnow()))
+    return ids
+
+
+def release(s: Session, claim_: Claim, refund: bool = True) -> bool:
+    """Hand a running job back to the queue: it resumes from its last checkpoint elsewhere.
+    `refund`: the attempt is not spent (its worker is stopping). Fenced: False when the
+    lease is no longer this claim's."""
+    job = s.scalar(select(Job).where(Job.id == claim_.job_id, Job.lease_token == claim_.lease_token,
+                                     Job.status == "running").with_for_update())
+    if job is None:
+        return False
+    _requeue(job, utcnow(), refund=refund)
+    return True
+
+
+def _requeue(job: Job, now: dt.datetime, refund: bool) -> None:
+    _assign(job, status="queued", lease_token=None, lease_expires_at=None, dispatched_at=None, updated_at=now,
+            interrupted_at=None, attempt=max(job.attempt - 1, 0) if refund else job.attempt)
+
+
 def _assign(job: Job, **values: object) -> None:
     for name, value in values.items():
         setattr(job, name, value)
 
 
 def _finish(job: Job, status: str, now: dt.datetime, error: str | None = None) -> None:
-    _assign(job, status=status, error=error, finished_at=now, updated_at=now, lease_token=None, lease_expires_at=None)
+    _assign(job, status=status, error=error, finished_at=now, updated_at=now, lease_token=None, lease_expires_at=None,
+            interrupted_at=None, held=False)
 
 
 def finish(s: Session, claim_: Claim, status: str, *, summary: dict | None = None, error: str | None = None,
@@ -284,7 +337,18 @@ def finish(s: Session, claim_: Claim, status: str, *, summary: dict | None = Non
         s.add_all(JobHistory(job_seq=job.seq, generation=i, data=r) for i, r in enumerate(history_rows))
     if status == "succeeded":
         job.progress_done = job.progress_total = max(job.progress_total, job.progress_done)
+        # Nothing resumes a succeeded job (retry takes failed or cancelled ones only): its
+        # checkpoint's data goes now; the row stays with its count of saves until the
+        # checkpoint retention (a record of how often the job was checkpointed).
+        s.execute(update(JobCheckpoint).where(JobCheckpoint.job_seq == job.seq).values(data=""))
     return True
+
+
+def finished_as(s: Session, job_id: str) -> str | None:
+    """The job's status when it is final (a finish whose commit answer was lost may have
+    gone through), else None."""
+    status = s.scalar(select(Job.status).where(Job.id == job_id))
+    return status if status in FINAL else None
 
 
 # -- reaper --------------------------------------------------------------------------------------
@@ -296,18 +360,73 @@ def reap(s: Session, now: dt.datetime | None = None) -> list[str]:
     q = select(Job).where(Job.status == "running", Job.lease_expires_at < now).with_for_update(skip_locked=True)
     requeued = []
     for job in s.scalars(q):
+        # A worker that was asked to stop and died before handing the job back (SIGTERM,
+        # then SIGKILL) did not fail because of the job: its attempt is given back.
+        refund = job.interrupted_at is not None
         if job.cancel_requested:
             _finish(job, "cancelled", now)
-        elif job.attempt >= job.max_attempts:
+        elif job.attempt >= job.max_attempts and not refund:
             _finish(job, "failed", now, error=lost_reason(job.attempt, job.max_attempts))
         else:
-            job.status = "queued"
-            job.lease_token = None
-            job.lease_expires_at = None
-            job.dispatched_at = None
-            job.updated_at = now
+            _requeue(job, now, refund=refund)
             requeued.append(job.id)
     return requeued
+
+
+def undispatch_before(s: Session, before: dt.datetime) -> list[str]:
+    """Queued jobs whose message was sent before `before` (when the broker restarted: it
+    cannot hold them unless it persisted them) become unsent, so they are sent again and no
+    longer count against the owner's dispatch window."""
+    ids = list(s.scalars(select(Job.id).where(Job.status == "queued", Job.dispatched_at < before)))
+    if ids:
+        s.execute(update(Job).where(Job.id.in_(ids), Job.status == "queued", Job.dispatched_at < before)
+                  .values(dispatched_at=None))
+    return ids
+
+
+def running_count(s: Session) -> int:
+    return s.scalar(select(func.count()).select_from(Job).where(Job.status == "running"))
+
+
+def waiting(s: Session, older_than: dt.datetime) -> tuple[int, dt.datetime | None]:
+    """Admitted queued jobs waiting since before `older_than` (count, oldest wait start)."""
+    q = select(func.count(), func.min(Job.updated_at)).where(Job.status == "queued", Job.held.is_(False),
+                                                             Job.updated_at < older_than)
+    n, oldest = s.execute(q).one()
+    if isinstance(oldest, dt.datetime) and oldest.tzinfo is None:
+        oldest = oldest.replace(tzinfo=dt.timezone.utc)
+    return n, oldest
+
+
+def stale_dispatched(s: Session, before: dt.datetime) -> int:
+    """Admitted queued jobs whose message went out before `before` and is not yet claimed."""
+    return s.scalar(select(func.count()).select_from(Job).where(
+        Job.status == "queued", Job.held.is_(False), Job.dispatched_at < before))
+
+
+# -- retention ---------------------------------------------------------------------------------
+
+def expired_bundles(s: Session, finished_before: dt.datetime, limit: int = 500) -> list[tuple[str, str]]:
+    """(job id, bundle path) of finished jobs past the bundle retention."""
+    q = (select(Job.id, Job.bundle_path).where(Job.status.in_(FINAL), Job.bundle_path.is_not(None),
+                                                Job.finished_at < finished_before).order_by(Job.seq).limit(limit))
+    return [(i, p) for i, p in s.execute(q)]
+
+
+def forget_bundles(s: Session, job_ids: list[str]) -> None:
+    """The bundles of these jobs were deleted (retention)."""
+    if job_ids:
+        s.execute(update(Job).where(Job.id.in_(job_ids)).values(bundle_path=None))
+
+
+def running_ids(s: Session) -> list[str]:
+    return list(s.scalars(select(Job.id).where(Job.status == "running")))
+
+
+def drop_checkpoints(s: Session, finished_before: dt.datetime) -> int:
+    """Checkpoints of finished jobs past the checkpoint retention (a retry then starts over)."""
+    seqs = select(Job.seq).where(Job.status.in_(FINAL), Job.finished_at < finished_before).scalar_subquery()
+    return s.execute(delete(JobCheckpoint).where(JobCheckpoint.job_seq.in_(seqs))).rowcount or 0
 
 
 def undelivered(s: Session, after_s: float, now: dt.datetime | None = None, limit: int = 500) -> list[str]:
@@ -315,7 +434,8 @@ def undelivered(s: Session, after_s: float, now: dt.datetime | None = None, limi
     drops a message that a killed worker had taken but not yet claimed)."""
     now = now or utcnow()
     cutoff = now - dt.timedelta(seconds=after_s)
-    q = (select(Job.id).where(Job.status == "queued", (Job.dispatched_at.is_(None)) | (Job.dispatched_at < cutoff))
+    q = (select(Job.id).where(Job.status == "queued", Job.held.is_(False),
+                              (Job.dispatched_at.is_(None)) | (Job.dispatched_at < cutoff))
          .order_by(Job.seq).limit(limit))
     return list(s.scalars(q))
 
@@ -342,7 +462,7 @@ def retry(s: Session, job_id: str, owner: str | None) -> Job:
     if job.status not in ("failed", "cancelled"):
         raise Conflict(f"only failed or cancelled jobs can be retried; this one is {job.status}", field="status")
     _assign(job, status="queued", attempt=0, cancel_requested=False, error=None, summary=None, bundle_path=None,
-            finished_at=None, dispatched_at=None, updated_at=utcnow())
+            finished_at=None, dispatched_at=None, updated_at=utcnow(), held=False, interrupted_at=None)
     return job
 
 
@@ -405,13 +525,24 @@ def token_count(s: Session) -> int:
 
 # -- workers ------------------------------------------------------------------------------------
 
-def worker_seen(s: Session, name: str, broker: str) -> None:
+def worker_seen(s: Session, name: str, broker: str, slots: int = 1) -> None:
     now = utcnow()
     row = s.get(Worker, name)
     if row is None:
-        s.add(Worker(name=name, broker=broker, started_at=now, last_seen_at=now))
+        s.add(Worker(name=name, broker=broker, started_at=now, last_seen_at=now, slots=slots))
     else:
-        row.last_seen_at = now
+        row.last_seen_at, row.slots = now, slots
+
+
+def worker_gone(s: Session, name: str) -> None:
+    """A worker that stops (or lost its broker) is no longer counted as live."""
+    s.execute(delete(Worker).where(Worker.name == name))
+
+
+def idle_slots(s: Session, within_s: float) -> tuple[int, int]:
+    """(task slots of the live workers, jobs running)."""
+    slots = sum(w.slots or 1 for w in workers_seen(s, within_s))
+    return slots, running_count(s)
 
 
 def workers_seen(s: Session, within_s: float) -> list[Worker]:

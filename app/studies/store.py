@@ -16,14 +16,15 @@ from app.studies.spec import Plan
 
 
 def create_study(s: Session, plan: Plan, *, owner: str, max_attempts: int, max_queued: int,
-                 redispatch_after_s: float = 300.0, window_: int = 2) -> tuple[Study, list[str]]:
-    """The study row and one queued job per point, in the caller's transaction; returns the
-    ids to send now. QueueFull
-    when the points would take the owner past max_queued queued jobs (nothing written)."""
+                 redispatch_after_s: float = 30.0, window_: int = 2) -> tuple[Study, list[str]]:
+    """The study row and one job per point, in the caller's transaction; returns the ids to
+    send now. Any number of points is accepted: the points are held and admitted to the
+    owner's queue gradually, within the owner's limit (app/studies/fair.py feed), so a
+    study never makes the owner's queue exceed GAITMEND_MAX_QUEUED_PER_OWNER.
+    (`redispatch_after_s` is accepted for the callers' sake; a new study has no stale message.)"""
+    from app.studies.fair import feed, select_fair
+
     repo.lock_owner(s, owner)
-    queued = repo.count_queued(s, owner, cap=max_queued + 1)
-    if queued + len(plan.points) > max_queued:
-        raise repo.QueueFull(queued + len(plan.points), max_queued)
     study = Study(id=uuid.uuid4().hex, owner=owner, name=plan.study.name,
                   spec=plan.study.model_dump(mode="json", exclude_none=True),
                   plan={"overrides": [p["overrides"] for p in plan.points], "infeasible": plan.infeasible}, points=len(plan.points), cancel_requested=False,
@@ -34,13 +35,14 @@ def create_study(s: Session, plan: Plan, *, owner: str, max_attempts: int, max_q
     now = utcnow()
     for p in plan.points:
         job = repo.create_job(s, owner=owner, kind=p["kind"], robot=p["robot"], spec=p["spec"],
-                              evaluations_budget=p["budget"], max_attempts=max_attempts)
+                              evaluations_budget=p["budget"], max_attempts=max_attempts, held=True)
         job.study_id, job.study_point = study.id, p["index"]
         ids.append(job.id)
+    s.flush()
+    feed(s, max_queued, owner=owner)
     # Only the owner's fair share goes to the broker now; the rest wait unsent (app/studies/fair.py).
-    from app.studies.fair import select_fair
-
-    ids = [i for i in select_fair(s, redispatch_after_s, window_) if i in set(ids)]
+    mine = set(ids)
+    ids = [i for i in select_fair(s, window_) if i in mine]
     repo.mark_dispatched(s, ids, now)
     return study, ids
 

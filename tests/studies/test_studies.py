@@ -58,16 +58,21 @@ def test_grid_expands_and_names_the_bad_point_and_field():
     assert "limit is" in e.value.errors[0]["message"]
 
 
-def test_bad_point_or_queue_limit_rejects_the_whole_study_and_writes_nothing(tmp_path, pg_url):
+def test_a_bad_point_rejects_the_whole_study_and_one_over_the_queue_limit_is_fed_gradually(tmp_path, pg_url):
     settings = migrated(deployment(tmp_path, database_url=pg_url, max_queued_per_owner=3))
     client = TestClient(create_app(settings))
     r = client.post("/api/studies", json=study(points=[{"search.seed": 1}, {"search.seed": 2},
                                                        {"search.population": 1}]))
     assert r.status_code == 422, r.text
     assert r.json()["errors"][0]["field"] == "points[2].search.population"
-    r = client.post("/api/studies", json=study(grid={"search.seed": [0, 1, 2, 3]}))
-    assert r.status_code == 429 and "limit is 3" in r.text, r.text
     assert counts(settings) == (0, 0)
+    # more points than the owner may queue: accepted, and admitted to the queue gradually
+    # (app/studies/fair.py: at most half the owner's limit at a time)
+    r = client.post("/api/studies", json=study(grid={"search.seed": [0, 1, 2, 3]}))
+    assert r.status_code == 201 and r.json()["progress"]["queued"] == 4, r.text
+    with session_scope(settings.db_url, readonly=True) as s:
+        assert sorted(j.held for j in s.scalars(select(Job))) == [False, True, True, True]
+    assert client.post("/api/jobs", json=BASE).status_code == 201  # the owner's own jobs still fit
     # the built-in studies are all valid
     from app.studies.catalog import builtin_studies
 
