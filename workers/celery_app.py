@@ -1,19 +1,28 @@
 """The worker's Celery app (its configuration: app/service/broker.py) and its signal handlers:
-a fresh database engine per pool process, the broker folder, the housekeeping thread."""
+a fresh database engine and the stop handler per pool process, the broker folder, the
+consumer guard (app/service/consumer.py), the housekeeping thread, the stop."""
 
 from __future__ import annotations
 
 import logging
 import threading
+import warnings
 
 from celery import signals
+from celery.exceptions import CPendingDeprecationWarning
 
 from app.service.broker import ensure_broker_folder, make_celery
+from app.service.consumer import CONSUMER, ConsumerGuard, start_shutdown_thread
 from app.core.settings import get_settings
 
 log = logging.getLogger("gaitmend.worker")
 
 celery_app = make_celery()
+celery_app.steps["consumer"].add(ConsumerGuard)
+# On a lost connection Celery warns, every time, that Celery 6 may cancel running acks_late
+# tasks; gaitmend keeps them running (worker_cancel_long_running_tasks_on_connection_loss
+# stays False: a job outlives a broker blip and its claim fences duplicates).
+warnings.filterwarnings("ignore", category=CPendingDeprecationWarning)
 
 
 @signals.worker_process_init.connect
@@ -22,6 +31,14 @@ def _fresh_engine_per_child(**_):
     from app.store.db import forget_engines
 
     forget_engines()
+
+
+@signals.worker_process_init.connect
+def _stop_handler(**_):
+    # SIGTERM to a pool process hands its job back (app/service/runner.py).
+    from app.service.runner import install_stop_handler
+
+    install_stop_handler()
 
 
 @signals.worker_init.connect
@@ -47,12 +64,26 @@ def _preload(**_):
     bundle.versions()
 
 
+_hostname: list[str] = []
+
+
 @signals.worker_ready.connect
 def _start_housekeeping(sender=None, **_):
     from app.service.housekeeping import Housekeeper
 
-    hk = Housekeeper(get_settings(), worker_name=_name(sender))
+    settings = get_settings()
+    name = _name(sender)
+    _hostname.append(name)
+    slots = getattr(getattr(sender, "controller", None), "concurrency", None) or settings.worker_concurrency
+    hk = Housekeeper(settings, worker_name=name, live=lambda: CONSUMER.connected and not CONSUMER.stopping,
+                     slots=int(slots))
     threading.Thread(target=hk.loop, name="housekeeping", daemon=True).start()
+
+
+@signals.worker_shutting_down.connect
+def _stopping(sender=None, **_):
+    """Runs inside the signal handler of the main process: the work goes to a thread."""
+    start_shutdown_thread(get_settings(), _hostname[0] if _hostname else str(sender))
 
 
 def _name(sender) -> str:

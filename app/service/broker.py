@@ -11,8 +11,10 @@ acks_late + reject_on_worker_lost (a message is only gone once its job ran), pre
 from __future__ import annotations
 
 from celery import Celery
+from celery.app.amqp import AMQP
 
 from app.core.settings import Settings, get_settings
+from app.service.consumer import ReconnectingConnection
 
 
 def ensure_broker_folder(settings: Settings) -> None:
@@ -42,16 +44,24 @@ def broker_options(settings: Settings, sender: bool = False) -> tuple[str, dict]
     return settings.broker_connection_url, options | (SENDER_OPTIONS if sender else {})
 
 
+class _WorkerAMQP(AMQP):
+    """The worker's broker connections retry every second or so (app/service/consumer.py)."""
+
+    Connection = ReconnectingConnection
+
+
 def make_celery(settings: Settings | None = None, sender: bool = False) -> Celery:
     """`sender`: an app that only sends job ids (fails fast when the broker is down)."""
     settings = settings or get_settings()
     url, options = broker_options(settings, sender)
-    app = Celery("gaitmend", broker=url, include=["workers.tasks"])
+    app = Celery("gaitmend", broker=url, include=["workers.tasks"], amqp=None if sender else _WorkerAMQP)
     app.conf.update(
         broker_transport_options=options,
         # A worker whose broker is unreachable at start stops with the reason (and
-        # `gaitmend worker` checks first); once running, it reconnects as usual.
+        # `gaitmend worker` checks first); once running, it reconnects for as long as it
+        # takes, every few seconds (app/service/consumer.py), and is not live meanwhile.
         broker_connection_retry_on_startup=False,
+        broker_connection_max_retries=None,
         task_default_queue=settings.queue,
         task_acks_late=True,
         task_reject_on_worker_lost=True,

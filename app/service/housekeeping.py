@@ -6,6 +6,8 @@ from __future__ import annotations
 import logging
 import os
 import threading
+import time
+from collections.abc import Callable
 
 from app.service.dispatch import dispatch_pending
 from app.core.settings import Settings
@@ -49,10 +51,21 @@ os.register_at_fork(before=_fork_guard.before_fork, after_in_parent=_fork_guard.
 
 
 class Housekeeper:
-    def __init__(self, settings: Settings, worker_name: str | None = None):
+    """`live`: whether this worker takes jobs now (its consumer is connected, it is not
+    stopping); the worker is reported as seen only then, and forgotten otherwise.
+    Every MAINTENANCE_S it also runs the retention sweep (app/store/space.py)."""
+
+    MAINTENANCE_S = 60.0
+
+    def __init__(self, settings: Settings, worker_name: str | None = None, live: Callable[[], bool] | None = None,
+                 slots: int = 1):
         self.settings = settings
         self.worker_name = worker_name
+        self.live = live or (lambda: True)
+        self.slots = slots
         self.stopped = threading.Event()
+        self._reported = False
+        self._next_sweep = time.monotonic()
 
     def tick(self) -> None:
         with _fork_guard.lock:
@@ -61,15 +74,30 @@ class Housekeeper:
     def _tick(self) -> None:
         if self.worker_name:
             with session_scope(self.settings.db_url) as s:
-                repo.worker_seen(s, self.worker_name, self.settings.broker_url)
+                if self.live():
+                    repo.worker_seen(s, self.worker_name, self.settings.broker_url, self.slots)
+                    self._reported = True
+                elif self._reported:
+                    repo.worker_gone(s, self.worker_name)
+                    self._reported = False
         dispatch_pending(self.settings)
+        if time.monotonic() >= self._next_sweep:
+            self._next_sweep = time.monotonic() + self.MAINTENANCE_S
+            from app.store.space import sweep
+
+            sweep(self.settings)
 
     def loop(self) -> None:
         while not self.stopped.is_set():
             try:
                 self.tick()
-            except Exception:  # the database or broker may be briefly away; keep going
-                log.exception("housekeeping pass failed")
+            except Exception as e:  # the database or broker may be briefly away; keep going
+                from app.store.errors import safe_message, transient
+
+                if transient(e) is not None:
+                    log.warning("housekeeping pass failed: %s", safe_message(e))
+                else:
+                    log.exception("housekeeping pass failed")
             self.stopped.wait(self.settings.reaper_interval_s)
 
     def stop(self) -> None:
