@@ -15,8 +15,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 # rank: a package may import packages of lower rank, and itself (jobs and jobs.<kind> are
 # peers: the registry imports the kinds, the kinds import the contract)
+# (client, the Python client: reads bundles and talks HTTP, never the store or the service;
+# the CLI's client commands use it)
 RANK = {"core": 0, "app": 0, "robots": 1, "optim": 2, "sim": 2, "jobs": 3, "jobs.<kind>": 3, "store": 4,
-        "results": 5, "studies": 6, "service": 7, "api": 8, "workers": 9, "cli": 10}
+        "results": 5, "client": 6, "studies": 7, "service": 8, "api": 9, "workers": 10, "cli": 11}
 LEAVES = {"core", "app"}  # import nothing of the ranked packages but themselves
 SCIENCE = ("robots", "optim", "sim", "jobs", "jobs.<kind>")
 SERVICE_LIBS = ("fastapi", "sqlalchemy", "celery", "starlette", "uvicorn", "alembic", "redis", "kombu")

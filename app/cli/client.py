@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
-import time
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Optional
 
@@ -12,37 +13,30 @@ import typer
 from rich.markup import escape
 
 from app.cli.common import cli, err, fail, load_spec, out_console, settings_or_exit
+from app.client import Client, GaitmendError
+from app.client.jobs import FINAL
 
-FINAL = ("succeeded", "failed", "cancelled")
 
-
-def _client(server: Optional[str], token: Optional[str]):
-    import httpx
-
+@contextlib.contextmanager
+def _client(server: Optional[str], token: Optional[str]) -> Iterator[Client]:
+    """The Python client (app/client) for a command; its errors become the CLI's: each
+    field and message on stderr, exit 2 for a request the server refused as wrong (400,
+    404, 409, 413, 422), 1 for anything else (no server, 401, 5xx)."""
     settings = settings_or_exit()
-    base = (server or settings.server).rstrip("/")
-    tok = token or settings.token
-    headers = {"Authorization": f"Bearer {tok}"} if tok else {}
-    return httpx.Client(base_url=base, headers=headers, timeout=30.0)
-
-
-def _call(client, method: str, url: str, **kw):
-    import httpx
-
     try:
-        r = client.request(method, url, **kw)
-    except httpx.HTTPError as e:
-        fail(f"cannot reach {client.base_url}: {e}", code=1)
-    if r.status_code >= 400:
-        try:
-            body = r.json()
-            msgs = [f"{e['field']}: {e['message']}" for e in body.get("errors", [])] or [body.get("detail", r.text)]
-        except ValueError:
-            msgs = [r.text]
-        for m in msgs:
+        with Client(server or settings.server, token or settings.token) as c:
+            yield c
+    except GaitmendError as e:
+        if e.status is None:
+            fail(e.detail, code=1)
+        for m in [f"{x['field']}: {x['message']}" for x in e.errors] or [e.detail]:
             err.print("[bold red]error:[/] " + escape(str(m)), highlight=False)  # the API's text, not markup
-        raise typer.Exit(2 if r.status_code in (400, 404, 409, 413, 422) else 1)
-    return r
+        raise typer.Exit(2 if e.status in (400, 404, 409, 413, 422) else 1) from None
+
+
+def _call(client: Client, method: str, url: str, **kw):
+    """One request through the client (its errors end the command in ``_client``)."""
+    return client.request(method, url, **kw)
 
 
 ServerOpt = typer.Option(None, "--server", help="API base URL (default GAITMEND_SERVER, http://127.0.0.1:8000)")
@@ -57,29 +51,21 @@ def _progress_text(kind_name: str, info: dict) -> str:
     return kind.progress_text(info) if kind is not None and info else ""
 
 
-def _wait(client, job_id: str, quiet: bool) -> dict:
+def _wait(client: Client, job_id: str, quiet: bool) -> dict:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     progress = None if quiet else Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                                            TextColumn("{task.fields[state]}"), TimeElapsedColumn(), console=err)
     task = progress.add_task(job_id[:8], total=None, state="queued") if progress else None
-    if progress:
-        progress.start()
-    try:
-        while True:
-            job = _call(client, "GET", f"/api/jobs/{job_id}").json()
-            if progress:
-                p = job["progress"]
-                info = p.get("info") or {}
-                text = _progress_text(job["kind"], info)
-                state = job["status"] + (f"  {text}" if text else "")
-                progress.update(task, completed=p["done"], total=p["total"] or None, state=state)
-            if job["status"] in FINAL:
-                return job
-            time.sleep(0.5)
-    finally:
-        if progress:
-            progress.stop()
+
+    def show(job: dict) -> None:
+        p = job["progress"]
+        text = _progress_text(job["kind"], p.get("info") or {})
+        progress.update(task, completed=p["done"], total=p["total"] or None,
+                        state=job["status"] + (f"  {text}" if text else ""))
+
+    with (progress or contextlib.nullcontext()):
+        return client.poll(f"/api/jobs/{job_id}", lambda j: j["status"] in FINAL, show if progress else None)
 
 
 @cli.command()
@@ -91,10 +77,8 @@ def submit(spec_path: Path = typer.Argument(..., metavar="SPEC", help="spec JSON
            as_json: bool = JsonOpt):
     """Submit a job to a server. The spec is checked here first (exit 2 if it is bad)."""
     spec = load_spec(spec_path)
-    headers = {"Idempotency-Key": idempotency_key} if idempotency_key else {}
     with _client(server, token) as c:
-        job = _call(c, "POST", "/api/jobs", content=spec.model_dump_json(), headers=headers
-                    | {"Content-Type": "application/json"}).json()
+        job = c.submit(spec, idempotency_key=idempotency_key).info
         if not as_json:
             # The id goes out at once (stdout, flushed), so a script can cancel the job while it runs.
             print(job["id"], flush=True)
@@ -144,14 +128,14 @@ def jobs(job_id: Optional[str] = typer.Argument(None, help="show one job (its id
         fail(f"--status: one of queued, running, succeeded, failed, cancelled; got {status!r}")
     with _client(server, token) as c:
         if job_id:
-            job = _call(c, "GET", f"/api/jobs/{job_id}").json()
+            job = c.job(job_id).info
             if as_json:
                 print(json.dumps(job))
             else:
                 _show_job(job)
             return
         params = {k: v for k, v in {"status": status, "kind": kind, "robot": robot, "limit": limit}.items() if v}
-        page = _call(c, "GET", "/api/jobs", params=params).json()
+        page = c.get_json("/api/jobs", **params)
     if as_json:
         print(json.dumps(page))
         return
@@ -203,15 +187,10 @@ def fetch(job_id: str = typer.Argument(...), out: Path = typer.Option(Path("."),
           server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
     """Download a finished job's result bundle (zip)."""
     with _client(server, token) as c:
-        job_id = _call(c, "GET", f"/api/jobs/{job_id}").json()["id"]  # a prefix resolves to the full id
-        r = _call(c, "GET", f"/api/jobs/{job_id}/bundle")
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"gaitmend-{job_id}.zip"
-    tmp = path.with_suffix(".zip.part")
-    tmp.write_bytes(r.content)
-    tmp.replace(path)
+        job = c.job(job_id)  # a prefix resolves to the full id
+        path = job.bundle(out)
     if as_json:
-        print(json.dumps({"id": job_id, "bundle": str(path), "bytes": len(r.content)}))
+        print(json.dumps({"id": job.id, "bundle": str(path), "bytes": path.stat().st_size}))
     else:
         print(path)
 
@@ -220,7 +199,7 @@ def fetch(job_id: str = typer.Argument(...), out: Path = typer.Option(Path("."),
 def cancel(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
     """Cancel a job: a queued one never starts, a running one stops within a generation."""
     with _client(server, token) as c:
-        job = _call(c, "POST", f"/api/jobs/{job_id}/cancel").json()
+        job = c.cancel(job_id)
     print(json.dumps(job) if as_json else f"{job['id']} {job['status']}"
           + (" (cancel requested)" if job["status"] == "running" else ""))
 
@@ -229,7 +208,7 @@ def cancel(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] 
 def retry(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] = TokenOpt, as_json: bool = JsonOpt):
     """Run a failed or cancelled job again; it resumes from its last checkpoint."""
     with _client(server, token) as c:
-        job = _call(c, "POST", f"/api/jobs/{job_id}/retry").json()
+        job = c.retry(job_id)
     print(json.dumps(job) if as_json else f"{job['id']} {job['status']}")
 
 
@@ -238,9 +217,8 @@ def delete(job_id: str, server: Optional[str] = ServerOpt, token: Optional[str] 
            as_json: bool = JsonOpt):
     """Delete a job that is not running, with its history, checkpoint and bundle."""
     with _client(server, token) as c:
-        job = _call(c, "GET", f"/api/jobs/{job_id}").json()  # a prefix resolves to the full id first
-        _call(c, "DELETE", f"/api/jobs/{job['id']}")
-    print(json.dumps({"id": job["id"], "deleted": True}) if as_json else f"{job['id']} deleted")
+        full = c.delete(job_id)  # a prefix resolves to the full id first
+    print(json.dumps({"id": full, "deleted": True}) if as_json else f"{full} deleted")
 
 
 @cli.command()
@@ -270,13 +248,8 @@ def replay(
             if path.is_file():
                 blob = path.read_bytes()
             else:
-                import urllib.request
-
-                req = urllib.request.Request(f"{server.rstrip('/')}/api/jobs/{target}/bundle")
-                if token:
-                    req.add_header("Authorization", f"Bearer {token}")
-                with urllib.request.urlopen(req, timeout=60) as r:
-                    blob = r.read()
+                with _client(server, token or "") as c:
+                    blob = c.request("GET", f"/api/jobs/{target}/bundle", timeout=60).content
             with zipfile.ZipFile(io.BytesIO(blob)) as z:
                 files = {n: z.read(n) for n in z.namelist()}
     except (OSError, zipfile.BadZipFile) as e:
