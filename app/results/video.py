@@ -79,9 +79,18 @@ def caption_lines(kind, spec: dict | None, summary: dict | None) -> list[str]:
     return [ln for ln in lines if ln]
 
 
+def _value_text(v: Any) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    if isinstance(v, (list, tuple)):
+        return "(" + ", ".join(_value_text(x) for x in v) + ")"
+    return "-" if v is None else str(v)
+
+
 def _row_text(r: dict) -> str:
-    v = r["value"]
-    v = f"{v:.3g}" if isinstance(v, float) else ("-" if v is None else str(v))
+    v = _value_text(r["value"])
     mark = "" if r["met"] is None or v in ("met", "not met") else (" (target met)" if r["met"] else " (target missed)")
     return f"{r['label']} {v}{(' ' + r['unit']) if r['unit'] else ''}{mark}"
 
@@ -171,11 +180,20 @@ class Panels:
             roots.append(np.array(pts))
         self.data.qpos[:] = qpos_paths[0][0]
         mujoco.mj_kinematics(self.model, self.data)
-        size = max(0.1, float(np.linalg.norm(self.data.xpos - self.data.xpos[self.root], axis=1).max()))
+        sub = [b for b in range(self.model.nbody) if self._in_robot(b)] or list(range(self.model.nbody))
+        size = max(0.05, float(np.linalg.norm(self.data.xpos[sub] - self.data.xpos[self.root], axis=1).max()))
         span = max(float(np.ptp(np.concatenate(roots)[:, :2], axis=0).max()), 0.0)
         self.centre = np.concatenate(roots).mean(axis=0)
         self.cam.distance = 3.2 * size + (0.9 * span if self.camera == "fixed" else 0.0)
         self.cam.azimuth, self.cam.elevation = 135.0, -22.0
+
+    def _in_robot(self, b: int) -> bool:
+        """Whether body ``b`` is the robot's base or below it (not the world's props)."""
+        while b > 0:
+            if b == self.root:
+                return True
+            b = int(self.model.body_parentid[b])
+        return False
 
     def frame(self, qpos_rows: list[np.ndarray]) -> np.ndarray:
         """One video frame (height, width, 3): each qpos row drawn in its panel."""
@@ -230,7 +248,9 @@ def overlay(frame: np.ndarray, labels: list[str], caption: list[str], t: float) 
     img = Image.fromarray(frame)
     draw = ImageDraw.Draw(img, "RGBA")
     h, w = frame.shape[:2]
-    size = max(10, h // 30)
+    size = max(8, h // 30)
+    widest = max([draw.textlength(line, font=_font(size)) for line in caption] + [1.0])
+    size = max(8, min(size, int(size * (w - size) / widest)))  # a long caption shrinks to fit the width
     font = _font(size)
     pw = w // max(1, len(labels))
     for k, label in enumerate(labels):
