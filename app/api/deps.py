@@ -5,6 +5,10 @@ A route declares ``db: Db = Depends(get_db)`` and calls ``await db.read(fn)`` (o
 app/store/db.py's ``session_scope``, and the store's NotFound and Conflict become the
 API's 404 and 409. Code that already runs in a worker thread (several transactions in
 one trip, e.g. commit a job, then send its id) opens them with ``db.session()``.
+
+A read that meets a dropped database connection is tried again for up to
+GAITMEND_DB_RETRY_S; what is still failing becomes a JSON 503 with Retry-After
+(app/api/errors.py, app/store/errors.py).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from app.api.errors import ApiError
 from app.core.settings import Settings
 from app.store import repo
 from app.store.db import session_scope
+from app.store.errors import with_retries
 
 T = TypeVar("T")
 
@@ -33,8 +38,8 @@ def settings_of(request: Request) -> Settings:
 class Db:
     """The database of the app serving a request."""
 
-    def __init__(self, url: str):
-        self.url = url
+    def __init__(self, url: str, retry_s: float = 0.0):
+        self.url, self.retry_s = url, retry_s
 
     @contextlib.contextmanager
     def session(self, readonly: bool = False) -> Iterator[Session]:
@@ -49,8 +54,15 @@ class Db:
             with self.session(readonly=readonly) as s:
                 return fn(s)
 
+        if readonly and self.retry_s > 0:  # a read may be tried again; a write's commit may have happened
+            return await self.call(lambda: with_retries(call, self.retry_s, "API read"), missing)
+        return await self.call(call, missing)
+
+    async def call(self, fn: Callable[[], T], missing: str = "job") -> T:
+        """``fn()`` in the thread pool, with ``run``'s 404 and 409 (for code that opens its
+        own transactions, e.g. app/store/space.py delete_job)."""
         try:
-            return await run_in_threadpool(call)
+            return await run_in_threadpool(fn)
         except repo.NotFound as e:
             raise ApiError(404, f"no {missing} {str(e)!r}", field="id") from None
         except repo.Conflict as e:  # e.g. an id prefix shared by several jobs
@@ -72,5 +84,6 @@ async def get_db(request: Request) -> Db:
 
 def db_of(request: Request) -> Db:
     """The same for code that is handed the request itself (auth, the health check)."""
-    return Db(settings_of(request).db_url)
+    settings = settings_of(request)
+    return Db(settings.db_url, settings.db_retry_s)
 

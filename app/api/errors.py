@@ -30,6 +30,7 @@ def _loc(loc) -> str:
 
 
 def install(app: FastAPI) -> None:
+    _install_store_errors(app)
     @app.exception_handler(ApiError)
     async def _api_error(_req: Request, exc: ApiError):
         return JSONResponse(error_body(exc.message, exc.errors), status_code=exc.status, headers=exc.headers)
@@ -51,6 +52,28 @@ def install(app: FastAPI) -> None:
             headers = (headers or {}) | {"Allow": ", ".join(allowed)}
             errors = [{"field": "method", "message": f"{req.method} is not allowed here; allowed: {', '.join(allowed)}"}]
         return JSONResponse(error_body(str(exc.detail), errors), status_code=exc.status_code, headers=headers)
+
+
+def _install_store_errors(app: FastAPI) -> None:
+    """A database or storage failure a client can wait out (a dropped connection, a busy
+    database, a full disk: app/store/errors.py) is a JSON 503 with Retry-After, never a
+    plain-text 500 or a message holding SQL. Any other such error stays a server error."""
+    from sqlalchemy.exc import DBAPIError
+    from sqlalchemy.exc import TimeoutError as PoolTimeout
+
+    from app.store.errors import StoreUnavailable, unavailable
+    from app.store.space import describe
+
+    async def _store(req: Request, exc: Exception):
+        found = unavailable(exc, describe(req.app.state.settings.data_dir))
+        if found is None:
+            raise exc
+        message, retry_after = found
+        return JSONResponse(error_body(message, [{"field": "service", "message": message}]), status_code=503,
+                            headers={"Retry-After": str(retry_after)})
+
+    for cls in (DBAPIError, PoolTimeout, StoreUnavailable, OSError):
+        app.add_exception_handler(cls, _store)
 
 
 def _message(req: Request, e: dict) -> str:

@@ -143,10 +143,14 @@ class Health(BaseModel):
     hostnames, PIDs and the broker's address are for token holders."""
 
     status: Literal["ok", "degraded"]
+    reasons: list[str] | None = Field(None, description="why the service is degraded (empty when ok)")
     database: str | None = None
     broker: str | None = None
     broker_url: str | None = None
     workers: list[WorkerOut] | None = None
+    disk: dict | None = Field(None, description="the data folder: path, free_bytes, min_free_bytes, low")
+    queue: dict | None = Field(None, description="running jobs, live worker slots, jobs waiting past "
+                                                 "GAITMEND_STALL_AFTER_S")
 
 
 def spec_union():

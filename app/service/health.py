@@ -12,7 +12,8 @@ A worker is live while its consumer is connected to the broker (app/service/cons
 from __future__ import annotations
 
 import datetime as dt
-from typing import Any
+from collections.abc import Callable
+from typing import Any, ContextManager
 
 from sqlalchemy import text
 
@@ -24,8 +25,10 @@ from app.store.models import utcnow
 from app.store.space import free_bytes, human
 
 
-def assess(settings: Settings) -> dict[str, Any]:
-    """{"status", "reasons", "database", "broker", "workers" (rows), "disk", "queue"}."""
+def assess(settings: Settings, session: Callable[..., ContextManager] | None = None) -> dict[str, Any]:
+    """{"status", "reasons", "database", "broker", "workers" (rows), "disk", "queue"}.
+    `session(readonly=True)`: the transaction to read in (the API's database dependency);
+    default app/store/db.py's session_scope on the settings' database."""
     from app.service.dispatch import broker_ok
     from app.studies.fair import live_within_s
 
@@ -33,7 +36,8 @@ def assess(settings: Settings) -> dict[str, Any]:
     workers: list = []
     queue: dict[str, Any] = {}
     try:
-        with session_scope(settings.db_url, readonly=True) as s:
+        opened = session(readonly=True) if session else session_scope(settings.db_url, readonly=True)
+        with opened as s:
             s.execute(text("SELECT 1"))
             workers = repo.workers_seen(s, within_s=live_within_s(settings.reaper_interval_s))
             running = repo.running_count(s)

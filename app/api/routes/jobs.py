@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import csv
 import io
-import shutil
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -23,7 +22,8 @@ from app.service.dispatch import send
 from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
 from app.core.settings import Settings
-from app.store import repo
+from app.store import repo, space
+from app.store.errors import transient
 from app.store.models import FINAL, utcnow
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
@@ -199,6 +199,9 @@ async def events(request: Request, job_id: JobId, who: Principal = Depends(princ
             except ApiError:  # deleted meanwhile
                 yield "event: end\ndata: {\"status\": \"deleted\"}\n\n"
                 return
+            except Exception as e:  # the database away mid-stream: the answer has begun, keep polling
+                if transient(e) is None:
+                    raise
 
     return StreamingResponse(stream(), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
@@ -225,12 +228,10 @@ async def retry(request: Request, job_id: JobId, who: Principal = Depends(princi
 
 @router.delete("/{job_id}", status_code=204, responses=ERRORS)
 async def delete(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
-    """Delete a job that is not running, with its history, checkpoint and bundle."""
+    """Delete a job that is not running, with its history, checkpoint and bundle; it also
+    works on a full disk, to free space (app/store/space.py delete_job)."""
     settings = settings_of(request)
-    job = await db.write(lambda s: repo.delete_job(s, job_id, who.owner_filter))
-    if job.bundle_path:
-        Path(job.bundle_path).unlink(missing_ok=True)
-    shutil.rmtree(Path(settings.artifact_dir) / job.id, ignore_errors=True)
+    await db.call(lambda: space.delete_job(settings, job_id, who.owner_filter))
     return Response(status_code=204)
 
 
@@ -238,6 +239,8 @@ async def delete(request: Request, job_id: JobId, who: Principal = Depends(princ
                                                           "description": "the result bundle"}})
 async def bundle(job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
+    if job.status == "succeeded" and not job.bundle_path:
+        raise ApiError(410, "the bundle was deleted by the retention policy (GAITMEND_BUNDLE_RETENTION_DAYS)")
     if job.status != "succeeded" or not job.bundle_path:
         raise ApiError(409, f"the bundle exists once the job succeeded; it is {job.status}", field="status")
     path = Path(job.bundle_path)

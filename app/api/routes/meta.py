@@ -4,15 +4,13 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Depends, Request
 from fastapi.concurrency import run_in_threadpool
-from sqlalchemy import text
 
 from app.api.auth import principal
 from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
-from app.service.dispatch import broker_ok
+from app.service.health import assess
 from app.jobs.registry import KINDS, robots as all_robots
-from app.store import repo
 
 router = APIRouter(tags=["service"])
 
@@ -32,8 +30,9 @@ async def robots() -> list[dict]:
 
 @router.get("/health", response_model=Health, response_model_exclude_none=True)
 async def health(request: Request, db: Db = Depends(get_db)):
-    """Database, broker, and the workers seen in the last three housekeeping intervals.
-    When tokens are required, only `status` without a valid one."""
+    """Database, broker, the live workers (consumer connected, seen in the last three
+    housekeeping intervals), free space, and why the service is "degraded" when it is
+    (app/service/health.py). When tokens are required, only `status` without a valid one."""
     settings = settings_of(request)
     trusted = not request.app.state.auth_required
     if not trusted and request.headers.get("authorization"):
@@ -42,22 +41,11 @@ async def health(request: Request, db: Db = Depends(get_db)):
         except ApiError:
             trusted = False
 
-    def check():
-        try:
-            with db.session(readonly=True) as s:
-                s.execute(text("SELECT 1"))
-                seen = repo.workers_seen(s, within_s=max(3 * settings.reaper_interval_s, 15.0))
-            database = "ok"
-        except Exception as e:
-            database, seen = f"{type(e).__name__}: {e}", []
-        ok, broker = broker_ok(settings)
-        return database, broker, seen
-
-    database, broker, seen = await run_in_threadpool(check)
-    status = "ok" if database == "ok" and broker == "ok" else "degraded"
+    h = await run_in_threadpool(assess, settings, db.session)
     if not trusted:
-        return Health(status=status)
+        return Health(status=h["status"])
     url = settings.broker_url.split("@")[-1] if "@" in settings.broker_url else settings.broker_url
-    return Health(status=status, database=database, broker=broker,
+    return Health(status=h["status"], reasons=h["reasons"], database=h["database"], broker=h["broker"],
                   broker_url=url, workers=[WorkerOut(name=w.name, broker=w.broker, started_at=w.started_at,
-                                                     last_seen_at=w.last_seen_at) for w in seen])
+                                                     last_seen_at=w.last_seen_at) for w in h["workers"]],
+                  disk=h["disk"], queue=h["queue"] or None)
