@@ -1,13 +1,11 @@
 """Cancel reaches every post-search phase of energy: the random-search control, the analysis
 (the answer in detail, the physics check, each control) and the robustness re-runs stop at
 their next unit of work, and no later phase runs."""
-import copy
 
 import pytest
-from cancel_support import PhaseCtx
+from cancel_support import PhaseCtx, assert_cancel_stops_in
 
 from app.jobs import registry
-from app.jobs.base import Cancelled
 from app.jobs.energy import run as energy_run
 
 CONTROLS = ["paper_table1", "srb_only", "high_step", "rod_inertia", "no_residual_iteration"]
@@ -53,12 +51,4 @@ def test_every_post_search_phase_reports_progress(full):
 @pytest.mark.parametrize("phase", POST)
 def test_cancel_stops_every_post_search_phase(full, phase):
     spec, done_ctx, _ = full
-    ckpt = copy.deepcopy(done_ctx._ckpt)  # the finished searches: only the later phases run again
-    if phase == "random_search":
-        ckpt.pop("random_search")
-    ctx = Ctx(ckpt=ckpt, cancel_in=phase)
-    with pytest.raises(Cancelled):
-        energy_run.run(spec, ctx)
-    assert ctx.phases[-1] == phase  # stopped at the phase's next unit, nothing after it ran
-    assert ctx.phases.count(phase) == 1
-    assert not set(ctx.phases) & set(POST[POST.index(phase) + 1:])
+    assert_cancel_stops_in(energy_run.run, spec, done_ctx, phase, POST[POST.index(phase) + 1:], Ctx)
