@@ -82,6 +82,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     from app.api.routes import studies
 
     app.include_router(studies.router, prefix="/api")
+    from app.api.routes import media
+
+    app.include_router(media.router, prefix="/api")  # a job's video and thumbnail
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
 
     install_docs(app)

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import datetime as dt
-from typing import Annotated, Any, Literal, Union
+from typing import Any, Literal
 
-from pydantic import BaseModel, Field, TypeAdapter
+from pydantic import BaseModel, Field
 
 from app.jobs.base import SpecError
 from app.jobs.registry import KINDS
+# The body of POST /api/jobs: a discriminated union on `kind`, every section named after its kind.
+from app.jobs.schema import spec_json_schema, spec_union  # noqa: F401  (create_app and the tests use them here)
 from app.store.models import Job
 
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
@@ -123,7 +125,7 @@ class JobOut(BaseModel):
             error=job.error, damage=damage_text(job), headline=headline(job),
             summary=job.summary if detail else None, spec=job.spec if detail else None,
             links={"self": base, "history": f"{base}/history", "events": f"{base}/events",
-                   "bundle": f"{base}/bundle"})
+                   "bundle": f"{base}/bundle", "video": f"{base}/video", "thumbnail": f"{base}/thumbnail"})
 
 
 class JobList(BaseModel):
@@ -151,26 +153,6 @@ class Health(BaseModel):
     disk: dict | None = Field(None, description="the data folder: path, free_bytes, min_free_bytes, low")
     queue: dict | None = Field(None, description="running jobs, live worker slots, jobs waiting past "
                                                  "GAITMEND_STALL_AFTER_S")
-
-
-def spec_union():
-    """The body of POST /jobs: a discriminated union on `kind` over every registered kind."""
-    models = tuple(m.Spec for m in KINDS.values())
-    if len(models) == 1:
-        return models[0]
-    return Annotated[Union[models], Field(discriminator="kind")]  # noqa: UP007
-
-
-def spec_json_schema() -> tuple[dict, dict]:
-    """(JobSpec schema, its definitions) with refs into #/components/schemas."""
-    schema = TypeAdapter(spec_union()).json_schema(ref_template="#/components/schemas/{model}")
-    defs = schema.pop("$defs", {})
-    # `kind` has a default in each model (its own name) but a body must name it: say so.
-    refs = list((schema.get("discriminator") or {}).get("mapping", {}).values())
-    for branch in [defs[r.rsplit("/", 1)[1]] for r in refs if r.rsplit("/", 1)[1] in defs] or [schema]:
-        if "kind" in branch.get("properties", {}):
-            branch["required"] = ["kind", *[f for f in branch.get("required", []) if f != "kind"]]
-    return schema, defs
 
 
 class BuiltinStudyOut(BaseModel):

@@ -374,3 +374,75 @@ def probe(path: Path) -> dict[str, Any]:
         return {"frames": frames, "width": s.codec_context.width, "height": s.codec_context.height,
                 "fps": float(s.average_rate) if s.average_rate else None, "codec": s.codec_context.name,
                 "seconds": float(c.duration / av.time_base) if c.duration else None}
+
+
+# -- kept with the bundle ------------------------------------------------------------------------------
+
+MEDIA = {"video": ("media/walk.mp4", "video/mp4"), "thumbnail": ("media/thumbnail.webp", "image/webp")}
+
+
+def member(bundle: Path, name: str) -> bytes | None:
+    """A member of a bundle zip, or None when it has none of that name."""
+    with zipfile.ZipFile(bundle) as z:
+        return z.read(name) if name in z.namelist() else None
+
+
+def add_member(bundle: Path, name: str, data: bytes) -> None:
+    """Keep ``data`` in the bundle zip as ``name``: a copy with the member added (or
+    replaced) is written beside it and renamed over it, so a download in progress reads
+    the old file to its end and a reader never sees half a zip."""
+    bundle = Path(bundle)
+    part = bundle.with_name(bundle.name + ".media.part")
+    try:
+        with zipfile.ZipFile(bundle) as src, zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as dst:
+            for info in src.infolist():
+                if info.filename != name:
+                    dst.writestr(info, src.read(info))
+            dst.writestr(name, data, compress_type=zipfile.ZIP_STORED)  # MP4 and WebP are compressed already
+        os.replace(part, bundle)
+    finally:
+        part.unlink(missing_ok=True)
+
+
+def render_into_bundle(bundle: Path, what: str) -> bytes:
+    """Render the bundle's video or thumbnail (``what``: a key of MEDIA) at the defaults,
+    keep it in the bundle, and return it; an existing one is returned as it is."""
+    name, _ = MEDIA[what]
+    found = member(bundle, name)
+    if found is not None:
+        return found
+    import tempfile
+
+    clip = clip_of_files(bundle_files(bundle))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / Path(name).name
+        if what == "video":
+            write_mp4(clip, out)
+        else:
+            write_thumbnail(clip, out)
+        data = out.read_bytes()
+    add_member(bundle, name, data)
+    return data
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m app.results.video BUNDLE video|thumbnail``: what the API runs in a
+    child process (rendering holds a CPU and an OpenGL context for seconds to minutes; the
+    server's own process stays free). Exit 0 with the member kept in the bundle; 3 when
+    there is nothing to render or no OpenGL, with the reason on stderr."""
+    import sys
+
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2 or args[1] not in MEDIA:
+        print(f"usage: python -m app.results.video BUNDLE {'|'.join(MEDIA)}", file=sys.stderr)
+        return 2
+    try:
+        render_into_bundle(Path(args[0]), args[1])
+    except RenderError as e:
+        print(str(e), file=sys.stderr)
+        return 3
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
