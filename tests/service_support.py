@@ -127,6 +127,13 @@ def job_row(settings: Settings, job_id: str) -> Job:
         return repo.get_job(s, job_id)
 
 
+def job_count(settings: Settings) -> int:
+    from sqlalchemy import func, select
+
+    with session_scope(settings.db_url, readonly=True) as s:
+        return s.scalar(select(func.count()).select_from(Job))
+
+
 def checkpoint_saves(settings: Settings, job_id: str) -> int:
     from app.store import repo
 

@@ -9,7 +9,7 @@ import time
 
 import pytest
 from fastapi.testclient import TestClient
-from service_support import SMALL, deployment, migrated, spec
+from service_support import SMALL, deployment, job_count, migrated, spec
 from sqlalchemy import func, select
 
 from app.api import create_app
@@ -28,11 +28,6 @@ def settings(tmp_path):
 @pytest.fixture
 def client(settings):
     return TestClient(create_app(settings))
-
-
-def job_count(settings) -> int:
-    with session_scope(settings.db_url, readonly=True) as s:
-        return s.scalar(select(func.count()).select_from(Job))
 
 
 def small_text(**top) -> str:

@@ -8,15 +8,13 @@ import threading
 
 import pytest
 from fastapi.testclient import TestClient
-from service_support import SMALL, deployment, migrated, spec
-from sqlalchemy import func, select
+from service_support import SMALL, deployment, job_count, migrated, spec
 
 from app.api import create_app
 from app.jobs import registry
 from app.robots.catalog import ROBOTS
 from app.store import repo
 from app.store.db import session_scope
-from app.store.models import Job
 
 
 @pytest.fixture
@@ -32,11 +30,6 @@ def settings(env):
 @pytest.fixture
 def client(settings):
     return TestClient(create_app(settings))
-
-
-def job_count(settings) -> int:
-    with session_scope(settings.db_url, readonly=True) as s:
-        return s.scalar(select(func.count()).select_from(Job))
 
 
 def messages(settings) -> list:
