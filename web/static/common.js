@@ -170,7 +170,20 @@ const GM = (() => {
     setTimeout(() => URL.revokeObjectURL(url), 10000);
   }
 
+  // A job's animated gait thumbnail (WebP; the server renders it on the first request and
+  // keeps it with the bundle). With a token the picture is fetched with it (an <img src>
+  // cannot send headers); a job without one (nothing to replay) shows nothing.
+  function thumbnail(jobId, alt) {
+    const img = el("img", { class: "thumb", width: 240, height: 136, alt: alt || `gait of job ${jobId.slice(0, 8)}` });
+    img.addEventListener("error", () => img.remove());
+    const path = `/api/jobs/${jobId}/thumbnail`;
+    if (!token()) img.src = path;
+    else fetch(path, { headers: authHeaders() }).then((r) => (r.ok ? r.blob() : Promise.reject(r.status)))
+      .then((b) => { img.src = URL.createObjectURL(b); }).catch(() => img.remove());
+    return img;
+  }
+
   document.addEventListener("DOMContentLoaded", initAuth);
-  return { api, events, el, num, age, badge, progressText, plot, empty, download, token, authHeaders,
+  return { api, events, el, num, age, badge, progressText, plot, empty, download, thumbnail, token, authHeaders,
            ApiError, FINAL, COLORS, PALETTE, ROLES };
 })();

@@ -71,6 +71,19 @@
     if (conv) card.append(div);
     else card.append(el("p", { class: "small muted", text: "These jobs report no objective per generation (their history holds runs); their numbers are in the table." }));
     const rows = metricRows(list);
+    // Each succeeded job's animated gait, loaded when opened (the server renders a
+    // thumbnail on its first request).
+    const done = list.filter((c) => c.job.status === "succeeded");
+    if (done.length) {
+      const prev = el("details", { class: "previews" }, el("summary", { text: "Gait previews" }));
+      prev.addEventListener("toggle", () => {
+        if (prev.open && !prev.querySelector(".thumbs")) {
+          prev.append(el("div", { class: "thumbs" }, done.map((c) => el("figure", {}, GM.thumbnail(c.job.id),
+            el("figcaption", { class: "small", text: c.job.id.slice(0, 8) })))));
+        }
+      });
+      card.append(prev);
+    }
     card.append(el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": `metrics of ${groupTitle(list[0])}` },
       el("table", { class: "data headline metrics" },
         el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Metric" }),

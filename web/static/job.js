@@ -36,6 +36,8 @@
     const dl = $("download");
     dl.hidden = j.status !== "succeeded";
     dl.href = `/api/jobs/${j.id}/bundle`;
+    $("video").hidden = j.status !== "succeeded";
+    $("video").href = `/api/jobs/${j.id}/video`;
     $("compare-link").href = `/compare?ids=${j.id}`;
     const spec = j.spec || {};
     const s = spec.search || {};
@@ -268,6 +270,14 @@
       if (!GM.token()) return; // a plain link does it
       e.preventDefault();
       GM.download(`/api/jobs/${jobId}/bundle`, `gaitmend-${jobId}.zip`).catch((err) => {
+        $("job-error").textContent = err.message;
+        $("job-error").hidden = false;
+      });
+    });
+    $("video").addEventListener("click", (e) => {
+      if (!GM.token()) return; // a plain link does it
+      e.preventDefault();
+      GM.download(`/api/jobs/${jobId}/video`, `gaitmend-${jobId}.mp4`).catch((err) => {
         $("job-error").textContent = err.message;
         $("job-error").hidden = false;
       });

@@ -230,6 +230,23 @@
     return "–";
   }
 
+  // The job's link; a succeeded job's animated gait shows under it when the link is
+  // hovered or focused (rendered by the server on first request: on demand, not per page view).
+  function jobCell(item) {
+    const link = el("a", { class: "id", href: `/jobs/${item.id}`, text: item.id.slice(0, 8) });
+    const cell = el("td", { "data-label": "Job" }, link);
+    if (item.status === "succeeded") {
+      let timer = null; // a pointer passing over (or a click on the way) asks the server for nothing
+      const show = () => { timer = setTimeout(() => { if (!cell.querySelector(".thumb")) cell.append(GM.thumbnail(item.id)); }, 600); };
+      const hide = () => clearTimeout(timer);
+      link.addEventListener("mouseenter", show);
+      link.addEventListener("focus", show);
+      link.addEventListener("mouseleave", hide);
+      link.addEventListener("blur", hide);
+    }
+    return cell;
+  }
+
   function cells(item) {
     const bar = item.status === "running" || item.status === "queued"
       ? el("progress", { max: 1, value: item.progress.fraction, "aria-label": `progress ${progressText(item)}` }) : null;
@@ -238,7 +255,7 @@
     pick.addEventListener("change", () => { pick.checked ? picked.add(item.id) : picked.delete(item.id); updateCompare(); });
     return [
       el("td", { class: "sel" }, pick),
-      el("td", { "data-label": "Job" }, el("a", { class: "id", href: `/jobs/${item.id}`, text: item.id.slice(0, 8) })),
+      jobCell(item),
       el("td", { "data-label": "Kind", text: item.kind }),
       el("td", { "data-label": "Robot", text: item.robot || "–" }),
       el("td", { "data-label": "Damage", text: item.damage || "–" }),
