@@ -9,6 +9,7 @@ import mujoco
 
 from app.robots import hexapod
 from app.robots.damage import DamageSpec, apply_damage
+from app.robots.legmap import LegMap, Robot
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,6 +66,27 @@ class RobotEntry:
         mujoco.mj_comPos(model, data)
         torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
         return float(data.subtree_com[torso, 0]), float(data.subtree_com[torso, 1])
+
+    def nominal_stance(self) -> dict[int, list[float]]:
+        """Joint angles of each leg at the nominal stance (foot at x0, y0, H0 below the hip)."""
+        import numpy as np
+
+        from app.robots.ik import leg_ik
+
+        out = {}
+        for lg in self.geometry.legs():
+            tip = np.array([self.nominal_x0(), lg.side * self.nominal_y0(lg.leg), -self.stance_height])
+            out[lg.leg] = [float(v) for v in leg_ik(tip, self.geometry.link_lengths)]
+        return out
+
+    def leg_map(self) -> LegMap:
+        """This robot as data: its leg map, the nominal stance and the servo gains included."""
+        return hexapod.leg_map(self.geometry, stance=self.nominal_stance(), stance_height=self.stance_height)
+
+    def robot(self) -> Robot:
+        """The built model as MJCF text (no asset files) with its leg map: the form an uploaded
+        robot takes (app/robots/legmap.py). The simulations still compile build() directly."""
+        return Robot(name=self.name, mjcf=self.build().to_xml(), assets={}, legs=self.leg_map())
 
     def model(self, damage: DamageSpec = DamageSpec()) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
         spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage))

@@ -162,6 +162,21 @@ def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
     return spec
 
 
+def leg_map(geom: HexapodGeometry = JETHEXA, stance: dict[int, list[float]] | None = None,
+            stance_height: float | None = None):
+    """The leg map of build_spec(geom): legs leg1..leg6 (odd left, even right; front to
+    back in pairs), joints coxa-femur-tibia, feet the tip sites, forward +y, the PID gains
+    and torque limit of the servos; stance joint values per leg number if given."""
+    from app.robots.legmap import Foot, Gains, Leg, LegMap
+
+    legs = [Leg(name=f"leg{lg.leg}", side="left" if lg.side < 0 else "right", order=(lg.leg - 1) // 2,
+                joints=[joint_name(lg.leg, j) for j in JOINT_NAMES], foot=Foot(kind="site", name=f"leg{lg.leg}_tip"),
+                stance=None if stance is None else [float(v) for v in stance[lg.leg]])
+            for lg in geom.legs()]
+    return LegMap(trunk="torso", forward="+y", legs=legs, stance_height=stance_height,
+                  gains=Gains(kp=geom.kp, kd=geom.kd, ki=geom.ki, force_limit=geom.torque_limit))
+
+
 FALL_BODIES = ("torso",) + tuple(f"leg{n}_{j}" for n in LEG_IDS for j in ("coxa", "femur"))
 
 
