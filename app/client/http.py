@@ -132,7 +132,6 @@ class Client:
     def download(self, url: str, path: Path, timeout: float | None = 600.0) -> Path:
         """Stream a response body into ``path`` (a part file, renamed once complete)."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         part = path.with_name(path.name + ".part")
         try:
             with self._http.stream("GET", url, timeout=timeout) as r:
@@ -143,6 +142,7 @@ class Client:
                     except ValueError:
                         body = None
                     raise error_for(r.status_code, body, r.text)
+                path.parent.mkdir(parents=True, exist_ok=True)  # only for a body that came
                 with open(part, "wb") as f:
                     for chunk in r.iter_bytes():
                         f.write(chunk)

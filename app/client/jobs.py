@@ -145,7 +145,8 @@ class Study:
         def update(s: dict) -> None:
             p = s.get("progress") or {}
             finished = p.get("done", 0) + p.get("failed", 0) + p.get("cancelled", 0)
-            show(finished, p.get("points", 0), f"{s['status']}  {p.get('running', 0)} running")
+            show(finished, p.get("points", 0), f"{p.get('running', 0)} running, {p.get('queued', 0)} queued"
+                 if s["status"] not in FINAL else s["status"])
 
         with bar(progress, self.id[:8]) as show:
             self.info = self.client.poll(f"/api/studies/{self.id}", lambda s: s["status"] in FINAL,

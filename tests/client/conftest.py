@@ -1,0 +1,66 @@
+"""One real `gaitmend serve` (embedded broker, SQLite, one worker) for the whole session:
+the Python client, the bundle reader, the videos, the generated client and the notebook
+all talk to it. Every kind's smoke job is submitted once, at the start, so the worker
+runs them while the first tests wait."""
+
+from __future__ import annotations
+
+import httpx
+import pytest
+from service_support import Proc, deployment, free_port, wait_for
+
+
+@pytest.fixture(scope="session")
+def served(tmp_path_factory):
+    """(base URL, the server's Proc, its env) of a served instance."""
+    tmp = tmp_path_factory.mktemp("served")
+    env = deployment(tmp)
+    port = free_port()
+    proc = Proc(["serve", "--port", str(port)], env, tmp / "serve.log")
+    base = f"http://127.0.0.1:{port}"
+
+    def up():
+        try:
+            return httpx.get(f"{base}/api/health", timeout=2).status_code == 200
+        except httpx.HTTPError:
+            return proc.p.poll() is not None and pytest.fail(f"serve exited:\n{proc.tail()}")
+
+    try:
+        wait_for(up, 90, "the server", proc=proc)
+        yield base, proc, env
+    finally:
+        proc.stop()
+
+
+@pytest.fixture(scope="session")
+def client(served):
+    import gaitmend
+
+    with gaitmend.Client(served[0], token="") as c:
+        yield c
+
+
+@pytest.fixture(scope="session")
+def kind_jobs(client):
+    """{kind: Job} of every registered kind's smoke spec, submitted (not waited for)."""
+    from app.jobs.registry import KINDS
+
+    return {name: client.submit(kind.smoke_spec()) for name, kind in KINDS.items() if kind.smoke_spec()}
+
+
+@pytest.fixture(scope="session")
+def finished(kind_jobs, served):
+    """The same jobs, finished: each must have succeeded."""
+    out = {}
+    for name, job in kind_jobs.items():
+        job.wait(progress=False, timeout=300)
+        assert job.status == "succeeded", (name, job.info.get("error"), served[1].tail())
+        out[name] = job
+    return out
+
+
+@pytest.fixture(scope="session")
+def bundles(finished, tmp_path_factory):
+    """{kind: path of its downloaded bundle zip}."""
+    folder = tmp_path_factory.mktemp("bundles")
+    return {name: job.bundle(folder / f"{name}.zip") for name, job in finished.items()}
