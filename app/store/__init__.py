@@ -1,1 +1,3 @@
 """The jobs database: SQLAlchemy models, engine and session scope, repository functions."""
+
+from app.store import robot_models  # noqa: F401  (the robots table joins the one metadata)
