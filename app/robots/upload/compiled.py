@@ -3,11 +3,24 @@ sizes against the caps, and find (or check) its legs. Runs only inside child.py.
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import numpy as np
 
 from app.robots.detect import check_legs, detect_legs, leg_points
 from app.robots.legmap import LegMap, LegMapError
+
+
+def scrub(message: str, assets: dict[str, bytes]) -> str:
+    """MuJoCo words a missing file and an unreadable one differently ("Error opening file"
+    against "empty PNG file": it can still stat what it may not open). A message about a
+    file that is not one of the assets says only that, the same whatever the host holds."""
+    quoted = re.findall(r"'([^']*)'", message)
+    names = [q for q in quoted if "/" in q or "." in q]
+    if re.search(r"file|open", message, re.IGNORECASE) and any(n not in assets for n in names):
+        return "the model references a file that is not one of the uploaded files"
+    return message
 
 
 def _caps(model: mujoco.MjModel, lim: dict) -> str | None:
@@ -58,7 +71,7 @@ def examine(xml: str, assets: dict[str, bytes], legs: dict | None, forward: str 
     except MemoryError:
         raise
     except Exception as e:  # MuJoCo's compile error: its text names the element at fault
-        return {"ok": False, "error": "MuJoCo cannot compile the model: " + str(e).strip()[:600]}
+        return {"ok": False, "error": "MuJoCo cannot compile the model: " + scrub(str(e).strip(), assets)[:600]}
     problem = _caps(model, lim)
     if problem:
         return {"ok": False, "error": problem}
