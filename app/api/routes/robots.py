@@ -1,0 +1,168 @@
+"""/api/robots: the built-in robots and your own. POST uploads an MJCF legged robot
+(multipart: the model and its asset files, or one zip); it goes through the defence of
+app/robots/upload (pre-parse, confined compile, caps) and is stored sanitised
+(app/store/robots.py). A robot belongs to its owner like a job: others get 404."""
+
+from __future__ import annotations
+
+import time
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, Path as PathParam, Request, Response
+from fastapi.concurrency import run_in_threadpool
+from starlette.datastructures import UploadFile
+
+from app.api.auth import Principal, principal
+from app.api.deps import Db, get_db, settings_of
+from app.api.errors import ApiError
+from app.jobs.registry import KINDS, robots as builtin_robots
+from app.robots.upload import LIMITS, RefusedUpload, from_parts, from_zip, prepare
+from app.store import robots as store
+
+router = APIRouter(prefix="/robots", tags=["robots"])
+RobotId = Annotated[str, PathParam(min_length=1, max_length=64, description="robot id (or a built-in's name)")]
+# An upload's body: the files' cap plus room for the multipart framing and the small fields.
+MAX_BODY_BYTES = LIMITS.max_upload_bytes + 1024 * 1024
+UPLOAD_SCHEMA = {"requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {
+    "type": "object",
+    "properties": {
+        "model": {"type": "string", "format": "binary", "description": "the MJCF file"},
+        "assets": {"type": "array", "items": {"type": "string", "format": "binary"},
+                   "description": "files the model references, each named by its path relative to the model"},
+        "archive": {"type": "string", "format": "binary", "description": "instead of model and assets: one zip"},
+        "model_path": {"type": "string", "description": "the model's path inside the zip"},
+        "legs": {"type": "string", "description": "leg map JSON (default: detected from the model)"},
+        "forward": {"type": "string", "enum": ["+x", "-x", "+y", "-y"]},
+        "name": {"type": "string", "maxLength": 200},
+    }}}}}}
+
+
+def _builtins() -> list[dict]:
+    out = []
+    for name, entry in builtin_robots().items():
+        info: dict = {}
+        for k in entry["kinds"]:
+            info |= KINDS[k].robot_info(name)
+        out.append(info | {"name": name, "description": entry["description"], "kinds": entry["kinds"],
+                           "builtin": True})
+    return out
+
+
+async def _who(request: Request) -> Principal | None:
+    """The caller; None where tokens are required and none was sent (built-ins only)."""
+    if request.app.state.auth_required and not request.headers.get("authorization"):
+        return None
+    return await principal(request)
+
+
+@router.get("")
+async def list_robots(request: Request, db: Db = Depends(get_db)) -> list[dict]:
+    """Every built-in robot with the kinds that simulate it, then your own robots. An uploaded
+    robot runs no kind yet: `kinds` is empty and `kinds_coming` says recovery is coming."""
+    who = await _who(request)
+    own = []
+    if who is not None:
+        rows = await db.read(lambda s: [store.as_dict(r) for r in store.list_robots(s, who.owner_filter)])
+        own = [r | {"builtin": False, "description": f"uploaded MJCF robot, {len(r['legs']['legs'])} legs"}
+               for r in rows]
+    return _builtins() + own
+
+
+@router.get("/{robot_id}")
+async def get_robot(robot_id: RobotId, who: Principal = Depends(principal), db: Db = Depends(get_db)) -> dict:
+    """One robot: a built-in by name, or one of yours by id (its leg map, sizes, files)."""
+    for r in _builtins():
+        if r["name"] == robot_id:
+            return r
+    return await db.read(lambda s: store.as_dict(store.get_robot(s, robot_id, who.owner_filter)), missing="robot")
+
+
+@router.delete("/{robot_id}", status_code=204)
+async def delete_robot(robot_id: RobotId, request: Request, who: Principal = Depends(principal),
+                       db: Db = Depends(get_db)) -> Response:
+    """Delete one of your robots and its files; 409 while a queued or running job uses it."""
+    if robot_id in builtin_robots():
+        raise ApiError(409, f"{robot_id!r} is a built-in robot; it cannot be deleted", field="id")
+    data_dir = settings_of(request).data_dir
+    await db.write(lambda s: store.delete_robot(s, data_dir, robot_id, who.owner_filter), missing="robot")
+    return Response(status_code=204)
+
+
+async def _body(request: Request) -> bytes:
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if ctype != "multipart/form-data":
+        raise ApiError(415, f"Content-Type must be multipart/form-data, got {ctype or 'none'!r}", field="Content-Type")
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > MAX_BODY_BYTES:
+            raise ApiError(413, f"an upload is at most {LIMITS.max_upload_bytes} bytes of files", field="body")
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+async def _form(request: Request, body: bytes):
+    async def receive():
+        return {"type": "http.request", "body": body, "more_body": False}
+
+    replay = Request(request.scope, receive)
+    return await replay.form(max_files=LIMITS.max_files + 2, max_fields=16, max_part_size=256 * 1024)
+
+
+def _text(form, key: str) -> str | None:
+    v = form.get(key)
+    if v is None or isinstance(v, str):
+        return v
+    raise ApiError(422, f"{key} must be a text field", field=key)
+
+
+async def _upload(form):
+    archive, model = form.get("archive"), form.get("model")
+    assets = form.getlist("assets")
+    if isinstance(archive, UploadFile):
+        if model is not None or assets:
+            raise RefusedUpload("send either archive (a zip) or model and assets, not both", field="archive")
+        return from_zip(await archive.read(), _text(form, "model_path"))
+    if not isinstance(model, UploadFile):
+        raise RefusedUpload("the upload needs a model file (field model) or a zip (field archive)", field="model")
+    parts = []
+    for a in assets:
+        if not isinstance(a, UploadFile):
+            raise RefusedUpload("assets must be files", field="assets")
+        parts.append((a.filename or "", await a.read()))
+    return from_parts(model.filename or "model.xml", await model.read(), parts)
+
+
+@router.post("", status_code=201, openapi_extra=UPLOAD_SCHEMA)
+async def add_robot(request: Request, response: Response, who: Principal = Depends(principal),
+                    db: Db = Depends(get_db)) -> dict:
+    """Upload an MJCF legged robot: checked, compiled in a confined process, stored
+    sanitised with its leg map (detected unless `legs` is given: confirm it). 201 with the
+    robot; 200 with the stored one when you uploaded the same content before; 4xx naming
+    what was refused, with nothing stored."""
+    t0 = time.perf_counter()
+    form = await _form(request, await _body(request))
+    try:
+        upload = await _upload(form)
+        legs = form.get("legs")
+        legs = await legs.read() if isinstance(legs, UploadFile) else legs
+        prepared = await run_in_threadpool(prepare, upload, legs, _text(form, "forward"), _text(form, "name"))
+    except RefusedUpload as e:
+        raise ApiError(e.status, f"refused: {e}", field=e.field) from None
+    finally:
+        await form.close()
+    data_dir = settings_of(request).data_dir
+    info = {"detected": prepared.detected, "points": prepared.points, "stats": prepared.stats,
+            "sandbox": prepared.sandbox}
+    owner = who.name
+
+    def write(s):
+        row, created = store.add_robot(s, data_dir, owner=owner, name=prepared.name, content_hash=prepared.content_hash,
+                                       legs=prepared.legs.to_json(), info=info, xml=prepared.xml,
+                                       assets=prepared.assets)
+        return store.as_dict(row), created
+
+    out, created = await db.write(write, missing="robot")
+    if not created:
+        response.status_code = 200
+    return out | {"builtin": False, "created": created, "seconds": round(time.perf_counter() - t0, 3)}
