@@ -15,6 +15,15 @@ if [ -f tests/e2e/conftest.py ] && [ ! -x /usr/bin/chromium ] && command -v apt-
   (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
     || echo "warning: could not install chromium; browser tests will fail" >&2
 fi
+# Videos (app/results/video.py, `gaitmend video`, the job page's MP4) render with MuJoCo's
+# offscreen renderer on software OpenGL: EGL with Mesa's llvmpipe, no display or GPU. Debian:
+# libegl1 (EGL dispatch), libegl-mesa0 (Mesa's EGL), libgl1-mesa-dri (llvmpipe), libgl1 and
+# libopengl0 (the GL entry points PyOpenGL loads).
+if [ -d tests/client ] && ! ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' && command -v apt-get >/dev/null; then
+  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+     libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 libopengl0 >/dev/null) \
+    || echo "warning: could not install Mesa's EGL (libegl-mesa0, libgl1-mesa-dri); video tests will fail" >&2
+fi
 # Redis and PostgreSQL run on this machine and in CI; start them if they stopped.
 if command -v redis-cli >/dev/null && ! redis-cli -h 127.0.0.1 ping >/dev/null 2>&1; then
   redis-server --daemonize yes --bind 127.0.0.1 --port 6379 --save "" --appendonly no >/dev/null || true

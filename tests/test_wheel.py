@@ -21,7 +21,7 @@ import httpx
 from service_support import free_port, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
-SOURCES = ("pyproject.toml", "setup.py", "README.md", "LICENSE", "app", "workers", "web", "migrations")
+SOURCES = ("pyproject.toml", "setup.py", "README.md", "LICENSE", "app", "workers", "gaitmend", "web", "migrations")
 SPEC = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
         "search": {"population": 4, "generations": 1, "seed": 3}, "sim": {"duration_s": 1.0}}
 
@@ -47,6 +47,7 @@ def test_wheel_installs_and_serves_in_a_fresh_venv(tmp_path):
     wheel = next(dist.glob("gaitmend-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "app/_assets/migrations/env.py" in names and "app/_assets/web/templates/index.html" in names
+    assert "gaitmend/__init__.py" in names  # `import gaitmend`: the Python client (app/client)
     studies = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "app" / "jobs").glob("*/studies/*.json"))
     assert studies and set(studies) <= set(names), sorted(set(studies) - set(names))  # each kind's built-in studies
 
@@ -61,6 +62,9 @@ def test_wheel_installs_and_serves_in_a_fresh_venv(tmp_path):
     where = subprocess.check_output([py, "-c", "import app; print(app.__file__)"], text=True, env=_clean_env(),
                                     cwd=tmp_path).strip()
     assert where.startswith(str(site)), where
+    where = subprocess.check_output([py, "-c", "import gaitmend; print(gaitmend.__file__, gaitmend.Client.__module__)"],
+                                    text=True, env=_clean_env(), cwd=tmp_path).split()
+    assert where[0].startswith(str(site)) and where[1] == "app.client.http", where
 
     port = free_port()
     log = open(tmp_path / "serve.log", "wb")

@@ -14,7 +14,7 @@ from service_support import Proc, deployment, free_port, wait_for
 def served(tmp_path_factory):
     """(base URL, the server's Proc, its env) of a served instance."""
     tmp = tmp_path_factory.mktemp("served")
-    env = deployment(tmp)
+    env = deployment(tmp, worker_concurrency=2)  # two job slots: both cores busy while the kinds' jobs run
     port = free_port()
     proc = Proc(["serve", "--port", str(port)], env, tmp / "serve.log")
     base = f"http://127.0.0.1:{port}"
@@ -64,3 +64,39 @@ def bundles(finished, tmp_path_factory):
     """{kind: path of its downloaded bundle zip}."""
     folder = tmp_path_factory.mktemp("bundles")
     return {name: job.bundle(folder / f"{name}.zip") for name, job in finished.items()}
+
+
+GENERATOR = "openapi-python-client==0.29.1"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def generator_venv():
+    """A venv with openapi-python-client from PyPI, outside the checkout, kept between runs
+    (keyed by the pinned version; "ready" marks a finished install). The install starts with
+    the session, in the background, while the served worker runs the kinds' jobs; the
+    generated-client test waits for it (``.path()``)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    home = Path(tempfile.gettempdir()) / f"gaitmend-{GENERATOR.replace('==', '-')}"
+    proc = None
+    if not (home / "ready").exists():
+        shutil.rmtree(home, ignore_errors=True)  # a half-made one from an interrupted run
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
+        script = (f"'{sys.executable}' -m venv '{home}' && '{home}/bin/python' -m pip install -q "
+                  f"--disable-pip-version-check '{GENERATOR}' && echo {GENERATOR} > '{home}/ready'")
+        proc = subprocess.Popen(["bash", "-c", script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+
+    class Pending:
+        def path(self, timeout: float = 600) -> Path:
+            if proc is not None and proc.wait(timeout) != 0:
+                raise AssertionError(f"installing {GENERATOR} failed:\n{proc.stdout.read().decode()[-3000:]}")
+            return home
+
+    yield Pending()
+    if proc is not None and proc.poll() is None:
+        proc.kill()
