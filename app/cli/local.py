@@ -208,6 +208,11 @@ def _experiment_command(experiment):
             err.print(f"writing {', '.join(moved)} (docs/ is left as published; --write-docs to update it)",
                       highlight=False)
         print(experiment.run(p, err.print))
+        if write_docs:  # the pages' generated sections follow the JSON just written
+            from app.results.docs_gen import write
+
+            for page in write():
+                err.print(f"rewrote the generated sections of {page}", highlight=False)
 
     command.__signature__ = inspect.Signature(params)
     command.__annotations__ = annotations
@@ -218,3 +223,21 @@ def _experiment_command(experiment):
 for _kind in KINDS.values():
     for _i, _exp in enumerate(_kind.experiments()):
         reproduce_app.command(_kind.name if _i == 0 else f"{_kind.name}-{_exp.name}")(_experiment_command(_exp))
+
+
+@cli.command()
+def docs(check: bool = typer.Option(False, "--check", help="only compare: exit 1 and print the differences when a "
+                                    "generated section's text differs from what its data renders")):
+    """Rewrite every generated section of README.md and docs/*.md from the committed JSON
+    under docs/ (each section's marker names the command that writes its data)."""
+    from app.results.docs_gen import check as check_pages, write
+
+    if check:
+        diffs = check_pages()
+        if diffs:
+            print("\n\n".join(diffs))
+            raise typer.Exit(1)
+        print("every generated section matches its data")
+        return
+    for page in write():
+        print(f"rewrote {page}")

@@ -225,6 +225,9 @@ class Experiment:
     help: str
     Params: type[BaseModel]
     run: Callable[[Any, Callable[[str], None]], str]
+    sections: tuple[Any, ...] = ()
+    """The generated sections of the docs this experiment's committed JSON renders
+    (app/jobs/reporting.py ``Section``; ``gaitmend docs`` rewrites them)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -314,6 +317,9 @@ class Kind(abc.ABC):
         """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur'."""
         return "none"
 
+    damage_label: ClassVar[str] = "Damage"
+    """What ``damage_text`` words, as the job page labels it ("Damage", "Scenario", "Task")."""
+
     # -- presentation -------------------------------------------------------------------
     @abc.abstractmethod
     def headline(self, summary: dict) -> list[HeadlineRow]:
@@ -326,6 +332,50 @@ class Kind(abc.ABC):
     @abc.abstractmethod
     def figures(self, result: JobResult, out_dir: Path) -> list[Path]:
         """Write the kind's plots into ``out_dir``; returns the files written."""
+
+    def metric_names(self, summary: dict) -> dict[str, tuple[str, str, float]]:
+        """Metric keys of the summary's control and robustness records -> (label, unit, scale
+        to that unit), e.g. {"y_f_m": ("forward", "cm", 100.0)}: the evidence tables show
+        these; a key not listed is worded from its name (app/jobs/viewkit.py). Default: none."""
+        return {}
+
+    def verdict_scores(self, summary: dict) -> list[dict[str, Any]]:
+        """The numbers the method is compared with its controls on, in order (a tie on the
+        first is decided by the next): ``app.jobs.verdict.score(...)`` records. Default: the
+        first headline row with a direction that is the nominal value of a metric the
+        robustness block spreads (``verdict.generic_scores``)."""
+        from app.jobs.verdict import generic_scores
+
+        return generic_scores(summary, self.headline(summary))
+
+    def verdict(self, summary: dict) -> dict[str, Any]:
+        """Did the method work, at a glance (the job page's first block, the list's row, the
+        study page): the target and whether it is met, the method against each control at
+        the same budget (beat / tied / lost, by how much), robustness k of n by group.
+        Default: ``app.jobs.verdict.verdict_of`` over the headline, the evidence blocks and
+        ``verdict_scores``; a kind overrides it only where that rule is wrong."""
+        from app.jobs.verdict import verdict_of
+
+        return verdict_of(summary, self.headline(summary), self.verdict_scores(summary),
+                          primary=self.list_headline(summary))
+
+    def list_headline(self, summary: dict) -> HeadlineRow | None:
+        """The one headline row the jobs list shows for a succeeded job. Default: the first
+        row with a direction and a value (else the first row)."""
+        from app.jobs.verdict import list_row
+
+        return list_row(self.headline(summary))
+
+    def page_tables(self, summary: dict) -> list[Table]:
+        """The ``summary_tables`` the dashboard shows beside the shared controls and
+        robustness tables (which it draws once, from the evidence blocks). Default: every
+        table but those titled controls... or robustness... when the summary carries that
+        block."""
+        import re
+
+        skip = [w for w in ("controls", "robustness") if summary.get(w)]
+        return [t for t in self.summary_tables(summary)
+                if not any(re.match(rf"{w}\b", t["title"].strip(), re.I) for w in skip)]
 
     def progress_text(self, info: dict[str, Any]) -> str:
         """One line for a progress bar from the ``info`` the kind's run reports."""

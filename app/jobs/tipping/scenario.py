@@ -51,6 +51,10 @@ class ControllerConfig:
     # damped pull back to the body pose at the QP's takeover with this bandwidth (Hz); 0 =
     # off (b = support of gravity only), the default: the paper does not say what sets a_b.
     posture_hz: float = 0.0
+    # The swing-hinge limit (deg) the foothold planner assumes; None: the robot's own (45 deg).
+    # The paper's footholds (|y| 1.89-1.91 m in all six cases) are where the reach boundary R
+    # lands with a limit near 30 deg: the `paper_reach` variant of `gaitmend reproduce tipping`.
+    swing_max_deg: float | None = None
 
 
 @dataclasses.dataclass
@@ -87,6 +91,15 @@ TIPPED_DEG = 10.0
 AFTER_TIP_S = 3.0  # keep simulating the fall this long, for the plots and the replay
 
 PAPER_EDGES = ("a13", "a35", "a51", "a24", "a46", "a62")  # Table II's names
+
+
+def planner_workspace(geom: HeavyHexapodGeometry, leg: int, cfg: ControllerConfig):
+    """The leg's workspace as the foothold planner sees it: the robot's, with the swing
+    limit lowered to ``cfg.swing_max_deg`` when that is set."""
+    ws = geom.workspace(leg)
+    if cfg.swing_max_deg is None:
+        return ws
+    return dataclasses.replace(ws, theta_range=(ws.theta_range[0], min(ws.theta_range[1], math.radians(cfg.swing_max_deg))))
 
 
 def edge_name(i: int, j: int) -> str:
@@ -262,7 +275,7 @@ class TippingController:
                          time_to_tip_s=self.detector.time_to_tip(), margin_rate_deg_s=v, margin_acc_deg_s2=a, leg=None)
         self.frozen = True
         normal, origin = fit_plane(feet_b[[l - 1 for l in self.stance]])  # Sec. 4.2, body frame
-        candidates = {leg: reachable_space(sim.geom.workspace(leg), normal, origin, cfg.rho)
+        candidates = {leg: reachable_space(planner_workspace(sim.geom, leg, cfg), normal, origin, cfg.rho)
                       for leg in LEG_IDS if leg not in self.stance}
         p_i, p_j = feet_b[mon.edge_legs[0] - 1], feet_b[mon.edge_legs[1] - 1]
         self.adjustments.append(adj)
