@@ -33,14 +33,6 @@ def _fresh_engine_per_child(**_):
     forget_engines()
 
 
-@signals.worker_process_init.connect
-def _stop_handler(**_):
-    # SIGTERM to a pool process hands its job back (app/service/runner.py).
-    from app.service.runner import install_stop_handler
-
-    install_stop_handler()
-
-
 @signals.worker_init.connect
 def _broker_folder(**_):
     ensure_broker_folder(get_settings())

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import datetime as dt
 from collections.abc import Callable
+from types import SimpleNamespace
 from typing import Any, ContextManager
 
 from sqlalchemy import text
@@ -39,10 +40,11 @@ def assess(settings: Settings, session: Callable[..., ContextManager] | None = N
         opened = session(readonly=True) if session else session_scope(settings.db_url, readonly=True)
         with opened as s:
             s.execute(text("SELECT 1"))
-            workers = repo.workers_seen(s, within_s=live_within_s(settings.reaper_interval_s))
+            seen = [SimpleNamespace(name=w.name, broker=w.broker, started_at=w.started_at, last_seen_at=w.last_seen_at,
+                                    slots=w.slots) for w in repo.workers_seen(s, live_within_s(settings.reaper_interval_s))]
             running = repo.running_count(s)
             waiting, oldest = repo.waiting(s, utcnow() - dt.timedelta(seconds=settings.stall_after_s))
-        database = "ok"
+        database, workers = "ok", seen  # plain copies: a commit that fails after the reads expires the rows
         slots = sum(w.slots or 1 for w in workers)
         queue = {"running": running, "slots": slots, "waiting_over_stall_after_s": waiting}
         if waiting:

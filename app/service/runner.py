@@ -77,9 +77,17 @@ def stop_deadline(settings: Settings) -> float | None:
     return _stop_at[0] + settings.stop_grace_s if _stop_at else None
 
 
+_installed_in: list[int] = []
+
+
 def install_stop_handler() -> None:
-    """In a pool process: SIGTERM while a job runs hands it back (see the module doc);
-    SIGTERM while idle ends the process as before (billiard terminates idle children so)."""
+    """In a pool process, from its main thread (the Celery task does it before each job:
+    billiard replaces SIGTERM handlers installed before its worker loop starts).
+    SIGTERM while a job runs hands the job back (see the module doc); while idle, the
+    handler in place before (billiard's clean exit) runs as before."""
+    if _installed_in == [os.getpid()]:
+        return
+    before = signal.getsignal(signal.SIGTERM)
 
     def on_term(signum, frame):
         if _busy[0]:  # no lock here: the main thread may hold any; the heartbeat polls this
@@ -87,10 +95,14 @@ def install_stop_handler() -> None:
                 _stop_at.append(time.monotonic())
             _signalled[0] = True
             return
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        os.kill(os.getpid(), signal.SIGTERM)
+        if callable(before):
+            before(signum, frame)
+        else:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
 
     signal.signal(signal.SIGTERM, on_term)
+    _installed_in[:] = [os.getpid()]
 
 
 def worker_name() -> str:

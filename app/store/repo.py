@@ -283,16 +283,16 @@ def mark_interrupted(s: Session, claim_: Claim) -> bool:
     return r.rowcount == 1
 
 
-def interrupt_workers(s: Session, workers: list[str]) -> list[str]:
+def interrupt_workers(s: Session, workers: list[str]) -> dict[str, str]:
     """Mark the running jobs of these worker processes (host:pid) as interrupted: their
-    worker is stopping. Returns their ids."""
+    worker is stopping. Returns {job id: worker process} of the jobs marked."""
     if not workers:
-        return []
-    ids = list(s.scalars(select(Job.id).where(Job.status == "running", Job.worker.in_(workers),
-                                              Job.interrupted_at.is_(None))))
-    if ids:
-        s.execute(update(Job).where(Job.id.in_(ids), Job.status == "running").values(interrupted_at=utcnow()))
-    return ids
+        return {}
+    found = dict(s.execute(select(Job.id, Job.worker).where(Job.status == "running", Job.worker.in_(workers),
+                                                             Job.interrupted_at.is_(None))).all())
+    if found:
+        s.execute(update(Job).where(Job.id.in_(list(found)), Job.status == "running").values(interrupted_at=utcnow()))
+    return found
 
 
 def release(s: Session, claim_: Claim, refund: bool = True) -> bool:

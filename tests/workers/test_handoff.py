@@ -85,7 +85,7 @@ def test_the_reaper_gives_the_attempt_back_when_a_stopping_worker_died(settings)
     with session_scope(settings.db_url) as s:
         claim = repo.claim(s, jid, worker="host:1", lease_s=1)
     with session_scope(settings.db_url) as s:
-        assert repo.interrupt_workers(s, ["host:1", "host:2"]) == [jid]
+        assert repo.interrupt_workers(s, ["host:1", "host:2"]) == {jid: "host:1"}
     with session_scope(settings.db_url) as s:
         assert repo.reap(s, now=utcnow() + dt.timedelta(seconds=5)) == [jid]
     job = job_row(settings, jid)
@@ -163,3 +163,61 @@ def test_a_jobs_own_error_fails_it_with_a_message_free_of_sql_and_tokens(setting
     err = job_row(settings, jid).error
     assert err.startswith("ValueError: bad numbers near"), err
     assert "a" * 32 not in err and "SELECT" not in err and "[SQL" not in err and "parameters" not in err
+
+
+DEADLINE_RUN = """
+import sys
+from app.jobs import registry
+registry._load_extra("ballistic:KIND")
+from service_support import settings_of
+import json, os
+from app.service.runner import install_stop_handler, run_job
+env = json.loads(sys.argv[1])
+# From the third batch on, a generation never ends (as a long simulation would not before
+# the grace runs out): only the stop deadline can hand the job back.
+import time
+from mujoco import rollout
+real, calls = rollout.rollout, [0]
+def slow(*a, **kw):
+    calls[0] += 1
+    if calls[0] > 2:
+        time.sleep(600)
+    return real(*a, **kw)
+rollout.rollout = slow
+install_stop_handler()
+print("result", run_job(settings_of(env), sys.argv[2]), flush=True)
+"""
+
+
+def test_a_stop_inside_a_long_generation_hands_the_job_back_from_its_last_checkpoint_and_ends_the_process(tmp_path):
+    """GAITMEND_STOP_GRACE_S=0: SIGTERM while a generation runs; the process does not wait
+    for the boundary: the job goes back from its last checkpoint and the process ends."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from service_support import wait_for
+
+    env = deployment(tmp_path, lease_s=30, stop_grace_s=0)
+    settings = migrated(env)
+    spec = {"kind": "ballistic", "search": {"population": 8, "generations": 20, "seed": 3}}
+    jid = queued(settings, spec)
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    p = subprocess.Popen([sys.executable, "-c", DEADLINE_RUN, json.dumps(env), jid], stdout=subprocess.PIPE,
+                         text=True, env=os.environ | {"PYTHONPATH": os.pathsep.join([tests, os.path.join(tests, "kinds")])})
+    try:
+        wait_for(lambda: checkpoint_saves(settings, jid) >= 2, 60, "two checkpoints")
+        time.sleep(0.5)  # inside the third generation, which never ends
+        p.send_signal(signal.SIGTERM)
+        t0 = time.monotonic()
+        out, _ = p.communicate(timeout=20)
+    finally:
+        p.kill()
+    assert time.monotonic() - t0 < 5 and "result" not in out  # it did not run on to the boundary and return
+    job = job_row(settings, jid)
+    assert (job.status, job.attempt, job.lease_token) == ("queued", 0, None)  # handed back, attempt not spent
+    saves = checkpoint_saves(settings, jid)
+    assert saves == 2 and job.progress_done == 2  # from the last checkpoint: the generation in flight was dropped
