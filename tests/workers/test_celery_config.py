@@ -21,6 +21,18 @@ def test_reliability_settings_on_redis(tmp_path, redis_url):
     assert conf.task_default_queue == s.queue
 
 
+def test_the_worker_reconnects_for_ever_every_few_seconds(tmp_path, redis_url):
+    from app.service.consumer import RECONNECT_MAX_S, ReconnectingConnection
+
+    app = make_celery(settings_of(deployment(tmp_path, broker=redis_url)))
+    assert app.conf.broker_connection_max_retries is None  # a worker waits for its broker, however long
+    conn = app.connection_for_read()
+    assert isinstance(conn, ReconnectingConnection) and isinstance(conn.clone(), ReconnectingConnection)
+    assert RECONNECT_MAX_S <= 5  # the queue moves within seconds of the broker's return
+    sender = make_celery(settings_of(deployment(tmp_path, broker=redis_url)), sender=True)
+    assert not isinstance(sender.connection_for_write(), ReconnectingConnection)  # a sender fails fast instead
+
+
 def test_embedded_broker_needs_no_server(tmp_path):
     s = settings_of(deployment(tmp_path))
     url, options = broker_options(s)
@@ -35,6 +47,15 @@ def test_embedded_broker_needs_no_server(tmp_path):
     ({"database_url": "mysql://x"}, "GAITMEND_DATABASE_URL"),
     ({"auth": "maybe"}, "GAITMEND_AUTH"),
     ({"max_job_s": 50000, "visibility_timeout_s": 40000}, "GAITMEND_VISIBILITY_TIMEOUT_S"),
+    ({"redispatch_after_s": 0.5}, "GAITMEND_REDISPATCH_AFTER_S"),
+    ({"stop_grace_s": -1}, "GAITMEND_STOP_GRACE_S"),
+    ({"stall_after_s": 0}, "GAITMEND_STALL_AFTER_S"),
+    ({"min_free_mb": -1}, "GAITMEND_MIN_FREE_MB"),
+    ({"space_reserve_mb": 2048}, "GAITMEND_SPACE_RESERVE_MB"),
+    ({"storage_wait_s": -1}, "GAITMEND_STORAGE_WAIT_S"),
+    ({"bundle_retention_days": -1}, "GAITMEND_BUNDLE_RETENTION_DAYS"),
+    ({"checkpoint_retention_days": -1}, "GAITMEND_CHECKPOINT_RETENTION_DAYS"),
+    ({"db_retry_s": 120}, "GAITMEND_DB_RETRY_S"),
 ])
 def test_bad_settings_fail_fast_naming_the_variable(env, name):
     with pytest.raises(SettingsError, match=name):

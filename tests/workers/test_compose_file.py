@@ -27,6 +27,13 @@ def test_compose_file_describes_the_distributed_mode():
         assert "PASSWORD" not in env["GAITMEND_DATABASE_URL"] + env["GAITMEND_BROKER_URL"]
         assert "data:/data" in sv[name]["volumes"]
     assert "data" in doc["volumes"]
+    # a stopped worker hands its job back within GAITMEND_STOP_GRACE_S and exits: the grace
+    # period covers that with room to spare, and a worker that exits comes back
+    from app.core.settings import Settings
+
+    grace = sv["worker"]["stop_grace_period"]
+    assert grace.endswith("s") and Settings.model_fields["stop_grace_s"].default + 5 <= int(grace[:-1]) <= 60, grace
+    assert sv["worker"]["restart"] == sv["api"]["restart"] == "unless-stopped"
     dockerfile = (ROOT / "Dockerfile").read_text()
     assert "COPY migrations migrations" in dockerfile and "pip install -e ." in dockerfile
 
