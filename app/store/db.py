@@ -75,6 +75,7 @@ _engines: dict[tuple[str, int], tuple[Engine, sessionmaker]] = {}
 _sqlite_writers: dict[str, FifoLock] = {}
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
+SQLITE_WAL_LIMIT_BYTES = 16 * 1024 * 1024
 
 
 def _sqlite_engine(url: str) -> Engine:
@@ -93,6 +94,9 @@ def _sqlite_engine(url: str) -> Engine:
         cur.execute("PRAGMA journal_mode=WAL")
         cur.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_TIMEOUT_MS}")
         cur.execute("PRAGMA synchronous=NORMAL")
+        # After each checkpoint the write-ahead log is cut back to this size (it only ever
+        # grew before); the housekeeper's sweep truncates it to zero (app/store/space.py).
+        cur.execute(f"PRAGMA journal_size_limit={SQLITE_WAL_LIMIT_BYTES}")
         cur.execute("PRAGMA foreign_keys=ON")
         cur.close()
 

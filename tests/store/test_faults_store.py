@@ -229,5 +229,9 @@ def test_the_sweep_applies_retention_and_leaves_no_leftovers(tmp_path):
         assert [c.job_seq for c in s.scalars(select(JobCheckpoint))] == [repo.get_job(s, recent).seq]
     assert not part.exists() and not empty.exists()
     assert wal.stat().st_size == 0  # checkpointed and truncated
+    from app.store.db import SQLITE_WAL_LIMIT_BYTES
+
+    with session_scope(url, readonly=True) as s:  # and kept under a limit between sweeps
+        assert s.execute(text("PRAGMA journal_size_limit")).scalar() == SQLITE_WAL_LIMIT_BYTES
     assert (settings.data_dir / RESERVE).stat().st_size == 1024 * 1024
     assert sweep(settings) == {"bundles": 0, "checkpoints": 0, "parts": 0, "folders": 0}
