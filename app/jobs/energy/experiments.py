@@ -13,7 +13,10 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, Field
 
+from app.jobs import stats
 from app.jobs.base import BenchEntry, Experiment, MemoryContext, dumps
+from app.jobs.ledger import Ledger, current_runs
+from app.jobs.reporting import Section, md_table, missing, num, progress_note, yes
 
 
 def _md_table(columns, rows) -> str:
@@ -89,44 +92,279 @@ def _trot(params: TrotParams, log: Callable[[str], None]) -> str:
     return _reproduce(data, params.out, "energy_trot", log)
 
 
-class Table1Params(BaseModel):
-    out: str = Field("", description="folder for the markdown and JSON; empty: print only")
-    swing_height_m: float = Field(0.25, ge=0.02, le=0.4, description="z_sp (Table 1: 0.25 m)")
+# -- issue 28: the GA over seeds, with a period range that does not bind ------------------------
+
+SCIENCE = ("app/jobs/energy/run.py", "app/jobs/energy/problem.py", "app/jobs/energy/spec.py", "app/jobs/energy/dynamics",
+           "app/robots/quadruped.py", "app/optim/ga.py", "app/optim/random_search.py")
+SEEDS_JSON, TABLE1_JSON, KNOTS_JSON = "docs/energy_seeds.json", "docs/energy_table1.json", "docs/energy_knots.json"
+SEEDS_COMMAND = "gaitmend reproduce energy-seeds --write-docs"
+TABLE1_COMMAND = "gaitmend reproduce energy-table1 --write-docs"
+KNOTS_COMMAND = "gaitmend reproduce energy-knots --write-docs"
+BOUND_TOL = 0.01  # a period within 1 % of the range's upper end sits on the bound
 
 
-def _table1(params: Table1Params, log: Callable[[str], None]) -> str:
-    data = {"kind": "energy", "search": {"optimizer": "none"}, "task": {"swing_height_m": params.swing_height_m},
+def _compact(summary: dict, history: list[dict]) -> dict:
+    """What a seed's row keeps of a job's summary (every number the docs use, and the
+    per-generation bests of the GA and its control)."""
+    keep = ("gait", "links_m", "J", "feasible", "failed", "cot", "objective", "eps_ratio_nlp_over_qp",
+            "periodicity_error", "physics", "search", "controls")
+    out = {k: summary.get(k) for k in keep}
+    out["eps_norm"] = {k: v["norm"] for k, v in (summary.get("eps") or {}).items()}
+    for k in ("physics", "physics_other_feedback"):
+        if summary.get(k):
+            out[k] = {m: summary[k].get(m) for m in ("stays_up", "fell_at_s", "periods_completed", "speed_m_s",
+                                                     "mean_height_m", "cot", "feedback_cot_share")}
+    out["history"] = [{k: r.get(k) for k in ("generation", "best", "random_search_best")} for r in history]
+    return out
+
+
+def _job(data: dict) -> dict:
+    from app.jobs.energy.run import run
+    from app.jobs.energy.spec import EnergySpec
+
+    r = run(EnergySpec.parse(data), MemoryContext())
+    return _compact(json.loads(dumps(r.summary)), json.loads(dumps(r.history)))
+
+
+class SeedsParams(BaseModel):
+    seeds: str = Field("0,1,2,3,4", description="GA seeds (comma-separated); the random search's seed follows each")
+    population: int = Field(12, ge=4, le=200, description="GA population (even)")
+    generations: int = Field(8, ge=1, le=500, description="GA generations after the initial population")
+    period_bounds: str = Field("0.3,1.5", description="the GA's period range (s): low,high")
+    json_out: Path | None = Field(Path(SEEDS_JSON), description="the ledger: each finished seed is appended, a "
+                                                                "re-run skips the seeds already there")
+
+
+def _seeds(p: SeedsParams, log: Callable[[str], None]) -> str:
+    seeds = [int(s) for s in p.seeds.split(",") if s.strip()]
+    lo, hi = (float(v) for v in p.period_bounds.split(","))
+    led = Ledger(p.json_out, "energy-seeds", SEEDS_COMMAND, p.model_dump(mode="json"), SCIENCE, planned=len(seeds))
+    for seed in seeds:
+        data = {"kind": "energy", "gait": {"period_bounds_s": [lo, hi]},
+                "search": {"population": p.population, "generations": p.generations, "seed": seed, "workers": 1},
+                "evidence": {"controls": True, "random_search": True, "robustness": False}}
+        log(f"energy seed {seed}: GA {p.population} x ({p.generations} + 1) and its random search, T in [{lo}, {hi}] s")
+        led.run(f"seed {seed}", data, seed, lambda data=data: _job(data), log)
+    return render_seeds([led.data])
+
+
+def _ctl(row: dict, name: str) -> dict:
+    return next((c["metrics"] for c in row["controls"] if c["name"] == name), {})
+
+
+def _seed_rows(data: dict) -> list[tuple[int, dict, float]]:
+    """(seed, row, the period range's upper end) per finished seed."""
+    return [(r["seed"], r["result"], r["spec"]["gait"]["period_bounds_s"][1]) for r in current_runs(data)]
+
+
+def render_seeds(datas: list) -> str:
+    data = datas[0]
+    if data is None:
+        return missing(SEEDS_JSON, SEEDS_COMMAND)
+    rows, ga, rs, t1, on_bound, walks = [], [], [], [], 0, 0
+    for seed, r, hi in _seed_rows(data):
+        T, rsm, tab = r["gait"]["period_s"], _ctl(r, "random_search"), _ctl(r, "paper_table1")
+        bound = T >= hi * (1 - BOUND_TOL)
+        on_bound += bound
+        ph = r["physics"] or {}
+        walks += bool(ph.get("stays_up"))
+        rows.append([seed, f"{T:.3f}{' (bound)' if bound else ''}", " / ".join(f"{v:.3f}" for v in r["links_m"]),
+                     num(r["cot"]["final"], "{:.3f}"), num(ph.get("cot"), "{:.3f}"),
+                     f"{yes(ph.get('stays_up'))}, {num(ph.get('speed_m_s'), '{:.3f}')}", num(r["J"], "{:.4f}"),
+                     num(rsm.get("J"), "{:.4f}"), num(rsm.get("cot_final"), "{:.3f}"), num(tab.get("cot_final"), "{:.3f}")])
+        ga.append(r["J"])
+        rs.append(rsm.get("J"))
+        t1.append((r["cot"]["final"], tab.get("cot_final")))
+    if not rows:
+        return missing(SEEDS_JSON, SEEDS_COMMAND)
+    p = data["params"]
+    out = [f"GA {p['population']} x ({p['generations']} + 1) = {p['population'] * (p['generations'] + 1)} evaluations per "
+           f"seed (the default is 40 x (40 + 1) = 1640), the same for the random search; period range "
+           f"[{p['period_bounds']}] s; seeds {', '.join(str(s) for s, _, _ in _seed_rows(data))}.\n",
+           md_table(["seed", "period T (s)", "links hip / thigh / calf (m)", "CoT final", "CoT in MuJoCo",
+                     "walks 10 periods, speed (m/s)", "J", "random search: J", "random search: CoT final",
+                     "Table 1 gait: CoT final"], rows),
+           f"\n- The period sits on the range's upper end (within {BOUND_TOL:.0%}) in "
+           f"{stats.rate_text(stats.success_rate(on_bound, len(rows)))} of the seeds (Clopper-Pearson 95 %).",
+           f"- The answer walks its 10 periods in MuJoCo (foot placement on) in "
+           f"{stats.rate_text(stats.success_rate(walks, len(rows)))} of the seeds.",
+           "- GA against its random search, J (lower is better): "
+           + stats.paired_text(stats.paired(ga, rs, higher_is_better=False, names=("GA", "random search")), digits=4) + ".",
+           "- The GA's answer against Table 1's trot, final CoT (lower is better): "
+           + stats.paired_text(stats.paired([a for a, _ in t1], [b for _, b in t1], higher_is_better=False,
+                                            names=("the GA's answer", "Table 1's trot")), digits=3)
+           + f"; CoT ratio {min(a / b for a, b in t1):.2f}-{max(a / b for a, b in t1):.2f}.",
+           "", stats.PAIRED_NOTE, progress_note(data, len(rows))]
+    return "\n".join(out) + "\n"
+
+
+CONTROL_CELLS = (  # control, what it is, [(metric, label, format)]
+    ("paper_table1", "Table 1's trot (T = 0.46 s, Table 1 links)", [("cot_final", "CoT final", "{:.3f}")]),
+    ("srb_only", "SRB with massless legs, re-evaluated on the heavy legs",
+     [("eps_nlp_N", "eps_NLP (N)", "{:.1f}"), ("eps_nlp_legs_N", "with dummy legs (N)", "{:.2f}")]),
+    ("high_step", "the answer with a 0.35 m swing", [("best_cot_final", "CoT final", "{:.2f}"),
+                                                     ("best_periodicity_error", "w", "{:.2f}")]),
+    ("rod_inertia", "slender-rod link inertias", [("cot_final", "CoT final", "{:.3f}")]),
+    ("no_residual_iteration", "the paper's single NLP pass", [("eps_ratio", "eps_NLP / eps_QP", "{:.1f}"),
+                                                              ("periodicity_error", "w", "{:.2f}")]),
+)
+
+
+def _range(v: list, fmt: str) -> str:
+    v = [x for x in v if x is not None]
+    if not v:
+        return "-"
+    lo, hi = fmt.format(min(v)), fmt.format(max(v))
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def render_controls(datas: list) -> str:
+    """The analysis controls of every seed's answer: their range over the seeds."""
+    data = datas[0]
+    rows_ = _seed_rows(data) if data else []
+    if not rows_:
+        return missing(SEEDS_JSON, SEEDS_COMMAND)
+    tab = []
+    for name, what, cells in CONTROL_CELLS:
+        vals = [_ctl(r, name) for _, r, _ in rows_]
+        tab.append([what, "; ".join(f"{label} {_range([v.get(k) for v in vals], fmt)}" for k, label, fmt in cells)])
+    a = [r for _, r, _ in rows_]
+    tab.append(["the answer itself", f"CoT final {_range([r['cot']['final'] for r in a], '{:.3f}')}; eps_NLP / eps_QP "
+                                     f"{_range([r['eps_ratio_nlp_over_qp'] for r in a], '{:.0f}')}; w "
+                                     f"{_range([r['periodicity_error'] for r in a], '{:.2f}')}"])
+    return (md_table(["control (on each seed's answer)", f"range over the {len(rows_)} seeds"], tab)
+            + "\nw is the forward check's periodicity error (w <= 1 passes).\n")
+
+
+def render_seeds_summary(datas: list) -> str:
+    data = datas[0]
+    rows = _seed_rows(data) if data else []
+    if not rows:
+        return ""
+    cot = [r["cot"]["final"] / _ctl(r, "paper_table1")["cot_final"] for _, r, _ in rows]
+    bound = sum(r["gait"]["period_s"] >= hi * (1 - BOUND_TOL) for _, r, hi in rows)
+    ga = stats.paired([r["J"] for _, r, _ in rows], [_ctl(r, "random_search")["J"] for _, r, _ in rows],
+                      higher_is_better=False, names=("GA", "random search"))
+    return (f"- **energy** (paper 003, {len(rows)} seeds): the GA's trot costs {min(cot):.2f}-{max(cot):.2f}x Table 1's CoT, "
+            f"its period on the range's bound in {bound} of {len(rows)} seeds; GA vs random search at equal budget: "
+            f"{ga['verdict']} ([docs/energy.md](docs/energy.md)).\n")
+
+
+def _table1_run(p, log: Callable[[str], None]) -> dict:
+    data = {"kind": "energy", "search": {"optimizer": "none"}, "task": {"swing_height_m": p.swing_height_m},
             "evidence": {"random_search": False}}
+    led = Ledger(p.json_out, "energy-table1", TABLE1_COMMAND, p.model_dump(mode="json"), SCIENCE, planned=1)
     log("energy: Table 1's trot (T = 0.46 s, Table 1 links), no search ...")
-    return _reproduce(data, params.out, "energy_table1", log)
+    return led.run("table1", data, 0, lambda: _table1_job(data), log), led
 
 
-class KnotsParams(BaseModel):
-    knots: str = Field("96,192,384", description="comma-separated knot counts per period (even)")
+def _table1_job(data: dict) -> dict:
+    from app.jobs.energy.run import run
+    from app.jobs.energy.spec import EnergySpec
+
+    s = json.loads(dumps(run(EnergySpec.parse(data), MemoryContext()).summary))
+    s.pop("timing", None)  # wall times: the machine's, not the answer's
+    return s
 
 
-def _knots(params: KnotsParams, log: Callable[[str], None]) -> str:
+def render_table1(datas: list) -> str:
+    data = datas[0]
+    runs = current_runs(data) if data else []
+    if not runs:
+        return missing(TABLE1_JSON, TABLE1_COMMAND)
+    s = runs[-1]["result"]
+    c, e, ph, po = s["cot"], s["eps"], s["physics"], s["physics_other_feedback"]
+    ax = ", ".join(f"{k} {e['nlp'][k]:.2f}" for k in ("x", "y", "z", "roll", "pitch", "yaw"))
+    rows = [["NLP, SRB + dummy legs (the paper's CoT_NLP)", num(c["nlp_first"], "{:.4f}"), num(e["nlp"]["norm"]),
+             f"per axis: {ax}"],
+            ["NLP re-solved with the legs' true wrench", num(c["nlp"], "{:.4f}"), num(e["nlp_iterated"]["norm"], "{:.3f}"), ""],
+            ["QP (Eq. 10)", num(c["qp"], "{:.4f}"), num(e["qp"]["norm"], "{:.4f}"),
+             f"eps_NLP / eps_QP = {s['eps_ratio_nlp_over_qp']:.0f}"],
+            ["final (forward check with the QP forces)", num(c["final"], "{:.4f}"), num(e["final"]["norm"], "{:.3f}"),
+             f"w = {s['periodicity_error']:.3f} ({s['nlp_forward_periodicity_error']:.3f} with the NLP's forces)"],
+            ["MuJoCo physics, foot placement", num(ph["cot"], "{:.4f}"), "-",
+             f"{ph['periods_completed']} periods, {ph['speed_m_s']:.3f} m/s, height {ph['mean_height_m']:.3f} m"],
+            ["MuJoCo physics, joint PD + feed-forward only", num(po["cot"], "{:.4f}"), "-",
+             f"{po['periods_completed']} periods, {po['speed_m_s']:.3f} m/s" + ("" if po["stays_up"] else ", falls")]]
+    a = s["analysis"]
+    rob = s.get("robustness") or {}
+    met = sum(bool(x.get("target_met")) for x in rob.get("cases", []))
+    out = [md_table(["stage", "CoT", "eps RMS norm (N, N m)", "notes"], rows),
+           f"Final CoT against the paper's CoT_NLP (first NLP pass): {100 * (c['final'] / c['nlp_first'] - 1):+.1f} %; "
+           f"the mean force rate (Eq. 11's second term) is {s['objective']['jerk_term_N_s']:.0f} N/s. "
+           f"Robustness of the physics play-back: {met}/{len(rob.get('cases', []))}.",
+           f"Controls on the same gait: slender-rod inertias CoT final {num(a['rod_inertia'].get('cot_final'), '{:.3f}')} "
+           f"(Table 1's: {c['final']:.3f}); massless legs (NLP) CoT "
+           f"{num(a['srb_vs_legs']['srb_on_massless_legs'].get('cot_nlp'), '{:.3f}')}; the massless-leg NLP re-evaluated "
+           f"on the heavy legs: eps_NLP {num(a['srb_vs_legs']['srb_on_heavy_legs'].get('eps_nlp_N'), '{:.1f}')} N, "
+           f"eps_QP {num(a['srb_vs_legs']['srb_on_heavy_legs'].get('eps_qp_N'), '{:.1f}')} N, w "
+           f"{num(a['srb_vs_legs']['srb_on_heavy_legs'].get('periodicity_error'), '{:.2f}')}; high step "
+           f"({a['high_step']['swing_height_m']} m): CoT final {num(a['high_step']['table1'].get('cot_final'), '{:.2f}')}, "
+           f"w {num(a['high_step']['table1'].get('periodicity_error'), '{:.3f}')}."]
+    return "\n\n".join(out) + "\n"
+
+
+def _knots_run(p, log: Callable[[str], None]) -> dict:
     from app.jobs.energy.dynamics.gait import Task, trot
     from app.jobs.energy.dynamics.pipeline import EvalConfig, evaluate
     from app.robots.quadruped import QUADRUPED25
 
-    rows = []
-    for K in (int(k) for k in params.knots.split(",")):
+    led = Ledger(p.json_out, "energy-knots", KNOTS_COMMAND, p.model_dump(mode="json"), SCIENCE,
+                 planned=len(p.knots.split(",")))
+
+    def one(K: int) -> dict:
         r = evaluate(QUADRUPED25, trot(0.46), Task(), EvalConfig(knots=K), detail=True)
-        rows.append([K, f"{r['cot']['nlp']:.4f}", f"{r['cot']['qp']:.4f}", f"{r['cot']['final']:.4f}",
-                     f"{r['eps']['nlp']['norm']:.3f}", f"{r['eps']['qp']['norm']:.4f}", f"{r['periodicity_error']:.3f}",
-                     f"{r['nlp_forward_periodicity_error']:.3f}", f"{r['seconds']:.2f}"])
-        log(f"  {K} knots done")
-    return _md_table(["knots", "CoT NLP", "CoT QP", "CoT final", "eps_NLP (N)", "eps_QP (N)", "w (QP forces)",
-                      "w (NLP forces)", "eval (s)"], rows)
+        return {"knots": K, "cot": {k: r["cot"][k] for k in ("nlp", "qp", "final")},
+                "eps_nlp": r["eps"]["nlp"]["norm"], "eps_qp": r["eps"]["qp"]["norm"],
+                "w_qp": r["periodicity_error"], "w_nlp": r["nlp_forward_periodicity_error"], "eval_s": r["seconds"]}
+
+    for K in (int(k) for k in p.knots.split(",")):
+        led.run(f"knots {K}", {"knots": K, "gait": "table1 trot"}, 0, lambda K=K: one(K), log)
+    return led
+
+
+def render_knots(datas: list) -> str:
+    data = datas[0]
+    runs = sorted((r["result"] for r in current_runs(data)), key=lambda r: r["knots"]) if data else []
+    if not runs:
+        return missing(KNOTS_JSON, KNOTS_COMMAND)
+    rows = [[r["knots"], f"{r['cot']['nlp']:.4f}", f"{r['cot']['qp']:.4f}", f"{r['cot']['final']:.4f}",
+             f"{r['eps_nlp']:.3f}", f"{r['eps_qp']:.4f}", f"{r['w_qp']:.3f}", f"{r['w_nlp']:.3f}"] for r in runs]
+    return md_table(["knots", "CoT NLP", "CoT QP", "CoT final", "eps_NLP (N)", "eps_QP (N)", "w (QP forces)",
+                     "w (NLP forces)"], rows)
+
+
+class Table1Params(BaseModel):
+    swing_height_m: float = Field(0.25, ge=0.02, le=0.4, description="z_sp (Table 1: 0.25 m)")
+    json_out: Path | None = Field(Path(TABLE1_JSON), description="the ledger (the summary of the one run)")
+
+
+def _table1(params: Table1Params, log: Callable[[str], None]) -> str:
+    _table1_run(params, log)
+    return render_table1([json.loads(params.json_out.read_text())] if params.json_out else [None])
+
+
+class KnotsParams(BaseModel):
+    knots: str = Field("96,192,384", description="comma-separated knot counts per period (even)")
+    json_out: Path | None = Field(Path(KNOTS_JSON), description="the ledger: one run per knot count")
+
+
+def _knots(params: KnotsParams, log: Callable[[str], None]) -> str:
+    return render_knots([_knots_run(params, log).data])
 
 
 EXPERIMENTS = [
-    Experiment("trot", "paper 003's trot: GA over T and links (Table 1 defaults), controls and robustness; "
-               "writes the docs/energy.md tables", TrotParams, _trot),
+    Experiment("trot", "paper 003's trot: GA over T and links (Table 1 defaults), controls and robustness, one seed; "
+               "prints (and with --out writes) the job's tables", TrotParams, _trot),
     Experiment("table1", "the paper's own Table 1 trot evaluated through every stage and in MuJoCo physics",
-               Table1Params, _table1),
-    Experiment("knots", "the Table 1 trot at several time grids (convergence of the answer)", KnotsParams, _knots),
+               Table1Params, _table1, (Section("energy-table1", (TABLE1_JSON,), render_table1),)),
+    Experiment("knots", "the Table 1 trot at several time grids (convergence of the answer)", KnotsParams, _knots,
+               (Section("energy-knots", (KNOTS_JSON,), render_knots),)),
+    Experiment("seeds", "the GA and its equal-budget random search over seeds, with a period range that does not "
+               "bind; paired statistics (resumable: seeds already in --json-out are skipped)", SeedsParams, _seeds,
+               (Section("energy-seeds", (SEEDS_JSON,), render_seeds),
+                Section("energy-controls", (SEEDS_JSON,), render_controls),
+                Section("energy-summary", (SEEDS_JSON,), render_seeds_summary, readme=True))),
 ]
 
 

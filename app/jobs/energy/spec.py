@@ -47,7 +47,9 @@ class GaitIn(BaseModel):
     period_s: float = Field(0.46, ge=0.2, le=1.5)
     touchdown_s: list[Annotated[float, Field(ge=0.0, le=1.5)]] = Field(default_factory=lambda: list(TABLE1_TOUCHDOWN), min_length=4, max_length=4)
     duty: list[Annotated[float, Field(ge=0.0, le=1.0)]] = Field(default_factory=lambda: [0.5] * 4, min_length=4, max_length=4)
-    period_bounds_s: Pair = Field(default_factory=lambda: [0.3, 0.8])
+    # [0.3, 1.5] since issue 28 (was [0.3, 0.8], on whose upper end the GA's period sat): the
+    # period's own range, so feasibility and the cost, not the bound, decide T
+    period_bounds_s: Pair = Field(default_factory=lambda: [0.3, 1.5])
     duty_bounds: Pair = Field(default_factory=lambda: [0.35, 0.85])
 
     @field_validator("duty")
