@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from app.core.colors import PALETTE, ROLES
-from app.jobs.evidence import CaseResult, ControlRow, Robustness, controls_of, robustness_of
+from app.jobs.records import CaseResult, ControlRow, Robustness, controls_of, robustness_of
 
 # Roles from the one colour table: the method's answer and its control keep one colour
 # everywhere (plots, tables, replay), so "recovered" never swaps colour with "baseline".
@@ -151,8 +151,26 @@ def _metric_cols(items: list[ControlRow] | list[CaseResult]) -> list[str]:
     return cols
 
 
-def _nice(key: str) -> str:
-    return key.replace("_", " ")
+# a metric key's unit suffix -> (unit, scale): "y_f_m" is worded "y f (m)", "share_frac" "share (%)"
+SUFFIXES = (("_deg_s", "°/s", 1.0), ("_m_s", "m/s", 1.0), ("_deg", "°", 1.0), ("_rad", "rad", 1.0), ("_pct", "%", 1.0),
+            ("_frac", "%", 100.0), ("_mu", "mu", 1.0), ("_kg", "kg", 1.0), ("_N", "N", 1.0), ("_s", "s", 1.0),
+            ("_m", "m", 1.0))
+
+
+def metric_name(key: str, names: dict[str, tuple[str, str, float]] | None = None) -> tuple[str, str, float]:
+    """(label, unit, scale) of a record's metric key: the kind's ``metric_names``, else the
+    key worded from its unit suffix."""
+    if names and key in names:
+        return names[key]
+    for suf, unit, scale in SUFFIXES:
+        if key.endswith(suf) and len(key) > len(suf):
+            return key[: -len(suf)].replace("_", " "), unit, scale
+    return key.replace("_", " "), "", 1.0
+
+
+def _nice(key: str, names: dict | None = None) -> str:
+    label, unit, _ = metric_name(key, names)
+    return f"{label} ({unit})" if unit else label
 
 
 def _met_cell(v: Any) -> Any:
@@ -161,24 +179,32 @@ def _met_cell(v: Any) -> Any:
     return cell("met" if v else "not met", met=bool(v))
 
 
-def _metric_cell(v: Any) -> Any:
+def _metric_cell(v: Any, key: str = "", names: dict | None = None) -> Any:
     if isinstance(v, bool):
         return "yes" if v else "no"
+    if isinstance(v, (int, float)) and not isinstance(v, bool) and key:
+        scale = metric_name(key, names)[2]
+        return finite(round(v * scale, 6)) if scale != 1.0 else finite(v)
+    if isinstance(v, (list, dict)):
+        return ", ".join(str(x) for x in v) if isinstance(v, list) else str(v)
     return finite(v)
 
 
-def controls_panel(summary: dict) -> dict | None:
+def controls_panel(summary: dict, names: dict | None = None) -> dict | None:
+    """The controls table, its metrics worded and scaled by ``names`` (the kind's
+    ``metric_names``)."""
     items = controls_of(summary) if isinstance(summary.get("controls"), list) else []
     if not items:
         return None
-    cols = _metric_cols(items)
+    cols = [c for c in _metric_cols(items) if not isinstance(items[0].metrics.get(c), (list, dict))]
     rows = [[cell(it.label or _nice(it.name), note=it.note or None), it.evaluations]
-            + [_metric_cell(it.metrics.get(c)) for c in cols] + [_met_cell(it.target_met)] for it in items]
+            + [_metric_cell(it.metrics.get(c), c, names) for c in cols] + [_met_cell(it.target_met)] for it in items]
     cap = ("Controls at the same evaluation budget as the method unless the note says otherwise: the baseline, a random "
            "search over the same space, and the method with each part switched off. They measure how much of the result "
-           "the method earns.")
+           "the method earns; the verdict at the top of the page compares the method with each.")
     return panel("controls", "Controls", cap,
-                 table=table(["control (and how it was run)", "evaluations"] + [_nice(c) for c in cols] + ["target"], rows))
+                 table=table(["control (and how it was run)", "evaluations"] + [_nice(c, names) for c in cols] + ["target"],
+                             rows))
 
 
 def _robustness_caption(rob: Robustness) -> str:
@@ -190,17 +216,17 @@ def _robustness_caption(rob: Robustness) -> str:
             f"Target checked: {rob.target or '–'}. " + "; ".join(parts) + ".")
 
 
-def robustness_panel(summary: dict) -> dict | None:
+def robustness_panel(summary: dict, names: dict | None = None) -> dict | None:
     rob = robustness_of(summary)
     if rob is None or not rob.cases:
         return None
-    cols = _metric_cols(rob.cases)
-    rows = [[c.label or _nice(c.name)] + [_metric_cell(c.metrics.get(k)) for k in cols] + [_met_cell(c.target_met)]
-            for c in rob.cases]
+    cols = [c for c in _metric_cols(rob.cases) if not isinstance(rob.cases[0].metrics.get(c), (list, dict))]
+    rows = [[c.label or _nice(c.name)] + [_metric_cell(c.metrics.get(k), k, names) for k in cols]
+            + [_met_cell(c.target_met)] for c in rob.cases]
     p = panel("robustness", "Robustness", _robustness_caption(rob),
-              table=table(["case"] + [_nice(c) for c in cols] + ["target"], rows))
+              table=table(["case"] + [_nice(c, names) for c in cols] + ["target"], rows))
     if rob.spread:
-        p["table"]["foot"] = [[_nice(k), finite(v.get("nominal")), finite(v.get("min")), finite(v.get("max"))]
+        p["table"]["foot"] = [[_nice(k, names)] + [_metric_cell(v.get(x), k, names) for x in ("nominal", "min", "max")]
                               for k, v in rob.spread.items() if isinstance(v, dict)]
         p["table"]["foot_columns"] = ["metric", "nominal", "min", "max"]
     p["summary"] = {"met": rob.met, "total": rob.total}

@@ -22,6 +22,7 @@ class EnergyKind(PackageKind):
 
     # -- members supplied by the package's modules ------------------------------------
     damage_text = staticmethod(present.damage_text)
+    damage_label = "Task"
     headline = staticmethod(present.headline)
     summary_tables = staticmethod(present.summary_tables)
     figures = staticmethod(present.figures)
@@ -29,6 +30,8 @@ class EnergyKind(PackageKind):
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(present.views)
     history_axis = staticmethod(present.history_axis)
+    verdict_scores = staticmethod(present.verdict_scores)
+    metric_names = staticmethod(present.metric_names)
 
     def robot_info(self, robot):
         return describe(QUADRUPED25)

@@ -27,12 +27,15 @@ class FreegaitKind(PackageKind):
 
     # -- members supplied by the package's modules ------------------------------------
     damage_text = staticmethod(present.damage_text)
+    damage_label = "Route and field"
     headline = staticmethod(present.headline)
     summary_tables = staticmethod(present.summary_tables)
     figures = staticmethod(present.figures)
     replay_style = staticmethod(present.replay_style)
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(kind_views.views)
+    verdict_scores = staticmethod(present.verdict_scores)
+    metric_names = staticmethod(present.metric_names)
 
     def robot_info(self, robot):
         from app.robots.silo6 import describe

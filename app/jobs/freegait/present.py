@@ -16,6 +16,7 @@ from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_r
 from app.core.plots import _save  # noqa: E402
 from app.jobs.evidence import controls_of, robustness_of  # noqa: E402
 from app.jobs.freegait.spec import TARGET, target_parts  # noqa: E402
+from app.jobs.verdict import score  # noqa: E402
 
 HISTORY_COLUMNS = {
     "transfer": "transfer number, from 0",
@@ -72,6 +73,28 @@ def headline(s: dict) -> list[HeadlineRow]:
         rows.append(headline_row("footholds in zones, zones ignored (control)", ctl["unaware"].metrics["footholds_in_zones"],
                                  "", None))
     return rows
+
+
+METRIC_NAMES = {"finished": ("finished", "", 1.0), "footholds_in_zones": ("footholds in zones", "", 1.0),
+                "footholds_in_safe_areas": ("footholds in safe areas", "", 1.0),
+                "closest_zone_m": ("closest zone centre", "cm", 100.0), "min_sm_m": ("minimum SM", "cm", 100.0),
+                "min_k_r_m": ("minimum K_R", "cm", 100.0), "stop_time_s": ("body stopped", "s", 1.0),
+                "mean_speed_m_s": ("mean speed", "cm/s", 100.0), "tracking_error_max_m": ("tracking error", "cm", 100.0),
+                "foothold_error_max_m": ("foothold error", "cm", 100.0), "transfers": ("transfers", "", 1.0),
+                "failed_touchdowns": ("failed touchdowns", "", 1.0), "time_s": ("walk time", "s", 1.0)}
+
+
+def metric_names(s: dict) -> dict[str, tuple[str, str, float]]:
+    return METRIC_NAMES
+
+
+def verdict_scores(s: dict) -> list[dict]:
+    """Footholds in forbidden zones first (the planner's point), then finishing the route,
+    then the smallest stability margin on the way."""
+    return [score("footholds_in_zones", "footholds in forbidden zones", s.get("footholds_in_zones"), "", "lower"),
+            score("finished", "finished the route", bool(s.get("finished")), "", "higher"),
+            score("min_sm_m", "minimum stability margin SM", None if s.get("min_sm_m") is None else 100 * s["min_sm_m"],
+                  "cm", "higher", scale=100.0)]
 
 
 def _fmt(v):

@@ -100,14 +100,18 @@ def margins_view(s: dict, traces: Mapping) -> dict | None:
     data = [{"type": "scatter", "mode": "lines", "x": _r(t[::st], 2), "y": _r(np.asarray(tr["sm_m"])[::st]),
              "name": "SM", "line": {"color": METHOD, "width": 1.5}},
             {"type": "scatter", "mode": "lines", "x": _r(t[::st], 2), "y": _r(np.asarray(tr["k_r_m"])[::st]),
-             "name": "K_R", "line": {"color": "#15803d", "width": 1.5}, "yaxis": "y2"},
+             "name": "K_R", "line": {"color": "#15803d", "width": 1.5}, "xaxis": "x2", "yaxis": "y2"},
             {"type": "scatter", "mode": "lines", "x": [float(t[0]), float(t[-1])],
              "y": [s.get("sm_min_m", 0.05)] * 2, "name": "SM_min", "line": {"color": "#6b7280", "dash": "dash"}}]
     if stop.any():
         data.append({"type": "scatter", "mode": "markers", "x": _r(t[::st][stop], 2), "y": [0.0] * int(stop.sum()),
                      "name": "body stopped", "marker": {"color": "#dc2626", "size": 4, "symbol": "square"}})
-    layout = {"xaxis": _axis("time (s)"), "yaxis": _axis("SM (m)", domain=[0.55, 1.0]),
-              "yaxis2": _axis("K_R (m)", domain=[0.0, 0.45]), "hovermode": "x unified"}
+    # two panels, each with its own x axis (one x axis sat at the upper panel's foot, its
+    # title over the lower panel, which had no tick labels): time labelled once, at the bottom
+    layout = {"xaxis": _axis("", anchor="y", matches="x2", showticklabels=False),
+              "xaxis2": _axis("time (s)", anchor="y2"),
+              "yaxis": _axis("SM (m)", domain=[0.56, 1.0], anchor="x"),
+              "yaxis2": _axis("K_R (m)", domain=[0.0, 0.44], anchor="x2"), "hovermode": "x unified"}
     cap = ("Absolute stability margin of the feet in support (Def. 1) and the robot's reduced kinematic margin "
            "(Eq. 15) every 0.1 s control period; red squares mark periods with the body stopped.")
     return _panel("margins", "Stability and kinematic margins (Fig. 8b-c)", cap, data, layout, 420)

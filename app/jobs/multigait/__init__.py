@@ -30,6 +30,9 @@ class MultigaitKind(PackageKind):
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(kind_views.views)
     history_axis = staticmethod(kind_views.history_axis)
+    verdict = staticmethod(present.verdict)
+    verdict_scores = staticmethod(present.verdict_scores)
+    metric_names = staticmethod(present.metric_names)
 
     def robot_info(self, robot):
         return SHAPES[robot].describe()

@@ -114,7 +114,8 @@ def map_view(summary: dict, traces: Mapping) -> dict:
     layout = {"xaxis": kit.axis("x (mu)", range=[-0.5, W + 0.5], constrain="domain"),
               "yaxis": kit.axis("y (mu)", range=[-0.5, H + 0.5], scaleanchor="x", scaleratio=1),
               "shapes": shapes, "hovermode": "closest",
-              "legend": {"orientation": "v", "x": 1.02, "y": 1, "yanchor": "top"}, "margin": {"l": 56, "r": 8, "t": 24, "b": 44}}
+              # the legend above the map, not beside it: beside it, it left a phone's map 60 px wide
+              "legend": {"orientation": "h", "x": 0, "y": 1.02, "yanchor": "bottom"}, "margin": {"l": 56, "r": 8, "t": 24, "b": 44}}
     res = summary.get("result", {})
     what = (f"coverage {res.get('final_best', 0):.1f} % of cells" if summary.get("cost") == "coverage"
             else f"distance to the goal {res.get('final_best', 0):.2f} mu")

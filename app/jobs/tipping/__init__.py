@@ -26,6 +26,7 @@ class TippingKind(PackageKind):
 
     # -- members supplied by the package's modules ------------------------------------
     damage_text = staticmethod(present.damage_text)
+    damage_label = "Scenario"
     headline = staticmethod(present.headline)
     summary_tables = staticmethod(present.summary_tables)
     figures = staticmethod(present.figures)
@@ -33,6 +34,8 @@ class TippingKind(PackageKind):
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(kind_views.views)
     history_axis = staticmethod(kind_views.history_axis)
+    verdict_scores = staticmethod(present.verdict_scores)
+    metric_names = staticmethod(present.metric_names)
     study_views = staticmethod(kind_views.study_views)
 
     def smoke_spec(self):

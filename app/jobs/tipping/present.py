@@ -9,6 +9,7 @@ from pathlib import Path
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 from app.jobs.evidence import CaseResult, ControlRow, controls_of, robustness_of
 from app.jobs.tipping.evidence import target_of
+from app.jobs.verdict import score
 
 HISTORY_COLUMNS = {
     "run": "simulation index (0 = without recovery, 1 = with recovery; sweep runs follow)",
@@ -97,6 +98,22 @@ EVIDENCE_COLUMNS = (("tipped", "tipped"), ("margin_after_landing_deg", "margin a
 
 def _evidence_row(c: ControlRow | CaseResult) -> list[str]:
     return [c.name] + [_num(c.metrics.get(k)) for k, _ in EVIDENCE_COLUMNS] + [_num(c.target_met)]
+
+
+def metric_names(s: dict) -> dict[str, tuple[str, str, float]]:
+    return {k: (h.split(" (")[0], h[h.index("(") + 1:-1] if "(" in h else "", 1.0) for k, h in EVIDENCE_COLUMNS} | {
+        "tipped": ("tipped over", "", 1.0), "tipped_at_s": ("tipped at", "s", 1.0), "leg": ("adjustment leg", "", 1.0),
+        "adjustment_time_s": ("adjustment", "s", 1.0), "detection_time_s": ("detected", "s", 1.0)}
+
+
+def verdict_scores(s: dict) -> list[dict]:
+    """Staying upright first (the recovery's point), then the margin after the caught leg
+    landed (how safely)."""
+    rec = (s.get("runs") or {}).get("recovery")
+    if rec is None:
+        return []
+    return [score("tipped", "tipped over", bool(rec.get("tipped")), "", "lower"),
+            score("margin_after_landing_deg", "margin after landing", s.get("margin_after_landing_deg"), "deg", "higher")]
 
 
 def evidence_tables(s: dict) -> list[Table]:

@@ -80,6 +80,11 @@ def margin_view(summary: dict, traces: Mapping) -> dict:
     return kit.panel("margin", "Stability margin against time", cap, kit.figure(data, layout), height=430)
 
 
+# six legs, six hues far apart (the palette's two oranges and two greens read as one colour
+# for legs 2/5 and 3/6); legs 4-6 dashed as well, for readers who do not tell hues apart
+LEG_COLORS = [kit.PALETTE[i] for i in (0, 1, 2, 3, 6, 7)]
+
+
 def forces_view(traces: Mapping) -> dict | None:
     names = [n for n in _run_order(traces) if "foot_fz_n" in traces[n]]
     if not names:
@@ -95,8 +100,9 @@ def forces_view(traces: Mapping) -> dict | None:
         label, _ = _style(name, p)
         for leg in range(fz.shape[1]):
             data.append(kit.line(kit.series(t, step, digits=3), kit.series(fz[:, leg], step, scale=1e-3, digits=3),
-                                 f"leg {leg + 1}", kit.PALETTE[leg % len(kit.PALETTE)], width=1.5,
-                                 xaxis=f"x{ax}", yaxis=f"y{ax}", legendgroup=f"leg{leg + 1}", showlegend=p == 0))
+                                 f"leg {leg + 1}", LEG_COLORS[leg % len(LEG_COLORS)], width=1.5,
+                                 dash="solid" if leg < 3 else "dash", xaxis=f"x{ax}", yaxis=f"y{ax}",
+                                 legendgroup=f"leg{leg + 1}", showlegend=p == 0))
         layout[f"yaxis{ax}"] = kit.axis(f"F_z {label} (kN)", domain=doms[p], anchor=f"x{ax}")
         layout[f"xaxis{ax}"] = kit.axis("time (s)" if p == len(names) - 1 else "", anchor=f"y{ax}",
                                         matches="x" if p else None, showticklabels=p == len(names) - 1)
@@ -119,8 +125,10 @@ def tilt_view(traces: Mapping) -> dict | None:
         label, color = _style(name, i)
         data.append(kit.line(kit.series(t, step, digits=3), kit.series(np.clip(tr["tilt_rel_deg"], -90, 90), step, digits=3),
                              f"body vs ground, {label}", color))
-    if names and "platform_tilt_deg" in traces[names[0]] and np.any(traces[names[0]]["platform_tilt_deg"]):
-        tr = traces[names[0]]
+    # the platform's tilt from the run that lasted longest (a run that fell ends early)
+    tilted = [n for n in names if "platform_tilt_deg" in traces[n] and np.any(traces[n]["platform_tilt_deg"])]
+    if tilted:
+        tr = traces[max(tilted, key=lambda n: float(np.asarray(traces[n]["time_s"])[-1]))]
         t = np.asarray(tr["time_s"], dtype=float)
         step = kit.stride(len(t))
         data.append(kit.line(kit.series(t, step, digits=3), kit.series(tr["platform_tilt_deg"], step, digits=3),

@@ -1,0 +1,313 @@
+"""The verdict at a glance: did the method work? Computed from a kind's headline and the
+evidence records every summary carries (app/jobs/records.py), never from code that knows
+a kind. ``Kind.verdict`` (app/jobs/base.py) calls ``verdict_of`` with the kind's headline
+and its ``verdict_scores``; the job page, the jobs list and the study page show it.
+
+A verdict has three parts:
+
+- ``target``: the kind's target in words and whether the answer meets it;
+- ``controls``: the method against each control at the same budget: beat, tied or lost,
+  by how much in the kind's unit and direction, on the kind's scores in order (a tie on
+  the first is decided by the next); with a 95 % interval where the numbers carry their
+  spread (e.g. held-out draws), else "one seed: no interval";
+- ``robustness``: k of n re-simulations meeting the target, with numerics (timestep) and
+  physical cases apart, and the cases the search saw (``searched_on``) apart from the
+  held-out ones when the records say which.
+
+``study_verdict`` pools the verdicts of a study's points over seeds: the paired difference
+per control with its 95 % t interval; one the interval does not support is "not shown".
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from app.jobs.records import ControlRow, Robustness, controls_of, robustness_of
+
+# A two-sided 95 % Student t quantile by degrees of freedom (normal beyond the table).
+_T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262, 10: 2.228,
+        12: 2.179, 15: 2.131, 20: 2.086, 25: 2.060, 30: 2.042, 40: 2.021, 60: 2.000, 120: 1.980}
+SCALES = (1.0, 100.0, 1000.0, 0.01, 0.001)
+
+
+def t95(df: float) -> float:
+    if df < 1:
+        return float("inf")
+    for k in sorted(_T95):
+        if df <= k:
+            return _T95[k]
+    return 1.96
+
+
+def _num(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _value(x: Any) -> float | bool | None:
+    if isinstance(x, bool):
+        return x
+    return float(x) if _num(x) else None
+
+
+def fmt(x: Any, unit: str = "") -> str:
+    """A number as the page shows it: 3 significant digits (whole numbers as they are)."""
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if not _num(x):
+        return "–"
+    if float(x).is_integer() and abs(x) < 1e6:
+        text = str(int(x))
+    elif abs(x) >= 1e5 or abs(x) < 1e-3:
+        text = f"{x:.2e}"
+    else:
+        text = f"{x:.3g}" if abs(x) < 100 else f"{x:.0f}"
+    return f"{text} {unit}".strip() if unit and unit != "%" else f"{text}{unit}"
+
+
+# -- what the method is judged by ------------------------------------------------------------
+
+def score(key: str, label: str, value: Any, unit: str = "", better: str = "higher", scale: float = 1.0,
+          controls: Sequence[str] | None = None, std: float | None = None, std_key: str | None = None,
+          n: int | None = None, ddof0: bool = False) -> dict[str, Any]:
+    """One criterion the method is compared on: ``key`` in each control's metrics (times
+    ``scale`` gives ``unit``), the method's ``value`` in that unit, ``better`` "higher" or
+    "lower"; ``controls``: the control names it applies to (None: every control carrying
+    the key); ``std``/``std_key``/``n``: the spread of the method's value and the key of a
+    control's spread over the same ``n`` draws, for an interval (``ddof0``: both are
+    population deviations, NumPy's default)."""
+    return {"key": key, "label": label, "value": _value(value), "unit": unit, "better": better, "scale": scale,
+            "controls": list(controls) if controls is not None else None, "std": std, "std_key": std_key, "n": n,
+            "ddof0": ddof0}
+
+
+def generic_scores(summary: Mapping[str, Any], headline: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The default criterion: the first headline row with a direction whose value is the
+    answer's nominal value of a metric the robustness block spreads (at a unit scale of 1,
+    100, 1000, 1/100 or 1/1000): the row says label, unit and direction, the block says the
+    key the controls carry. None found: no numeric comparison (controls show target met)."""
+    rob = robustness_of(summary)
+    nominal = {k: v.get("nominal") for k, v in (rob.spread if rob else {}).items() if isinstance(v, Mapping)}
+    for row in headline:
+        v = row.get("value")
+        if row.get("better") not in ("higher", "lower") or not _num(v):
+            continue
+        for key, nom in nominal.items():
+            if not _num(nom):
+                continue
+            for s in SCALES:
+                if math.isclose(nom * s, v, rel_tol=1e-6, abs_tol=1e-12):
+                    return [score(key, row["label"], v, row.get("unit") or "", row["better"], s)]
+    return []
+
+
+# -- the target -------------------------------------------------------------------------------
+
+def target_of(summary: Mapping[str, Any], headline: Sequence[Mapping[str, Any]], rob: Robustness | None) -> dict:
+    """The target in words and whether the answer meets it: the summary's own
+    ``target``/``target_met`` pair; else the headline row judged by the target the
+    robustness block checks; else every headline row that carries a target (all met)."""
+    text, met = summary.get("target"), summary.get("target_met")
+    if isinstance(text, str) and isinstance(met, bool):
+        return {"text": text, "met": met}
+    if rob is not None and rob.target:
+        row = next((r for r in headline if r.get("target") == rob.target and r.get("met") is not None), None)
+        if row is not None:
+            return {"text": rob.target, "met": bool(row["met"])}
+    judged = [r for r in headline if r.get("target") and r.get("met") is not None]
+    if judged:
+        return {"text": "; ".join(f"{r['label']} {r['target']}" for r in judged),
+                "met": all(bool(r["met"]) for r in judged)}
+    return {"text": None, "met": None}
+
+
+# -- the method against one control -------------------------------------------------------------
+
+def _interval(diff: float, crit: Mapping[str, Any], metrics: Mapping[str, Any]) -> tuple[list[float] | None, int | None]:
+    """A 95 % Welch interval of the difference when both sides carry their spread over n draws."""
+    n, sa, key = crit.get("n"), crit.get("std"), crit.get("std_key")
+    sb = metrics.get(key) if key else None
+    if not (n and n > 1 and _num(sa) and _num(sb)):
+        return None, None
+    s = crit.get("scale") or 1.0
+    k = n / (n - 1) if crit.get("ddof0") else 1.0  # population to sample variance
+    va, vb = k * (sa ** 2) / n, k * ((sb * s) ** 2) / n
+    se = math.sqrt(va + vb)
+    if se == 0:
+        return [diff, diff], n
+    df = (va + vb) ** 2 / ((va ** 2 + vb ** 2) / (n - 1)) if va + vb else n - 1
+    h = t95(df) * se
+    return [diff - h, diff + h], n
+
+
+def _compare(crit: Mapping[str, Any], c: ControlRow) -> dict[str, Any] | None:
+    """One criterion on one control: None when it does not apply (control not named, no
+    value on either side)."""
+    if crit.get("controls") is not None and c.name not in crit["controls"]:
+        return None
+    a, raw = crit.get("value"), c.metrics.get(crit["key"])
+    if a is None or _value(raw) is None:
+        return None
+    unit, better, label = crit.get("unit") or "", crit.get("better") or "higher", crit["label"]
+    base = {"on": label, "unit": unit, "better": better, "method": a, "interval": None, "seeds": None}
+    if isinstance(a, bool) or isinstance(raw, bool):
+        b = bool(raw)
+        base |= {"control": b, "by": None}
+        if bool(a) == b:
+            return base | {"outcome": "tied", "text": f"tied on {label} (both {fmt(b)})"}
+        win = bool(a) if better == "higher" else not bool(a)
+        return base | {"outcome": "beat" if win else "lost",
+                       "text": f"{'beat' if win else 'lost'} on {label}: {fmt(bool(a))} against {fmt(b)}"}
+    b = float(raw) * (crit.get("scale") or 1.0)
+    gain = (a - b) if better == "higher" else (b - a)  # > 0: the method is better
+    base |= {"control": b, "by": abs(a - b)}
+    interval, n = _interval(a - b, crit, c.metrics)
+    vs = f"{label} {fmt(a, unit)} against {fmt(b, unit)}, {better} is better"
+    if interval is not None:
+        base |= {"interval": interval, "seeds": n}
+        lo, hi = interval
+        if lo <= 0 <= hi:
+            return base | {"outcome": "tied", "text": f"tied within the 95 % interval on {n} draws ({vs})"}
+    elif fmt(a, unit) == fmt(b, unit):
+        return base | {"outcome": "tied", "text": f"tied: {vs}"}
+    word = "beat" if gain > 0 else "lost"
+    ci = "" if interval is None else \
+        f"; 95 % interval of the difference {fmt(interval[0], unit)} to {fmt(interval[1], unit)} on {n} draws"
+    return base | {"outcome": word, "text": f"{word} by {fmt(abs(a - b), unit)} ({vs}){ci}"}
+
+
+def control_verdict(crits: Sequence[Mapping[str, Any]], c: ControlRow) -> dict[str, Any]:
+    """The method against one control: the first criterion that tells them apart decides;
+    the ties before it are named."""
+    row = {"name": c.name, "label": c.label, "evaluations": c.evaluations, "target_met": c.target_met,
+           "note": c.note, "compared": False, "outcome": None, "text": "not compared on a shared number"}
+    ties = []
+    for crit in crits:
+        r = _compare(crit, c)
+        if r is None:
+            continue
+        row |= r | {"compared": True}
+        if r["outcome"] != "tied":
+            break
+        ties.append(r["on"])
+    if len(ties) > 1 and row["outcome"] == "tied":
+        row["text"] = "tied on " + ", ".join(ties)
+    elif ties and row["outcome"] != "tied":
+        row["text"] = f"{row['text']}; tied on {', '.join(ties)} first"
+    if row["compared"] and row.get("interval") is None and row["outcome"] != "tied" and row["by"] is not None:
+        row["text"] += "; one seed, no interval"
+    return row
+
+
+# -- robustness -------------------------------------------------------------------------------------
+
+GROUP_LABELS = {"numerics": "numerics (timestep)", "physical": "physical", "searched_on": "physical, searched on",
+                "held_out": "physical, held out"}
+
+
+def robustness_verdict(rob: Robustness | None) -> dict[str, Any] | None:
+    if rob is None or not rob.cases:
+        return None
+    seen = set(rob.extra.get("searched_on") or [])
+    groups = []
+    met, total = rob.count("numerics")
+    if total:
+        groups.append({"name": "numerics", "label": GROUP_LABELS["numerics"], "met": met, "total": total})
+    phys = [c for c in rob.cases if c.group == "physical"]
+    parts = ([("searched_on", [c for c in phys if c.name in seen]), ("held_out", [c for c in phys if c.name not in seen])]
+             if seen else [("physical", phys)])
+    for name, cs in parts:
+        if cs:
+            groups.append({"name": name, "label": GROUP_LABELS[name], "met": sum(c.target_met is True for c in cs),
+                           "total": len(cs)})
+    return {"target": rob.target, "met": rob.met, "total": rob.total, "groups": groups,
+            "failed": [c.label for c in rob.cases if c.target_met is False]}
+
+
+# -- the whole verdict -------------------------------------------------------------------------------
+
+def _sentence(target: dict, controls: list[dict], rob: dict | None) -> str:
+    parts = []
+    if target.get("met") is not None:
+        parts.append("Target met." if target["met"] else "Target not met.")
+    compared = [c for c in controls if c["compared"]]
+    if compared:
+        n = {w: sum(c["outcome"] == w for c in compared) for w in ("beat", "tied", "lost")}
+        parts.append(f"Against {len(compared)} control{'s' if len(compared) > 1 else ''} at the same budget: "
+                     + ", ".join(f"{k} {v}" for k, v in n.items() if v) + ".")
+    if rob is not None:
+        parts.append(f"{rob['met']} of {rob['total']} robustness re-runs meet the target.")
+    return " ".join(parts) if parts else "No target, controls or robustness runs recorded."
+
+
+def verdict_of(summary: Mapping[str, Any], headline: Sequence[Mapping[str, Any]],
+               scores: Sequence[Mapping[str, Any]] | None = None, target: Mapping[str, Any] | None = None,
+               primary: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The verdict of one summary (JSON). ``scores``: the criteria in order (default
+    ``generic_scores``); ``target``: {"text", "met", "note"?} instead of ``target_of``;
+    ``primary``: the headline row the list shows (default: the first with a direction)."""
+    rob = robustness_of(summary)
+    crits = list(scores) if scores is not None else generic_scores(summary, headline)
+    tgt = dict(target) if target is not None else target_of(summary, headline, rob)
+    controls = [control_verdict(crits, c) for c in controls_of(summary)]
+    robv = robustness_verdict(rob)
+    return {"target": tgt, "primary": dict(primary) if primary is not None else list_row(headline),
+            "controls": controls, "robustness": robv, "criteria": [c["label"] for c in crits],
+            "sentence": _sentence(tgt, controls, robv)}
+
+
+def list_row(headline: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The headline row a list shows: the first with a direction and a value, else the first."""
+    for r in headline:
+        if r.get("better") in ("higher", "lower") and r.get("value") is not None:
+            return dict(r)
+    return dict(headline[0]) if headline else None
+
+
+def brief(v: Mapping[str, Any]) -> dict[str, Any]:
+    """The verdict as a list row shows it: target met, beat / tied / lost counts, k of n."""
+    compared = [c for c in v.get("controls") or [] if c.get("compared")]
+    rob = v.get("robustness")
+    return {"target_met": (v.get("target") or {}).get("met"),
+            "controls": {w: sum(c["outcome"] == w for c in compared) for w in ("beat", "tied", "lost")},
+            "robustness": [rob["met"], rob["total"]] if rob else None, "sentence": v.get("sentence")}
+
+
+# -- over a study's seeds -------------------------------------------------------------------------------
+
+def pooled(diffs: Sequence[float]) -> dict[str, Any]:
+    """Mean paired difference (method better > 0) with its 95 % t interval over n seeds."""
+    n = len(diffs)
+    mean = statistics.fmean(diffs) if n else None
+    if n < 2:
+        return {"n": n, "mean": mean, "interval": None, "outcome": "not shown", "why": "one seed: no interval"}
+    h = t95(n - 1) * statistics.stdev(diffs) / math.sqrt(n)
+    lo, hi = mean - h, mean + h
+    outcome = "beat" if lo > 0 else "lost" if hi < 0 else "not shown"
+    return {"n": n, "mean": mean, "interval": [lo, hi], "outcome": outcome,
+            "why": "the 95 % interval excludes 0" if outcome != "not shown" else "the 95 % interval includes 0"}
+
+
+def study_verdict(verdicts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Pools point verdicts (one per seed of the same setting): target met k of n, per
+    control the paired difference on the first criterion both sides carry, robustness
+    summed."""
+    per: dict[str, dict[str, Any]] = {}
+    for v in verdicts:
+        for c in v.get("controls") or []:
+            if not c.get("compared") or c.get("by") is None:
+                continue
+            d = per.setdefault(c["name"], {"label": c["label"], "on": c["on"], "unit": c["unit"],
+                                           "better": c["better"], "diffs": []})
+            if c["on"] != d["on"]:
+                continue
+            sign = 1.0 if c["better"] == "higher" else -1.0
+            d["diffs"].append(sign * (c["method"] - c["control"]))
+    met = [v["target"]["met"] for v in verdicts if (v.get("target") or {}).get("met") is not None]
+    robs = [v["robustness"] for v in verdicts if v.get("robustness")]
+    return {"points": len(verdicts), "target_met": [sum(met), len(met)],
+            "controls": [{"name": k, **{x: d[x] for x in ("label", "on", "unit", "better")}, **pooled(d["diffs"])}
+                         for k, d in per.items()],
+            "robustness": [sum(r["met"] for r in robs), sum(r["total"] for r in robs)] if robs else None}
