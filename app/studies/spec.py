@@ -22,9 +22,15 @@ MAX_POINTS = int(os.environ.get("GAITMEND_MAX_STUDY_POINTS", "1000"))
 MAX_STUDY_EVALUATIONS = int(os.environ.get("GAITMEND_MAX_STUDY_EVALUATIONS", "20000000"))
 
 
+# A report that names no metrics reports the kind's headline: the row its jobs list shows
+# (``Kind.list_headline``), read from each point's summary through ``get_path``.
+HEADLINE = "headline"
+DEFAULT_METRICS = [f"{HEADLINE}.primary"]
+
+
 class Report(StrictModel):
     group_by: list[str] = Field(default_factory=list, max_length=8)
-    metrics: list[str] = Field(min_length=1, max_length=32)
+    metrics: list[str] = Field(default_factory=lambda: list(DEFAULT_METRICS), min_length=1, max_length=32)
 
     @field_validator("group_by", "metrics")
     @classmethod
@@ -48,7 +54,7 @@ class StudySpec(StrictModel):
     points: list[dict[str, Any]] | None = Field(None, min_length=1, max_length=100_000)
     grid: dict[str, list[Any] | str] | None = Field(None, min_length=1, max_length=8)
     list_infeasible: bool = False  # infeasible damages are listed (never queued) instead of rejected
-    report: Report
+    report: Report = Field(default_factory=Report)
 
     @model_validator(mode="after")
     def _one_of(self):
@@ -80,7 +86,34 @@ def set_path(d: dict, path: str, value: Any) -> None:
     d[keys[-1]] = copy.deepcopy(value)
 
 
+def slug(label: str) -> str:
+    """A headline row's label as a path segment: 'forward distance (cm)' -> 'forward_distance_cm'."""
+    import re
+
+    return re.sub(r"[^a-z0-9]+", "_", label.lower()).strip("_")
+
+
+def headline_value(summary: dict, name: str) -> Any:
+    """The value of a headline row of the summary's kind: ``primary`` (the row the jobs list
+    shows) or a row's label as ``slug`` makes it."""
+    from app.jobs.registry import KINDS
+
+    kind = KINDS.get(summary.get("kind")) if isinstance(summary.get("kind"), str) else None
+    if kind is None:
+        return None
+    try:
+        row = kind.list_headline(summary) if name == "primary" else \
+            next((r for r in kind.headline(summary) if slug(r["label"]) == name), None)
+    except (KeyError, TypeError, ValueError):  # a summary of an older release
+        return None
+    return None if row is None else row.get("value")
+
+
 def get_path(d: Any, path: str) -> Any:
+    """The value at a dotted path ('best.metrics.y_f_m', 'damage.lost_legs.0'); in a job
+    summary, ``headline.<name>`` reads the kind's headline (``headline_value``)."""
+    if path.startswith(f"{HEADLINE}.") and isinstance(d, dict) and HEADLINE not in d and "kind" in d:
+        return headline_value(d, path.split(".", 1)[1])
     for k in path.split("."):
         if isinstance(d, dict) and k in d:
             d = d[k]

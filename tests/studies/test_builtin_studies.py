@@ -19,7 +19,7 @@ from app.jobs.registry import KINDS, get_kind, parse_spec
 from app.studies.aggregate import aggregate
 from app.studies.catalog import builtin_studies, builtin_study, kind_studies
 from app.studies.spec import expand, get_path, set_path
-from app.studies.views import study_views
+from app.studies.views import metric_name, study_views
 
 
 def _merge(a: dict, b: dict) -> dict:
@@ -49,8 +49,9 @@ def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name
              "status": "succeeded", "summary": summary, "error": None}]
     agg = aggregate(rows, study["report"].get("group_by", []), study["report"]["metrics"])
     panels = {p["id"]: p for p in study_views(study, rows, agg)}
-    for i, metric in enumerate(study["report"]["metrics"]):
-        assert panels[f"metric-{i}"]["figure"]["data"][0]["y"] == [float(get_path(summary, metric))]
+    for i, metric in enumerate(study["report"]["metrics"]):  # in the unit the page names (the kind's metric_names)
+        scale = metric_name(kind, metric, summary)[2]
+        assert panels[f"metric-{i}"]["figure"]["data"][0]["y"] == [pytest.approx(scale * float(get_path(summary, metric)))]
     if name == "tipping_directions":  # the polar success rate over directions
         polar = panels["study-sweep"]["figure"]["data"]
         assert polar[0]["theta"] == [0.0] and polar[0]["r"] == [100.0 * (not summary["runs"]["recovery"]["tipped"])]
