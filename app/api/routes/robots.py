@@ -15,11 +15,13 @@ from starlette.datastructures import UploadFile
 from app.api.auth import Principal, principal
 from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
+from app.api.schemas import ERROR_RESPONSES, ErrorOut
 from app.jobs.registry import KINDS, robots as builtin_robots
 from app.robots.upload import LIMITS, RefusedUpload, from_parts, from_zip, prepare
 from app.store import robots as store
 
 router = APIRouter(prefix="/robots", tags=["robots"])
+ERRORS = ERROR_RESPONSES | {400: {"model": ErrorOut, "description": "a multipart body that cannot be parsed"}}
 RobotId = Annotated[str, PathParam(min_length=1, max_length=64, description="robot id (or a built-in's name)")]
 # An upload's body: the files' cap plus room for the multipart framing and the small fields.
 MAX_BODY_BYTES = LIMITS.max_upload_bytes + 1024 * 1024
@@ -55,7 +57,7 @@ async def _who(request: Request) -> Principal | None:
     return await principal(request)
 
 
-@router.get("")
+@router.get("", responses=ERRORS)
 async def list_robots(request: Request, db: Db = Depends(get_db)) -> list[dict]:
     """Every built-in robot with the kinds that simulate it, then your own robots. An uploaded
     robot runs no kind yet: `kinds` is empty and `kinds_coming` says recovery is coming."""
@@ -68,7 +70,7 @@ async def list_robots(request: Request, db: Db = Depends(get_db)) -> list[dict]:
     return _builtins() + own
 
 
-@router.get("/{robot_id}")
+@router.get("/{robot_id}", responses=ERRORS)
 async def get_robot(robot_id: RobotId, who: Principal = Depends(principal), db: Db = Depends(get_db)) -> dict:
     """One robot: a built-in by name, or one of yours by id (its leg map, sizes, files)."""
     for r in _builtins():
@@ -77,7 +79,7 @@ async def get_robot(robot_id: RobotId, who: Principal = Depends(principal), db: 
     return await db.read(lambda s: store.as_dict(store.get_robot(s, robot_id, who.owner_filter)), missing="robot")
 
 
-@router.delete("/{robot_id}", status_code=204)
+@router.delete("/{robot_id}", status_code=204, responses=ERRORS)
 async def delete_robot(robot_id: RobotId, request: Request, who: Principal = Depends(principal),
                        db: Db = Depends(get_db)) -> Response:
     """Delete one of your robots and its files; 409 while a queued or running job uses it."""
@@ -133,7 +135,7 @@ async def _upload(form):
     return from_parts(model.filename or "model.xml", await model.read(), parts)
 
 
-@router.post("", status_code=201, openapi_extra=UPLOAD_SCHEMA)
+@router.post("", status_code=201, openapi_extra=UPLOAD_SCHEMA, responses=ERRORS | {200: {"description": "the same content was stored before: that robot"}})
 async def add_robot(request: Request, response: Response, who: Principal = Depends(principal),
                     db: Db = Depends(get_db)) -> dict:
     """Upload an MJCF legged robot: checked, compiled in a confined process, stored
