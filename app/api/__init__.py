@@ -7,6 +7,7 @@ import threading
 from pathlib import Path
 
 from fastapi import FastAPI
+from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse
 
@@ -86,6 +87,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
 
     app.include_router(media.router, prefix="/api")  # a job's video and thumbnail
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+    # JSON, pages and static files compressed on the wire (event streams and bodies already
+    # compressed, such as the dashboard's gzipped plotly.min.js, pass through)
+    app.add_middleware(GZipMiddleware, minimum_size=1024)
 
     install_docs(app)
     from app.api.routes import dashboard

@@ -56,8 +56,12 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
         t = int(model.geom_type[g])
         size = model.geom_size[g]
         pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
-        color = tint if tint is not None and t != _G.mjGEOM_SPHERE else _rgb(model.geom_rgba[g])
-        if t == _G.mjGEOM_BOX:
+        # the world's own geoms (terrain, forbidden zones, obstacles) keep their colours: tinted
+        # in the run's colour they read as part of the robot (zones looked like footholds)
+        color = tint if tint is not None and t != _G.mjGEOM_SPHERE and b else _rgb(model.geom_rgba[g])
+        if t == _G.mjGEOM_HFIELD:
+            _add_hfield(scene, name, model, g, color, pos, quat)
+        elif t == _G.mjGEOM_BOX:
             scene.add_box(name, color=color, dimensions=tuple(2 * size), position=pos, wxyz=quat)
         elif t == _G.mjGEOM_SPHERE:
             scene.add_icosphere(name, radius=float(size[0]), color=color, subdivisions=2, position=pos, wxyz=quat)
@@ -78,6 +82,24 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
             scene.add_mesh_simple(name, vertices=model.mesh_vert[va : va + vn], faces=model.mesh_face[fa : fa + fn],
                                   color=color, position=pos, wxyz=quat)
     return frames
+
+
+def _add_hfield(scene, name: str, model: mujoco.MjModel, g: int, color, pos, quat, max_side: int = 160) -> None:
+    """A height field (rough ground) as a triangle mesh, thinned to at most max_side points a side."""
+    h = int(model.geom_dataid[g])
+    nrow, ncol = int(model.hfield_nrow[h]), int(model.hfield_ncol[h])
+    rx, ry, top, _bottom = model.hfield_size[h]
+    z = model.hfield_data[model.hfield_adr[h]: model.hfield_adr[h] + nrow * ncol].reshape(nrow, ncol) * top
+    step = max(1, -(-max(nrow, ncol) // max_side))
+    z = z[::step, ::step]
+    ny, nx = z.shape
+    xs, ys = np.linspace(-rx, rx, nx), np.linspace(-ry, ry, ny)
+    gx, gy = np.meshgrid(xs, ys)
+    verts = np.stack([gx.ravel(), gy.ravel(), z.ravel()], axis=1).astype(np.float32)
+    i = np.arange(ny * nx).reshape(ny, nx)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)]).astype(np.uint32)
+    scene.add_mesh_simple(name, vertices=verts, faces=faces, color=color, position=pos, wxyz=quat)
 
 
 def _root_body(model: mujoco.MjModel) -> int:
@@ -127,7 +149,12 @@ def _frames(traces: Mapping[str, Mapping[str, np.ndarray]], fps: float):
 class _Scene:
     """Robots of several traces side by side (the second and later shifted along -x),
     ground, body paths, foot contacts. Sizes scale with the robot (a JetHexa is 0.3 m, a
-    heavy-duty hexapod 5 m)."""
+    heavy-duty hexapod 5 m). The camera frames the whole walk; a walk longer than
+    ``FOLLOW_SIZES`` robot sizes is followed instead: everything hangs under one world frame
+    that ``show`` moves back by the first robot's progress, so that robot stays where the
+    camera looks while the ground slides under it (a recording cannot move viser's camera)."""
+
+    FOLLOW_SIZES = 12.0
 
     def __init__(self, server, model: mujoco.MjModel, traces, fps: float, tracks: list[ReplayTrack] | None = None):
         self.server, self.model = server, model
@@ -139,43 +166,51 @@ class _Scene:
         root = _root_body(model)
         size = _robot_size(model, root, *next(iter(poses.values())))
         spacing = 3.2 * size
-        start = next(iter(poses.values()))[0][0, root]
-        self._frame_camera(server, poses, root, size, spacing)
-        row = spacing * (len(traces) - 1)  # the robots stand side by side along -x: the ground spans them all
-        scene.add_grid("/ground", width=16 * size + row, height=24 * size, cell_size=size / 2.5, section_size=2 * size,
-                       position=(start[0] - row / 2, start[1] + 4 * size, 0.0))
-        self.robots = {}
+        lo, hi = self._extent(poses, root, spacing)
+        lead = next(iter(poses.values()))[0][:, root, :2]
+        self.follow = lead - lead[0] if float(np.linalg.norm((hi - lo)[:2])) > self.FOLLOW_SIZES * size else None
+        self._frame_camera(server, *(self._extent(poses, root, spacing, 0.1) if self.follow is not None else (lo, hi)),
+                           size)
+        self.world = scene.add_frame("/world", show_axes=False)
+        # the ground spans every robot (side by side along -x) and every path, however far it goes
+        span = hi - lo + 8 * size
+        scene.add_grid("/world/ground", width=float(span[0]), height=float(span[1]), cell_size=size / 2.5,
+                       section_size=2 * size, position=(float(lo[0] + hi[0]) / 2, float(lo[1] + hi[1]) / 2, 0.0))
         style = {t.name: t for t in (tracks or replay_tracks(None, list(traces)))}
-        for k, (name, tr) in enumerate(traces.items()):
-            track = style.get(name, ReplayTrack(name, name, None, k))
-            color = rgb(track.color)
-            offset = np.array([-spacing * k, 0.0, 0.0])
-            node = scene.add_frame(f"/{name}", show_axes=False, position=tuple(offset))
-            frames = add_model(scene, f"/{name}", model, tint=color)
-            xpos, xquat = poses[name]
-            path = xpos[:, root, :2]
-            pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
-            pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
-            scene.add_line_segments(f"/{name}/path", points=pts, colors=color, thickness=0.015 * size)
-            # the label rides above the robot (show() moves it), named as the page names the trace
-            label = scene.add_label(f"/{name}/label", track.label, position=tuple(xpos[0, root] + np.array([0.0, 0.0, 1.3 * size])))
-            feet = self._feet(tr, idx[name])
-            contacts = scene.add_point_cloud(f"/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
-                                             point_size=0.1 * size, point_shape="circle")
-            self.robots[name] = {"root": node, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": feet,
-                                 "contacts": contacts, "lift": 0.01 * size, "label": label, "root_body": root,
-                                 "label_up": 1.3 * size}
+        self.robots = {name: self._robot(scene, name, style.get(name, ReplayTrack(name, name, None, k)), tr, idx[name],
+                                         poses[name], root, size, np.array([-spacing * k, 0.0, 0.0]))
+                       for k, (name, tr) in enumerate(traces.items())}
         self.show(0)
 
+    def _robot(self, scene, name: str, track: ReplayTrack, tr, idx, pose, root: int, size: float, offset) -> dict:
+        color = rgb(track.color)
+        node = scene.add_frame(f"/world/{name}", show_axes=False, position=tuple(offset))
+        frames = add_model(scene, f"/world/{name}", self.model, tint=color)
+        xpos, xquat = pose
+        path = xpos[:, root, :2]
+        pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
+        pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)
+        scene.add_line_segments(f"/world/{name}/path", points=pts, colors=color, thickness=0.015 * size)
+        # the label rides above the robot (show() moves it), named as the page names the trace
+        label = scene.add_label(f"/world/{name}/label", track.label,
+                                position=tuple(xpos[0, root] + np.array([0.0, 0.0, 1.3 * size])))
+        contacts = scene.add_point_cloud(f"/world/{name}/contacts", points=np.zeros((1, 3)), colors=(20, 160, 60),
+                                         point_size=0.1 * size, point_shape="circle")
+        return {"root": node, "frames": frames, "xpos": xpos, "xquat": xquat, "feet": self._feet(tr, idx),
+                "contacts": contacts, "lift": 0.01 * size, "label": label, "root_body": root, "label_up": 1.3 * size}
+
     @staticmethod
-    def _frame_camera(server, poses, root: int, size: float, spacing: float) -> None:
-        """Point the camera at the box the robots' bases sweep in the first tenth of the
-        replay (robots side by side, spaced along -x), from a distance at which that box, plus
-        a robot's size around it, fills the view: the robots are what one sees, not the grid.
-        (A plan that walks far would shrink everything if its whole path were framed.)"""
-        pts = np.concatenate([xpos[: max(1, len(xpos) // 10), root] + np.array([-spacing * k, 0.0, 0.0])
+    def _extent(poses, root: int, spacing: float, upto: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+        """The box the robots' bases sweep (side by side, spaced along -x) in the first
+        ``upto`` share of the replay."""
+        pts = np.concatenate([xpos[: max(1, int(round(len(xpos) * upto))), root] + np.array([-spacing * k, 0.0, 0.0])
                               for k, (xpos, _) in enumerate(poses.values())])
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return pts.min(axis=0), pts.max(axis=0)
+
+    @staticmethod
+    def _frame_camera(server, lo: np.ndarray, hi: np.ndarray, size: float) -> None:
+        """Point the camera at the box ``lo``-``hi`` from a distance at which that box, plus a
+        robot's size around it, fills the view: the robots are what one sees, not the grid."""
         centre = 0.5 * (lo + hi)
         radius = 0.5 * float(np.linalg.norm((hi - lo)[:2])) + 1.2 * size
         fov = 75.0 * np.pi / 180.0  # viser's default vertical field of view
@@ -191,6 +226,8 @@ class _Scene:
         return np.asarray(tr["feet_m"])[idx], np.asarray(tr["foot_contact"])[idx]
 
     def show(self, i: int) -> None:
+        if self.follow is not None:
+            self.world.position = (-float(self.follow[i, 0]), -float(self.follow[i, 1]), 0.0)
         for r in self.robots.values():
             r["label"].position = tuple(r["xpos"][i, r["root_body"]] + np.array([0.0, 0.0, r["label_up"]]))
             for b, h in r["frames"].items():

@@ -16,6 +16,7 @@ import io
 import json
 import math
 import os
+import re
 import secrets
 import time
 import zipfile
@@ -28,20 +29,22 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
+from app.api import glance
 from app.api.auth import LOCAL_OWNER, Principal, principal
-from app.api.deps import Db, get_db, settings_of
+from app.api.deps import Db, db_of, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
 from app.core import colors
 from app.core.assets import asset_dir
 from app.store import repo
+from app.store.models import FINAL
 
 WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
 # page name -> (template, title, the nav link marked as the current page)
 PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
          "compare": ("compare.html", "compare", "/compare"),
-         "studies": ("studies.html", "studies", None)}  # app/studies
-NAV = (("/", "Jobs"), ("/compare", "Compare"), ("/docs", "API"))
+         "studies": ("studies.html", "studies", "/studies")}  # app/studies
+NAV = (("/", "Jobs"), ("/studies", "Studies"), ("/compare", "Compare"), ("/docs", "API"))
 HEADER_MARK = "<!-- gaitmend: header -->"
 LINK_TTL_S = 3600
 
@@ -53,6 +56,49 @@ def _plotly_js() -> Path:
     import plotly
 
     return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_gz() -> bytes:
+    """plotly.min.js gzipped once (4.8 MB to about 1.4 MB): compressing it per request would
+    cost a quarter of a second of CPU each time."""
+    import gzip
+
+    return gzip.compress(_plotly_js().read_bytes(), compresslevel=6, mtime=0)
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_version() -> str:
+    import plotly
+
+    return plotly.__version__
+
+
+IMMUTABLE = "public, max-age=31536000, immutable"  # a versioned URL (?v=) never changes
+
+
+@functools.lru_cache(maxsize=64)
+def _static_version(name: str, mtime_ns: int) -> str:
+    return hashlib.sha256((WEB_DIR / "static" / name).read_bytes()).hexdigest()[:12]
+
+
+def _versioned(match) -> str:
+    name = match.group(1)
+    path = WEB_DIR / "static" / name
+    if not path.is_file():
+        return match.group(0)
+    return f"/static/{name}?v={_static_version(name, path.stat().st_mtime_ns)}"
+
+
+class CachedStatic(StaticFiles):
+    """web/static with caching headers: a URL with ?v= (the pages name every file so, with
+    its content hash) is cached for a year; without it the browser revalidates (ETag)."""
+
+    async def get_response(self, path, scope):
+        resp = await super().get_response(path, scope)
+        versioned = b"v=" in scope.get("query_string", b"")
+        resp.headers["Cache-Control"] = IMMUTABLE if versioned and resp.status_code == 200 else "no-cache"
+        return resp
 
 
 def _viser_client() -> Path:
@@ -159,24 +205,28 @@ def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
     from app.jobs.viewkit import controls_panel, robustness_panel
 
     with zipfile.ZipFile(bundle) as z:
-        names = [n for n in z.namelist() if not n.endswith("/")]
+        members = [n for n in z.namelist() if not n.endswith("/")]
         summary = json.loads(z.read("result.json"))
         kind_name = json.loads(z.read("manifest.json")).get("kind") or summary.get("kind")
         traces = {}
-        for n in names:
+        for n in members:
             if n.startswith("trajectories/") and n.endswith(".npz"):
                 traces[n.removeprefix("trajectories/").removesuffix(".npz")] = np.load(io.BytesIO(z.read(n)))
     kind = _kind(kind_name)
-    out: dict[str, Any] = {"kind": kind_name, "headline": [], "panels": [], "evidence": [], "describe": {}, "replay": []}
+    out: dict[str, Any] = {"kind": kind_name, "headline": [], "panels": [], "evidence": [], "describe": {}, "replay": [],
+                           "verdict": None}
+    names = None
     if kind is not None:
         out["headline"] = list(kind.headline(summary))
+        out["verdict"] = kind.verdict(summary)
+        names = kind.metric_names(summary)
         out["panels"] = [_as_panel(v, i) for i, v in enumerate(kind.views(summary, traces))]
-        out["panels"] += _panels_of_tables(list(kind.summary_tables(summary)))
-        out["describe"] = dict(kind.bundle_rows(names))
+        out["panels"] += _panels_of_tables(list(kind.page_tables(summary)))
+        out["describe"] = dict(kind.bundle_rows(members))
         replayable = [n for n, tr in traces.items() if "qpos" in tr.files]
         out["replay"] = [{"name": t.name, "label": t.label, "color": t.color}
                          for t in sorted(kind.replay_style(replayable), key=lambda t: t.order) if t.name in replayable]
-    out["evidence"] = [p for p in (controls_panel(summary), robustness_panel(summary)) if p]
+    out["evidence"] = [p for p in (controls_panel(summary, names), robustness_panel(summary, names)) if p]
     return _jsonable(out)
 
 
@@ -220,7 +270,9 @@ def render_page(path: Path, title: str, current: str | None) -> str:
     nav = "".join(f'<a href="{href}"{current_attr if href == current else ""}>{text}</a>' for href, text in NAV)
     header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
     header = header.replace("{colors}", json.dumps(colors.page_table()).replace("</", "<\\/"))
-    return path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
+    header = header.replace("{plotly}", f"/vendor/plotly.min.js?v={_plotly_version()}")
+    page = path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
+    return re.sub(r'/static/([A-Za-z0-9_.-]+\.(?:js|css))(?=")', _versioned, page)
 
 
 # -- routes ------------------------------------------------------------------------------------
@@ -234,7 +286,7 @@ def install(app: FastAPI) -> None:
     app.state.link_key = secrets.token_bytes(32)
     app.include_router(router)
     if (WEB_DIR / "static").is_dir():
-        app.mount("/static", StaticFiles(directory=WEB_DIR / "static"), name="static")
+        app.mount("/static", CachedStatic(directory=WEB_DIR / "static"), name="static")
     app.mount("/viser", StaticFiles(directory=_viser_client(), html=True), name="viser-client")
 
 
@@ -261,8 +313,15 @@ for _path, _name in (("/", "jobs"), ("/jobs/{job_id}", "job"), ("/compare", "com
 
 
 @router.get("/vendor/plotly.min.js", include_in_schema=False)
-async def plotly_min():
-    return FileResponse(_plotly_js(), media_type="text/javascript", headers={"Cache-Control": "public, max-age=86400"})
+async def plotly_min(request: Request, v: str | None = None):
+    """plotly.min.js from the installed plotly package, gzipped when the browser takes it;
+    cached for a year under its versioned URL (?v=<plotly version>, as the pages name it)."""
+    cache = IMMUTABLE if v == _plotly_version() else "public, max-age=86400"
+    headers = {"Cache-Control": cache, "Vary": "Accept-Encoding"}
+    if "gzip" in request.headers.get("accept-encoding", ""):
+        data = await run_in_threadpool(_plotly_gz)
+        return Response(data, media_type="text/javascript", headers=headers | {"Content-Encoding": "gzip"})
+    return FileResponse(_plotly_js(), media_type="text/javascript", headers=headers)
 
 
 async def _link_principal(db: Db, token_id: int | None) -> Principal | None:
@@ -341,11 +400,14 @@ async def kinds() -> list[dict]:
                  "application/json": {"schema": {"$ref": "#/components/schemas/JobSpec"}}}}})
 async def check(request: Request, who: Principal = Depends(principal)):
     """Validate a spec without queuing it: its evaluation budget (the spec's own
-    formula, the number the compare page shows) or the API's field errors."""
+    formula, the number the compare page shows) and the wall time it will take at this
+    server's measured rate (app/api/glance.py), or the API's field errors."""
     from app.api.routes.jobs import read_spec
 
     spec = await read_spec(request, settings_of(request))  # the same edges as POST /api/jobs
-    return _budget(spec)
+    db = db_of(request)
+    rate = await db.read(glance.rates)
+    return _budget(spec) | {"estimate": glance.estimate(spec.kind, int(spec.evaluations_budget), rate)}
 
 
 def _stored_budget(spec: dict | None) -> dict[str, Any] | None:
@@ -370,22 +432,28 @@ async def _result_views(bundle: str, link: Callable[[str], str]) -> dict[str, An
         if p.parts[0] == "plots" and p.suffix in (".png", ".svg"):
             figs.setdefault(p.stem, {"name": p.stem, "what": v["describe"].get(f["path"], "")})[p.suffix[1:]] = f["url"]
     # SVG, PNG or both: the contract asks for either
-    return {**{k: v[k] for k in ("headline", "panels", "evidence", "replay")}, "files": files,
+    return {**{k: v[k] for k in ("headline", "panels", "evidence", "replay", "verdict")}, "files": files,
             "figures": list(figs.values())}
 
 
 @router.get("/api/jobs/{job_id}/views", tags=["dashboard"], responses=ERROR_RESPONSES)
 async def views(request: Request, job_id: JobId, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """What the job page shows, supplied by the job's kind: what its history columns mean
-    (units, which way is better), and once it succeeded its headline rows, tables and
-    plotly figures, the controls and robustness tables, and every bundle member with a
-    short-lived download link and what it is."""
-    job = await db.read(lambda s: repo.get_job(s, job_id, who.owner_filter))
+    (units, which way is better), while it is queued or running its place in the queue and
+    ETA, and once it succeeded its verdict (target, controls, robustness at a glance), its
+    headline rows, tables and plotly figures, the controls and robustness tables, and every
+    bundle member with a short-lived download link and what it is."""
+    def read(s):
+        job = repo.get_job(s, job_id, who.owner_filter)
+        return job, glance.queue_info(s, job, glance.rates(s)) if job.status not in FINAL else None
+
+    job, queue = await db.read(read)
     kind = _kind(job.kind)
     out: dict[str, Any] = {"kind": job.kind, "status": job.status,
                            "convergence": kind.history_axis(job.spec or {}) if kind is not None else None,
+                           "damage_label": kind.damage_label if kind is not None else "Damage",
                            "budget": _stored_budget(job.spec), "headline": [], "panels": [], "evidence": [],
-                           "files": [], "figures": [], "replay": []}
+                           "files": [], "figures": [], "replay": [], "verdict": None, "queue": queue}
     if job.status == "succeeded" and job.bundle_path and Path(job.bundle_path).is_file():
         key = _link_key(request)
         out.update(await _result_views(job.bundle_path, lambda n: signed_url(key, job_id, n, who.token_id)[0]))
@@ -395,3 +463,37 @@ async def views(request: Request, job_id: JobId, who: Principal = Depends(princi
         except Exception:  # a failed job's partial summary: no headline
             pass
     return JSONResponse(out, headers={"Cache-Control": "private, no-cache"})
+
+
+@router.get("/api/web/rows", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def rows(ids: Annotated[str, Query(max_length=3400, pattern=r"^[0-9a-f]{1,32}(,[0-9a-f]{1,32}){0,99}$")],
+               who: Principal = Depends(principal), db: Db = Depends(get_db)) -> dict[str, dict]:
+    """What the jobs list shows beside each job (up to 100 ids): its seed, budget and study,
+    once succeeded the kind's list headline and its verdict in brief, while queued or running
+    its place in the queue and ETA. Ids the caller may not see are left out."""
+    wanted = list(dict.fromkeys(ids.split(",")))
+    return _jsonable(await db.read(lambda s: glance.rows(s, wanted, who.owner_filter)))
+
+
+@router.post("/api/web/study-check", tags=["dashboard"], responses=ERROR_RESPONSES)
+async def study_check(request: Request, who: Principal = Depends(principal), db: Db = Depends(get_db)):
+    """Validate a study without queueing it: its points, their evaluations and the wall
+    time they will take at this server's measured rates, or the field errors."""
+    from app.api.body import BodyError, parse_json
+    from app.api.routes.jobs import _read_body, _require_json
+    from app.jobs.base import SpecError
+    from app.studies.bundle import load_study_file
+    from app.studies.spec import expand
+
+    settings = settings_of(request)
+    _require_json(request)
+    try:
+        data = load_study_file(parse_json(await _read_body(request, settings.max_body_bytes)))
+    except BodyError as e:
+        raise ApiError(422, f"the body is not an acceptable JSON document: {e}", errors=e.errors) from None
+    try:
+        plan = await run_in_threadpool(expand, data)
+    except SpecError as e:
+        raise ApiError(422, str(e), errors=e.errors) from None
+    est = await db.read(lambda s: glance.study_estimate(s, plan.points))
+    return {"name": plan.study.name, "metrics": plan.study.report.metrics, "infeasible": len(plan.infeasible), **est}
