@@ -27,7 +27,7 @@ from pydantic import Field
 
 from app.jobs.base import Cancelled, RunContext, StrictModel
 
-StopReason = Literal["generations", "target", "plateau", "wall_time"]
+StopReason = Literal["generations", "target", "target_met", "plateau", "wall_time"]
 
 
 class StopRules(StrictModel):
@@ -54,6 +54,9 @@ class Generation:
     columns: dict[str, float] = dataclasses.field(default_factory=dict)  # the kind's extra history columns
     totals: dict[str, float] = dataclasses.field(default_factory=dict)  # summed over generations (sim_steps ...)
     evaluations: int | None = None  # when a candidate costs several (e.g. one per model): else len(fitness)
+    # (P,) False where the fitness is only an upper bound (the candidate's evaluation was cut
+    # short once it could not win its selection): the history's statistics skip those
+    exact: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -78,6 +81,7 @@ class SearchOutcome:
     wall_s: float  # search wall time, summed over resumed attempts
     stop_reason: StopReason
     generations_run: int  # including generation 0
+    time_to_target_s: float | None = None  # search wall time when the best first met the goal (run_search's goal)
 
 
 def stop_reason(history: list[dict], rules: StopRules, sign: float, wall_s: float) -> StopReason | None:
@@ -95,58 +99,126 @@ def stop_reason(history: list[dict], rules: StopRules, sign: float, wall_s: floa
     return None
 
 
+@dataclasses.dataclass
+class GoalCheck:
+    """A kind's verdict on the best candidate so far against its physical target (the
+    user's goal, not a value of the objective), and what checking it cost (confirmation
+    re-runs are simulations too: they count in the search's evaluations and totals)."""
+
+    met: bool
+    evaluations: int = 0
+    totals: dict[str, float] = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass
+class _State:
+    """What a search carries from one generation to the next and through a checkpoint."""
+
+    history: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    evaluations: int = 0
+    totals: dict[str, float] = dataclasses.field(default_factory=dict)
+    wall_before: float = 0.0
+    reason: StopReason | None = None
+    target_wall_s: float | None = None  # search wall time when the best first met the goal
+    goal_x: list[float] | None = None  # the last best the goal was asked about, and its answer
+    goal_met: bool = False
+
+    @classmethod
+    def restore(cls, ckpt: dict) -> "_State":
+        goal = ckpt.get("goal") or {}
+        return cls(ckpt["history"], ckpt["evaluations"], ckpt["totals"], ckpt["wall_s"], ckpt.get("stop_reason"),
+                   goal.get("target_wall_s"), goal.get("x"), bool(goal.get("met", False)))
+
+    def count(self, evaluations: int, totals: dict[str, float]) -> None:
+        self.evaluations += evaluations
+        for k, v in totals.items():
+            self.totals[k] = self.totals.get(k, 0) + v
+
+
+def _row(opt, gen: Generation, f: np.ndarray, sign: float) -> dict[str, Any]:
+    """A history row; its per-generation statistics skip the values that are only bounds
+    (``Generation.exact`` False: a walk cut short once it could not win its selection)."""
+    exact = f if gen.exact is None or not np.any(gen.exact) else f[np.asarray(gen.exact, dtype=bool)]
+    return {"generation": opt.generation - 1, "best": sign * opt.best[1], "mean": float(np.mean(sign * exact)),
+            "worst": float(sign * np.min(exact)), "generation_best": float(sign * np.max(exact))}
+
+
+def _check_goal(opt, st: _State, goal: Callable[[np.ndarray], GoalCheck]) -> bool:
+    """The goal's verdict on the best so far, asked only when the best changed (the last
+    best asked about and its answer ride in the checkpoint)."""
+    x = opt.best[0]
+    if st.goal_x is not None and np.array_equal(np.asarray(st.goal_x), x):
+        return st.goal_met
+    chk = goal(x)
+    st.count(chk.evaluations, chk.totals)
+    st.goal_x, st.goal_met = x.tolist(), bool(chk.met)
+    return st.goal_met
+
+
 def run_search(opt, evaluate: Callable[[np.ndarray], Generation], generations: int, ctx: RunContext,
                rules: StopRules | None = None, sign: float = 1.0,
-               progress_info: Callable[[dict], dict] | None = None, carry: Carry | None = None) -> SearchOutcome:
+               progress_info: Callable[[dict], dict] | None = None, carry: Carry | None = None,
+               goal: Callable[[np.ndarray], GoalCheck] | None = None, stop_at_goal: bool = False) -> SearchOutcome:
     """Run ``opt`` (ask/tell, maximises, ``state()``/``restore()`` JSON) for generations
     0..``generations`` unless a rule stops it first. Checkpoints after every generation
-    (with ``carry``'s state when given); a restored run continues bit-identically."""
+    (with ``carry``'s state when given); a restored run continues bit-identically. With
+    ``goal``, every row says whether the best so far meets the kind's physical target
+    (``target_met``), the outcome when it first did, and ``stop_at_goal`` ends the search
+    there (stop reason ``target_met``)."""
     rules = rules or StopRules()
     total = generations + 1
-    history: list[dict[str, Any]] = []
-    evaluations = 0
-    totals: dict[str, float] = {}
-    wall_before = 0.0
-    reason: StopReason | None = None
+    st = _State()
     ckpt = ctx.load_checkpoint()
     if ckpt is not None:
         opt.restore(ckpt["optimizer"])
-        history, evaluations, totals = ckpt["history"], ckpt["evaluations"], ckpt["totals"]
-        wall_before, reason = ckpt["wall_s"], ckpt.get("stop_reason")
+        st = _State.restore(ckpt)
         if carry is not None:
             carry.restore(ckpt.get(carry.key))
     seg_start = time.perf_counter()
-    while reason is None and opt.generation < total:
+    while st.reason is None and opt.generation < total:
         if ctx.is_cancelled():
             raise Cancelled()
-        x = opt.ask()
-        gen = evaluate(x)
+        gen = evaluate(opt.ask())
         f = np.asarray(gen.fitness, dtype=float)
         opt.tell(f)
-        evaluations += len(f) if gen.evaluations is None else gen.evaluations
-        for k, v in gen.totals.items():
-            totals[k] = totals.get(k, 0) + v
-        value = sign * f
-        row = {"generation": opt.generation - 1, "best": sign * opt.best[1], "mean": float(np.mean(value)),
-               "worst": float(sign * np.min(f)), "generation_best": float(sign * np.max(f))}
-        row |= gen.columns
-        row["evaluations"] = evaluations
-        history.append(row)
-        wall = wall_before + time.perf_counter() - seg_start
-        reason = stop_reason(history, rules, sign, wall)
-        state = {"optimizer": opt.state(), "history": history, "evaluations": evaluations, "totals": totals,
-                 "wall_s": wall, "stop_reason": reason}
-        if carry is not None:
-            state[carry.key] = carry.save()
-        ctx.save_checkpoint(state)
-        info = {"generation": row["generation"], "best": row["best"], "mean": row["mean"], "worst": row["worst"],
-                "evaluations": evaluations}
-        if "sim_steps" in totals:
-            info["sim_steps_per_s"] = totals["sim_steps"] / max(wall, 1e-9)
-        if progress_info is not None:
-            info = progress_info(info)
-        ctx.progress(opt.generation if reason is None else total, total, info)
+        st.count(len(f) if gen.evaluations is None else gen.evaluations, gen.totals)
+        row = _row(opt, gen, f, sign) | gen.columns
+        st.history.append(row)
+        met = goal is not None and _check_goal(opt, st, goal)
+        if goal is not None:
+            row["target_met"] = int(met)
+        row["evaluations"] = st.evaluations
+        wall = st.wall_before + time.perf_counter() - seg_start
+        if met and st.target_wall_s is None:
+            st.target_wall_s = wall
+        st.reason = "target_met" if met and stop_at_goal else stop_reason(st.history, rules, sign, wall)
+        _save(ctx, opt, st, wall, carry)
+        _report(ctx, opt, st, row, wall, total, progress_info)
     best_x, best_f = opt.best
-    return SearchOutcome(best_x=best_x, best_fitness=best_f, history=history, evaluations=evaluations, totals=totals,
-                         wall_s=wall_before + time.perf_counter() - seg_start, stop_reason=reason or "generations",
-                         generations_run=len(history))
+    return SearchOutcome(best_x=best_x, best_fitness=best_f, history=st.history, evaluations=st.evaluations,
+                         totals=st.totals, wall_s=st.wall_before + time.perf_counter() - seg_start,
+                         stop_reason=st.reason or "generations", generations_run=len(st.history),
+                         time_to_target_s=st.target_wall_s)
+
+
+def _save(ctx: RunContext, opt, st: _State, wall: float, carry: Carry | None) -> None:
+    state = {"optimizer": opt.state(), "history": st.history, "evaluations": st.evaluations, "totals": st.totals,
+             "wall_s": wall, "stop_reason": st.reason}
+    if st.goal_x is not None:
+        state["goal"] = {"x": st.goal_x, "met": st.goal_met, "target_wall_s": st.target_wall_s}
+    if carry is not None:
+        state[carry.key] = carry.save()
+    ctx.save_checkpoint(state)
+
+
+def _report(ctx: RunContext, opt, st: _State, row: dict, wall: float, total: int,
+            progress_info: Callable[[dict], dict] | None) -> None:
+    info = {"generation": row["generation"], "best": row["best"], "mean": row["mean"], "worst": row["worst"],
+            "evaluations": st.evaluations}
+    if "sim_steps" in st.totals:
+        info["sim_steps_per_s"] = st.totals["sim_steps"] / max(wall, 1e-9)
+    if "target_met" in row:
+        info["target_met"] = row["target_met"]
+    if progress_info is not None:
+        info = progress_info(info)
+    ctx.progress(opt.generation if st.reason is None else total, total, info)

@@ -76,6 +76,13 @@ class Optimizer(abc.ABC):
     def restore(self, state: dict) -> None:
         """Continue from ``state()``: the same asks as the run that wrote it."""
 
+    def selection_thresholds(self) -> np.ndarray | None:
+        """For the population last asked: the fitness each candidate must reach to change
+        what the optimiser does next (DE: its parent's, Eq. 10), or None when every value
+        matters (rank-based and swarm optimisers). An evaluator may stop evaluating a
+        candidate once it provably cannot reach its threshold and tell any value below it."""
+        return None
+
     def diagnostics(self) -> dict[str, float]:
         """Numbers about the search's own state for a log line (e.g. PSO's spread); none by default."""
         return {}

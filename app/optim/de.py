@@ -55,6 +55,11 @@ class DifferentialEvolution(Optimizer):
         self._trial = None
         self.generation += 1
 
+    def selection_thresholds(self) -> np.ndarray | None:
+        """A trial replaces its parent only if its fitness is at least the parent's (Eq. 10);
+        the initial population has no parents."""
+        return None if self.pop is None or self._trial is None else self.fit.copy()
+
     @property
     def population_fitness(self) -> np.ndarray:
         """Fitness of the current population (after selection)."""

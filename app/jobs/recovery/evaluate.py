@@ -29,7 +29,7 @@ from app.jobs.recovery.sequences import GaitSequence
 from app.jobs.recovery.trajectory import tip_positions
 from app.robots.catalog import RobotEntry
 from app.robots.hexapod import JOINT_NAMES
-from app.jobs.recovery.metrics import body_metrics, fallen
+from app.jobs.recovery.metrics import body_metrics, euler_zyx, fallen, fitness_bound
 from app.sim.perturb import same_signature
 from app.sim.threads import sim_threads
 
@@ -54,6 +54,59 @@ class EvalResult:
     sim_steps: int  # steps actually simulated (fallen candidates stop early)
 
 
+# The speed cap of a cut walk: this many times the gait's nominal speed (step length per
+# gait period, which a foot that does not slip gives the body). Measured on DE populations of
+# the four Table II damages: the fastest mean speed over the rest of a walk was ... of it
+# (docs/recovery_speed.md), so the cap leaves a margin of ...
+CUT_SPEED_FACTOR = 3.0
+
+
+@dataclasses.dataclass
+class Cutoff:
+    """Early termination of the walks that can no longer win their selection (DE's
+    one-to-one selection, Eq. 10: a trial replaces its parent only if its F is at least the
+    parent's). After each chunk, a walk's Eq. 5 fitness is bounded from above by
+    ``fitness_bound``: the roll and pitch amplitudes so far (they can only grow), no drift
+    and no yaw, and the forward displacement so far plus ``speed_cap_m_s`` times the time
+    left. A walk whose bound is below its threshold stops there; its fitness is reported
+    as the bound, which is below the parent's, so the selection is the one the whole walk
+    would have made whenever the cap holds (the rule and its check: docs/recovery_speed.md).
+    """
+
+    thresholds: np.ndarray  # (P,) the F each candidate must reach (DE: its parent's)
+    speed_cap_m_s: np.ndarray  # (P,) bound on the mean forward speed over the rest of a walk
+    weights: tuple[float, ...]
+    units: str
+    saved_steps: int = 0  # the steps the cut walks would still have taken
+    cut: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=bool))
+    bound: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    _lo: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    _hi: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+
+    def start(self, P: int) -> None:
+        self.cut, self.bound, self.saved_steps = np.zeros(P, dtype=bool), np.full(P, np.inf), 0
+        self._lo, self._hi = np.full((P, 2), np.inf), np.full((P, 2), -np.inf)
+
+    def update(self, ev: "GaitEvaluator", alive: np.ndarray, sens: np.ndarray, start: int, stop: int) -> np.ndarray:
+        """(len(alive),) True for the walks to cut after the chunk [start, stop)."""
+        first = ev.n_settle - 1  # the walking window's first step (as in evaluate_all)
+        if stop <= first + 1:
+            return np.zeros(alive.size, dtype=bool)
+        seg = sens[alive, max(start, first):stop]
+        ang = np.degrees(euler_zyx(ev._sensor(seg, "torso_quat"))[..., 1:])  # (A, T, [about y, about x])
+        self._lo[alive] = np.minimum(self._lo[alive], ang.min(axis=1))
+        self._hi[alive] = np.maximum(self._hi[alive], ang.max(axis=1))
+        amp = 0.5 * (self._hi[alive] - self._lo[alive])
+        y = ev._sens["com_pos"][0] + 1
+        reach = sens[alive, stop - 1, y] - sens[alive, first, y] + self.speed_cap_m_s[alive] * (ev.nstep - stop) * ev.dt
+        b = fitness_bound(reach, amp[:, 0], amp[:, 1], self.weights, self.units)
+        out = b < self.thresholds[alive]
+        self.cut[alive[out]] = True
+        self.bound[alive[out]] = b[out]
+        self.saved_steps += int(np.sum(out)) * (ev.nstep - stop)
+        return out
+
+
 class GaitEvaluator:
     """Evaluates tip-trajectory parameter vectors for one (damaged) robot and sequence."""
 
@@ -73,6 +126,7 @@ class GaitEvaluator:
         self.nthread = cfg.nthread or sim_threads()
         self._datas = [mujoco.MjData(model) for _ in range(self.nthread)]
         self._runner = rollout.Rollout(nthread=self.nthread) if self.nthread > 1 else None
+        self._buffers: dict[str, np.ndarray] = {}
 
         geom = robot.geometry
         self.sides = np.array([geom.leg(l).side for l in self.legs])
@@ -114,43 +168,63 @@ class GaitEvaluator:
         tips[..., 1] *= self.sides  # hip frame (y forward) -> leg frame (left legs turned 180 deg)
         return leg_ik(tips, self.robot.geometry.link_lengths)
 
-    def controls(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Control sequences (P, nstep, nu) and initial states (P, nstate)."""
+    def period_controls(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One gait period of setpoints (P, n_period, nu) and the initial states (P, nstate)."""
         q = self.joint_targets(params)
         P = q.shape[0]
-        nu = self.model.nu
-        period = np.empty((P, self.n_period, nu))
+        period = np.empty((P, self.n_period, self.model.nu))
         mask = self.ctrl_cols >= 0
         period[:, :, self.ctrl_cols[mask]] = q[:, :, mask]
-        reps = math.ceil(self.n_walk / self.n_period)
-        walk = np.tile(period, (1, reps, 1))[:, : self.n_walk]
-        ctrl = np.concatenate([np.repeat(period[:, :1], self.n_settle, axis=1), walk], axis=1)
-
         state = np.repeat(self._state0[None], P, axis=0)
         qpos = state[:, self._qpos_off : self._qpos_off + self.model.nq]
         qpos[:, 0:3] = (0.0, 0.0, self.torso_height0)
         qpos[:, 3:7] = (1.0, 0.0, 0.0, 0.0)
         qpos[:, self.qpos_adr] = period[:, 0]
-        return ctrl, state
+        return period, state
+
+    def control_steps(self, start: int, stop: int) -> np.ndarray:
+        """Which step of the period each step in [start, stop) holds: the first pose while
+        the robot settles, then the period over and over."""
+        k = np.arange(start, stop)
+        return np.where(k < self.n_settle, 0, (k - self.n_settle) % self.n_period)
+
+    def controls(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Control sequences (P, nstep, nu) and initial states (P, nstate)."""
+        period, state = self.period_controls(params)
+        return period[:, self.control_steps(0, self.nstep)], state
 
     # -- simulation ---------------------------------------------------------------------
     def _rollout(self, models, state: np.ndarray, ctrl: np.ndarray):
+        """One native rollout call; its outputs land in buffers kept between calls (fresh
+        arrays each chunk cost page faults, not simulation)."""
         m = models[0] if len(self.variants) == 1 else models
+        A, T = ctrl.shape[:2]
+        out = {"state": self._buffer("state", (A, T, self._nstate)),
+               "sensordata": self._buffer("sensordata", (A, T, self.model.nsensordata))}
         if self._runner is not None:
-            return self._runner.rollout(m, self._datas, state, ctrl)
-        return rollout.rollout(m, self._datas[0], state, ctrl)
+            return self._runner.rollout(m, self._datas, state, ctrl, **out)
+        return rollout.rollout(m, self._datas[0], state, ctrl, **out)
 
-    def simulate(self, params: np.ndarray, record: bool = False):
+    def _buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        n = math.prod(shape)
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < n:
+            buf = self._buffers[name] = np.empty(n)
+        return buf[:n].reshape(shape)
+
+    def simulate(self, params: np.ndarray, record: bool = False, cutoff: Cutoff | None = None):
         """Runs every candidate on every variant (batch element b = candidate b // K on
         variant b % K); returns (sensordata (B, T, ns), alive-until step (B,), states
-        (B, T, nstate) if record else None, steps simulated)."""
-        ctrl, state = self.controls(params)
+        (B, T, nstate) if record else None, steps simulated). With ``cutoff`` (one model),
+        a walk also ends at the chunk after which its fitness can no longer reach its
+        threshold: ``cutoff.cut`` and ``cutoff.bound`` then say which and the bound."""
+        period, state = self.period_controls(params)
         K = len(self.variants)
         if K > 1:
-            ctrl, state = np.repeat(ctrl, K, axis=0), np.repeat(state, K, axis=0)
-        models = np.empty(ctrl.shape[0], dtype=object)
-        models[:] = self.variants * (ctrl.shape[0] // K)
-        P = ctrl.shape[0]
+            period, state = np.repeat(period, K, axis=0), np.repeat(state, K, axis=0)
+        P = period.shape[0]
+        models = np.empty(P, dtype=object)
+        models[:] = self.variants * (P // K)
         sens = np.zeros((P, self.nstep, self.model.nsensordata))
         states = np.zeros((P, self.nstep, self._nstate)) if record else None
         end = np.full(P, self.nstep)
@@ -161,15 +235,18 @@ class GaitEvaluator:
             if alive.size == 0:
                 break
             stop = min(start + chunk, self.nstep)
-            st, sd = self._rollout(list(models[alive]), state[alive], ctrl[alive, start:stop])
+            ctrl = period[alive][:, self.control_steps(start, stop)]
+            st, sd = self._rollout(list(models[alive]), state[alive], ctrl)
             sens[alive, start:stop] = sd
             if record:
                 states[alive, start:stop] = st
             steps += alive.size * (stop - start)
             state[alive] = st[:, -1]
-            fell = self._fell(sd)
-            end[alive[fell]] = stop
-            alive = alive[~fell]
+            done = self._fell(sd)
+            if cutoff is not None and stop < self.nstep:
+                done |= cutoff.update(self, alive, sens, start, stop) & ~done
+            end[alive[done]] = stop
+            alive = alive[~done]
         return sens, end, states, steps
 
     def _sensor(self, sens: np.ndarray, name: str) -> np.ndarray:
@@ -182,22 +259,30 @@ class GaitEvaluator:
         return fallen(pos[..., 2], self._sensor(sens, "torso_quat"), self.min_height,
                       math.radians(self.cfg.max_tilt_deg), ground)
 
-    def evaluate_all(self, params: np.ndarray) -> EvalResult:
-        """Metrics of shape (P, K): every candidate on every variant."""
+    def evaluate_all(self, params: np.ndarray, cutoff: Cutoff | None = None) -> EvalResult:
+        """Metrics of shape (P, K): every candidate on every variant. With ``cutoff`` (a
+        single model), the walks it cut short are marked in ``cutoff.cut``: their metrics
+        are of a partial walk and only ``cutoff.bound`` says anything about them."""
         params = np.atleast_2d(params)
-        sens, end, _, steps = self.simulate(params)
+        if cutoff is not None:
+            if len(self.variants) != 1:
+                raise ValueError("walks are cut short on a single model only")
+            cutoff.start(params.shape[0])
+        sens, end, _, steps = self.simulate(params, cutoff=cutoff)
         fell = end < self.nstep
+        if cutoff is not None:
+            fell &= ~cutoff.cut
         walk = sens[:, self.n_settle - 1 :]
         feet = walk[..., self._feet] if self._feet.size else None
         m = body_metrics(self._sensor(walk, "com_pos"), self._sensor(walk, "torso_quat"), fell, feet)
         K = len(self.variants)
         return EvalResult(metrics={k: v.reshape(-1, K) for k, v in m.items()}, sim_steps=steps)
 
-    def evaluate(self, params: np.ndarray) -> EvalResult:
+    def evaluate(self, params: np.ndarray, cutoff: Cutoff | None = None) -> EvalResult:
         """Metrics of shape (P,) on the single model."""
         if len(self.variants) != 1:
             raise ValueError("this evaluator has several variants: use evaluate_all")
-        r = self.evaluate_all(params)
+        r = self.evaluate_all(params, cutoff)
         return EvalResult(metrics={k: v[:, 0] for k, v in r.metrics.items()}, sim_steps=r.sim_steps)
 
     def trace(self, params: np.ndarray) -> dict[str, np.ndarray]:
@@ -209,8 +294,6 @@ class GaitEvaluator:
         m = self.model
         n = int(end[0])
         qpos = states[0, :n, self._qpos_off : self._qpos_off + m.nq]
-        from app.jobs.recovery.metrics import euler_zyx
-
         quat = self._sensor(sens[0, :n], "torso_quat")
         ang = np.degrees(euler_zyx(quat))
         d = mujoco.MjData(m)

@@ -103,6 +103,18 @@ def fitness(metrics: dict[str, np.ndarray], weights, units: str = "m_rad") -> np
     return np.where(metrics["fell"], FALL_FITNESS, np.maximum(f, FALL_FITNESS + 1e-3))
 
 
+def fitness_bound(y_reach_m: np.ndarray, roll_amp_deg: np.ndarray, pitch_amp_deg: np.ndarray, weights,
+                  units: str = "m_rad") -> np.ndarray:
+    """An upper bound of Eq. 5's F for walks that cannot end further forward than
+    ``y_reach_m`` and whose roll and pitch amplitudes are at least the given ones: the
+    drift and yaw terms are at least 0, so the denominator is at least 1 plus the roll and
+    pitch terms; a walk that cannot end forward scores below 0 (a fall -1)."""
+    zero = np.zeros_like(np.asarray(y_reach_m, dtype=float))
+    t = objective_terms({"y_f_m": y_reach_m, "x_f_m": zero, "yaw_f_deg": zero, "roll_amp_deg": roll_amp_deg,
+                         "pitch_amp_deg": pitch_amp_deg}, weights, units)
+    return np.maximum(t["forward"] / (1.0 + t["roll"] + t["pitch"]), 0.0)
+
+
 # The recovery target (issue 12): what "walks straight again" means over a 10 s walk. The
 # one TARGET below is what the summary, the page, the CLI and the studies all apply.
 LIMITS = {"y_min_m": 0.5, "x_abs_max_m": 0.05, "yaw_abs_max_deg": 10.0}

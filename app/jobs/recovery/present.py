@@ -16,7 +16,10 @@ HISTORY_COLUMNS = {
     "worst": "worst F of the candidates evaluated in this generation",
     "generation_best": "best F among the candidates evaluated in this generation",
     "fell": "candidates of this generation that fell",
-    "evaluations": "candidates evaluated so far",
+    "cut": "trial walks of this generation cut short once they could no longer reach their parent's F "
+           "(search.cut_walks; mean, worst and generation_best skip them)",
+    "target_met": "1 once the best so far meets the recovery target, confirmed at half the step (stop.at_target)",
+    "evaluations": "candidates evaluated so far (with the target's confirmation walks)",
 }
 TRACES = {"best": "the recovered gait (best found)", "baseline": "the nominal tripod on the damaged robot"}
 FIGURES = {
@@ -53,7 +56,16 @@ def headline(s: dict) -> list[HeadlineRow]:
         headline_row("nominal tripod F", s["baseline"]["fitness"], "", "higher"),
         headline_row("nominal tripod forward", 100 * b["y_f_m"], "cm", "higher"),
         headline_row("fell", m["fell"], "", None, "no fall", ok["upright"]),
-    ] + _evidence_rows(s)
+    ] + _speed_rows(s) + _evidence_rows(s)
+
+
+def _speed_rows(s: dict) -> list[HeadlineRow]:
+    """When the search stopped at the target: how long it took to get there."""
+    ttt = (s.get("timing") or {}).get("time_to_target_s")
+    if ttt is None:
+        return []
+    return [headline_row("time to target", ttt, "s", "lower"),
+            headline_row("generations to target", s["search"].get("target_generation"), "", "lower")]
 
 
 def _evidence_rows(s: dict) -> list[HeadlineRow]:
@@ -127,6 +139,8 @@ def progress_text(info: dict) -> str:
         parts.append(f"{info['sim_steps_per_s'] / 1e3:.0f}k steps/s")
     if "evaluations" in info:
         parts.append(f"{info['evaluations']} evals")
+    if info.get("target_met"):
+        parts.append("target met")
     if "phase" in info:  # after the search: which post-search step runs
         parts.append(str(info["phase"]).replace("_", " "))
     return "  ".join(parts)

@@ -18,9 +18,9 @@ import numpy as np
 
 from app.jobs.base import JobResult, RunContext
 from app.jobs.evidence import ControlRow, PhaseContext, Phases, Robustness, control_seed
-from app.jobs.loop import Generation, SearchOutcome, run_search
+from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
 from app.jobs.recovery.cases import walking_cases
-from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
+from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
 from app.jobs.recovery.metrics import TARGET, fitness, objective_terms
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
@@ -29,7 +29,7 @@ from app.jobs.recovery.trajectory import param_names
 from app.optim.registry import make_optimizer
 from app.robots.catalog import RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
-from app.sim.perturb import Perturbation
+from app.sim.perturb import Perturbation, edit_model
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -108,7 +108,8 @@ def _scored(ev: GaitEvaluator, x: np.ndarray, weights, units: str) -> dict:
 
 class _Scorer:
     """Fitness of a population on the nominal model, or on several models (robust search).
-    Returns (fitness (P,), nominal-model metrics (P,), simulated steps)."""
+    Returns (fitness (P,), nominal-model metrics (P,), simulated steps). It keeps the last
+    population's metrics, so the search's goal can read the best's without a re-run."""
 
     def __init__(self, spec: RecoverySpec, robot: RobotEntry, mspec, model, seq: GaitSequence, cfg: SimConfig):
         self.weights, self.units = spec.objective.weights, spec.objective.units
@@ -117,20 +118,43 @@ class _Scorer:
         self.cases = walking_cases(robot.geometry.total_mass, spec.robust.models) if spec.robust else []
         models = [model] + case_models(mspec, model, self.cases)
         self.ev = MultiModelEvaluator(robot, models, seq, cfg)
+        self.period_s = cfg.period_s
+        self.last: tuple[np.ndarray, dict[str, np.ndarray]] | None = None
 
-    def __call__(self, x: np.ndarray):
-        r = self.ev.evaluate_all(x)
+    def cutoff(self, x: np.ndarray, thresholds: np.ndarray | None) -> Cutoff | None:
+        """Early termination against ``thresholds`` (DE's parents), on the nominal model only."""
+        if thresholds is None or self.robust is not None:
+            return None
+        cap = CUT_SPEED_FACTOR * np.atleast_2d(x)[:, -2] / self.period_s  # step length per gait period
+        return Cutoff(np.asarray(thresholds, dtype=float), cap, tuple(self.weights), self.units)
+
+    def __call__(self, x: np.ndarray, thresholds: np.ndarray | None = None):
+        cut = self.cutoff(x, thresholds)
+        r = self.ev.evaluate_all(x) if cut is None else self.ev.evaluators[0].evaluate_all(x, cut)
         m = {k: v[:, 0] for k, v in r.metrics.items()}
-        if self.robust is None:
-            return fitness(m, self.weights, self.units), m, r.sim_steps
-        f, _ = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
-        return f, m, r.sim_steps
+        self.last = (np.atleast_2d(x).copy(), m)
+        if self.robust is not None:
+            f, _ = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
+            return f, m, r.sim_steps, None
+        f = fitness(m, self.weights, self.units)
+        return (f, m, r.sim_steps, None) if cut is None else (np.where(cut.cut, cut.bound, f), m, r.sim_steps, cut)
 
-    def generation(self, x: np.ndarray) -> Generation:
-        """One generation of a search: fitness, falls, simulated steps."""
-        f, m, steps = self(x)
-        return Generation(f, {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps},
-                          evaluations=len(f) * self.models_per_candidate)
+    def generation(self, x: np.ndarray, thresholds: np.ndarray | None = None) -> Generation:
+        """One generation of a search: fitness, falls, simulated steps (and walks cut short)."""
+        f, m, steps, cut = self(x, thresholds)
+        cols, totals = {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps}  # a walk cut short has not fallen
+        if cut is not None:
+            cols["cut"] = int(np.sum(cut.cut))
+            totals["cut_steps_saved"] = cut.saved_steps
+        return Generation(f, cols, totals, evaluations=len(f) * self.models_per_candidate,
+                          exact=None if cut is None else ~cut.cut)
+
+    def metrics_of(self, x: np.ndarray) -> dict | None:
+        """The nominal-model metrics of ``x`` if it was in the last population evaluated."""
+        if self.last is None:
+            return None
+        rows = np.flatnonzero(np.all(self.last[0] == x, axis=1))
+        return None if rows.size == 0 else _scalars({k: v[rows[:1]] for k, v in self.last[1].items()})
 
     def per_model(self, x: np.ndarray) -> list[dict]:
         r = self.ev.evaluate_all(x)
@@ -140,6 +164,27 @@ class _Scorer:
 
     def close(self):
         self.ev.close()
+
+
+class _Goal:
+    """The recovery target as the search's stop rule: the best so far meets it on the walk
+    the search scored (re-run at the step if that walk is not at hand), then again at half
+    the step. The confirmation is a real walk and counts as an evaluation."""
+
+    def __init__(self, score: _Scorer, ev: GaitEvaluator, half_ev: GaitEvaluator):
+        self.score, self.ev, self.half_ev = score, ev, half_ev
+
+    def __call__(self, x: np.ndarray) -> GoalCheck:
+        m = self.score.metrics_of(x)
+        if m is not None and not TARGET.met(m):
+            return GoalCheck(False)
+        n, steps = 0, 0
+        for ev in ([] if m is not None else [self.ev]) + [self.half_ev]:
+            r = ev.evaluate(x)
+            n, steps = n + 1, steps + r.sim_steps
+            if not TARGET.met(_scalars(r.metrics)):
+                return GoalCheck(False, n, {"sim_steps": steps})
+        return GoalCheck(True, n, {"sim_steps": steps})
 
 
 @dataclasses.dataclass
@@ -161,6 +206,7 @@ class _Job:
     base_ev: GaitEvaluator  # the nominal tripod
     cases: list[Perturbation]
     rob_ev: MultiModelEvaluator | None
+    half_ev: GaitEvaluator | None = None  # the nominal model at half the step (the target's confirmation)
     searches: dict[str, SearchOutcome] = dataclasses.field(default_factory=dict)
     best: dict = dataclasses.field(default_factory=dict)
     baseline: dict = dataclasses.field(default_factory=dict)
@@ -178,7 +224,7 @@ class _Job:
         return nominal_params(self.robot, self.legs)
 
     def close(self) -> None:
-        for ev in (self.score, self.ev, self.base_ev, self.rob_ev):
+        for ev in (self.score, self.ev, self.base_ev, self.rob_ev, self.half_ev):
             if ev is not None:
                 ev.close()
 
@@ -209,13 +255,26 @@ def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
     return {name: n for name, n in sizes.items() if n}
 
 
+def _half_step_evaluator(job: _Job) -> GaitEvaluator:
+    return GaitEvaluator(job.robot, edit_model(job.model, Perturbation("half", "half step", timestep_scale=0.5)),
+                         job.seq, sim_config(job.spec))
+
+
 def search(job: _Job, phases: Phases) -> None:
     """The search, then (when asked) the uniform random search over the same bounds for as
     many generations as the search ran (fewer when a stop rule ended it early)."""
-    s = job.spec.search
+    s, stop = job.spec.search, job.spec.stop
     opt = make_optimizer(s.optimizer, job.lower, job.upper, s.population, s.seed, cr=s.cr, f=s.f)
-    job.searches["search"] = run_search(opt, job.score.generation, s.generations, phases.context("search"),
-                                        job.spec.stop)
+
+    def evaluate(x: np.ndarray) -> Generation:  # with cut walks, DE's parents are its trials' thresholds
+        return job.score.generation(x, opt.selection_thresholds() if s.cut_walks else None)
+
+    goal = None
+    if stop.at_target:
+        job.half_ev = _half_step_evaluator(job)
+        goal = _Goal(job.score, job.ev, job.half_ev)
+    job.searches["search"] = run_search(opt, evaluate, s.generations, phases.context("search"), stop, goal=goal,
+                                        stop_at_goal=stop.at_target)
     if job.spec.controls.random_search:
         # its own stream of the job's seed, so adding the control leaves the search's draws alone
         rnd = make_optimizer("random", job.lower, job.upper, s.population, control_seed(s.seed))
@@ -296,6 +355,17 @@ def record_traces(job: _Job, phases: Phases) -> None:
     _done(ph)
 
 
+def _target_reached(out: SearchOutcome) -> dict:
+    """When the stop rule on the target is on: the first generation whose best met it
+    (confirmed), and the evaluations spent until then; None when it never did."""
+    rows = [r for r in out.history if "target_met" in r]
+    if not rows:
+        return {}
+    first = next((r for r in rows if r["target_met"]), None)
+    return {"target_generation": None if first is None else first["generation"],
+            "evaluations_to_target": None if first is None else first["evaluations"]}
+
+
 def summary(job: _Job) -> dict:
     search_out = job.searches["search"]
     best = job.best | {"params": _params(job.names, search_out.best_x), "target_met": TARGET.met(job.best["metrics"])}
@@ -319,10 +389,12 @@ def summary(job: _Job) -> dict:
         "bounds": {"names": job.names, "lower": job.lower.tolist(), "upper": job.upper.tolist()},
         "history": search_out.history,
         "random_search_history": job.searches["random_search"].history if "random_search" in job.searches else [],
-        "search": {"stop_reason": search_out.stop_reason, "generations_run": search_out.generations_run},
+        "search": {"stop_reason": search_out.stop_reason, "generations_run": search_out.generations_run}
+        | _target_reached(search_out),
         "timing": {"wall_s": job.wall_s, "evaluations": job.evaluations,
                    "sim_steps_per_s": job.sim_steps / max(job.wall_s, 1e-9), "sim_steps": job.sim_steps,
-                   "setup_s": job.setup_s},
+                   "setup_s": job.setup_s, "time_to_target_s": search_out.time_to_target_s,
+                   "cut_steps_saved": int(search_out.totals.get("cut_steps_saved", 0))},
     }
 
 

@@ -71,6 +71,15 @@ class Search(StrictModel):
     cr: float = Field(0.6, ge=0.0, le=1.0)
     f: float = Field(0.5, ge=0.0, le=1.0)
     seed: int = Field(0, ge=0, le=2**32 - 1)
+    cut_walks: bool = Field(False, description=(
+        "DE only: end a trial's walk once its F can no longer reach its parent's, which DE's selection (Eq. 10) "
+        "keeps either way; same answer as the full walks whenever the rule's speed cap holds (docs/recovery_speed.md)"))
+
+
+class RecoveryStop(StopRules):
+    at_target: bool = Field(False, description=(
+        "stop once the best gait meets the recovery target (forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg, "
+        "no fall), confirmed at half the default step (and at the default step when the search ran at another)"))
 
 
 class Objective(StrictModel):
@@ -153,14 +162,27 @@ class Bounds(StrictModel):
         return self
 
 
+# A preset sets the fields a spec leaves out (a field the spec gives wins); the spec as
+# stored names the preset and holds every value, so it parses back to itself.
+PRESETS: dict[str, dict] = {
+    "paper": {},
+    "fast": {"search": {"cut_walks": True}, "stop": {"at_target": True, "plateau_generations": 10}},
+}
+PRESET_TEXT = ("paper: every field as paper 000 (DE 30 x 60 over full 10 s walks, the whole budget; what Table II "
+               "reproduces). fast: stops as soon as the best gait meets the recovery target, confirmed at half the "
+               "step, or when the best F has not improved for 10 generations, and cuts short the walks of trials "
+               "that can no longer win DE's selection (docs/recovery_speed.md); a field you set wins")
+
+
 class RecoverySpec(SpecBase):
     kind: Literal["recovery"] = "recovery"
+    preset: Literal[tuple(PRESETS)] = Field("paper", description=PRESET_TEXT)  # type: ignore[valid-type]
     robot: str = Field("jethexa", max_length=64, json_schema_extra={"enum": sorted(ROBOTS)})
     # One default for the API, the CLI and the dashboard: the paper's first case (Table II,
     # legs 1 and 6 lost). `"damage": {}` is the intact robot.
     damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
     search: Search = Field(default_factory=Search)
-    stop: StopRules = Field(default_factory=StopRules)
+    stop: RecoveryStop = Field(default_factory=RecoveryStop)
     objective: Objective = Field(default_factory=Objective)
     sim: Sim = Field(default_factory=Sim)
     gait: Gait = Field(default_factory=Gait)
@@ -168,6 +190,15 @@ class RecoverySpec(SpecBase):
     robust: Robust | None = None
     controls: Controls = Field(default_factory=Controls)
     robustness: Robustness = Field(default_factory=Robustness)
+
+    @model_validator(mode="after")
+    def _preset(self):
+        for section, values in PRESETS[self.preset].items():
+            part = getattr(self, section)
+            for name, value in values.items():
+                if name not in part.model_fields_set:
+                    setattr(part, name, value)
+        return self
 
     @field_validator("robot")
     @classmethod
@@ -180,7 +211,8 @@ class RecoverySpec(SpecBase):
     budget_formula: ClassVar[str] = (
         "population x (generations + 1) candidate gaits (generation 0 is the initial population), each simulated "
         "on 1 + len(robust.models) models; the same again for the random-search control when it is on; plus one "
-        "simulation per robustness case and three re-scorings (best, baseline, random-search best)")
+        "simulation per robustness case and three re-scorings (best, baseline, random-search best); with "
+        "stop.at_target, at most two confirmation walks per generation (at the default step and at half of it)")
 
     @property
     def seed(self) -> int:
@@ -193,7 +225,8 @@ class RecoverySpec(SpecBase):
     @property
     def evaluations_budget(self) -> int:
         search = self.search.population * (self.search.generations + 1) * self.models_per_candidate
-        return search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3
+        confirm = 2 * (self.search.generations + 1) if self.stop.at_target else 0
+        return search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3 + confirm
 
 
 Spec = RecoverySpec

@@ -58,10 +58,24 @@ def table_two(summary: dict) -> dict | None:
         rows.append(row)
     cap = (f"As in the paper's Table II: final position (x sideways drift, y forward, the walking direction), final yaw, "
            f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {TARGET.text} — each "
-           "target column says met or not met. Recovered values say better or worse than the baseline.")
+           "target column says met or not met. Recovered values say better or worse than the baseline."
+           + _search_note(summary))
     return kit.panel("table2", "Before and after", cap,
                      table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({TARGET.text})"],
                                      rows))
+
+
+def _search_note(summary: dict) -> str:
+    """How the search ended, and its time to the target when it stopped there."""
+    search, timing = summary.get("search") or {}, summary.get("timing") or {}
+    if "stop_reason" not in search:
+        return ""
+    note = f" The search ran {search.get('generations_run')} generations (stop: {search['stop_reason']})"
+    ttt = timing.get("time_to_target_s")
+    if ttt is not None:
+        note += (f"; it met the target, confirmed at half the step, in generation {search.get('target_generation')} "
+                 f"after {ttt:.1f} s ({search.get('evaluations_to_target')} evaluations)")
+    return note + "."
 
 
 def _stack_view(pid: str, title: str, traces: Mapping, specs: list[tuple], unit: str, caption: str) -> dict | None:

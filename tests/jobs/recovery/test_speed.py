@@ -1,0 +1,155 @@
+"""Issue 22: walks cut short once they cannot win DE's selection, the stop rule on the
+recovery target (confirmed at half the step), and the fast preset."""
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from app.jobs.base import MemoryContext
+from app.jobs.loop import Generation, GoalCheck, run_search
+from app.jobs.recovery.metrics import fitness, fitness_bound
+from app.jobs.recovery.run import run
+from app.jobs.recovery.spec import PRESETS, RecoverySpec
+from app.jobs.registry import parse_spec
+from app.optim.de import DifferentialEvolution
+
+W = [1.0, 1.0, 10.0, 100.0, 100.0]
+
+
+@pytest.mark.parametrize("units", ["cm_deg", "m_rad"])
+def test_the_bound_is_never_below_the_fitness_it_bounds(units):
+    rng = np.random.default_rng(0)
+    n = 5000
+    m = {"y_f_m": rng.uniform(-0.5, 1.5, n), "x_f_m": rng.normal(0, 0.1, n), "yaw_f_deg": rng.normal(0, 20, n),
+         "roll_amp_deg": rng.uniform(0, 8, n), "pitch_amp_deg": rng.uniform(0, 8, n), "fell": rng.random(n) < 0.1}
+    f = fitness(m, W, units)
+    # any reach at least the final forward displacement, amplitudes at most the final ones
+    reach = m["y_f_m"] + rng.uniform(0, 0.3, n)
+    b = fitness_bound(reach, m["roll_amp_deg"] * rng.uniform(0, 1, n), m["pitch_amp_deg"] * rng.uniform(0, 1, n),
+                      W, units)
+    assert np.all(b >= f)
+
+
+def _search(cut: bool, **extra) -> dict:
+    spec = RecoverySpec(damage={"lost_legs": [1, 6]}, search={"population": 8, "generations": 4, "seed": 2,
+                                                             "cut_walks": cut},
+                        sim={"duration_s": 4.0}, controls={"random_search": False}, robustness={"cases": []}, **extra)
+    return run(spec, MemoryContext()).summary
+
+
+@pytest.fixture(scope="module")
+def full_and_cut():
+    return _search(False), _search(True)
+
+
+def test_cut_walks_give_the_answer_of_the_full_walks_for_fewer_steps(full_and_cut):
+    full, cut = full_and_cut
+    assert cut["best"]["params"] == full["best"]["params"] and cut["best"]["fitness"] == full["best"]["fitness"]
+    assert [r["best"] for r in cut["history"]] == [r["best"] for r in full["history"]]
+    cuts = [r["cut"] for r in cut["history"][1:]]
+    assert sum(cuts) > 0 and "cut" not in cut["history"][0]  # generation 0 has no parents to lose against
+    assert cut["timing"]["sim_steps"] < full["timing"]["sim_steps"]
+    assert cut["timing"]["evaluations"] == full["timing"]["evaluations"]  # a cut walk still counts
+
+
+def test_only_de_hands_out_thresholds():
+    de = DifferentialEvolution(np.zeros(3), np.ones(3), population=5, seed=0)
+    de.ask()
+    assert de.selection_thresholds() is None  # generation 0: no parents
+    de.tell(np.arange(5.0))
+    de.ask()
+    np.testing.assert_array_equal(de.selection_thresholds(), np.arange(5.0))
+
+
+class _Toy:
+    """A deterministic ask/tell optimiser over one coordinate: generation g asks [g, g/2]."""
+
+    def __init__(self):
+        self.generation, self._best = 0, (np.zeros(1), -np.inf)
+
+    def ask(self):
+        return np.array([[float(self.generation)], [self.generation / 2.0]])
+
+    def tell(self, f):
+        x = self.ask()
+        i = int(np.argmax(f))
+        if f[i] > self._best[1]:
+            self._best = (x[i].copy(), float(f[i]))
+        self.generation += 1
+
+    @property
+    def best(self):
+        return self._best
+
+    def state(self):
+        return {"generation": self.generation, "x": self._best[0].tolist(), "f": self._best[1]}
+
+    def restore(self, s):
+        self.generation, self._best = s["generation"], (np.asarray(s["x"]), s["f"])
+
+
+class _Ctx(MemoryContext):
+    def __init__(self, ckpt=None, kill_after=None):
+        super().__init__()
+        self._ck, self.saves, self.kill_after = ckpt, 0, kill_after
+
+    def save_checkpoint(self, state):
+        self._ck = json.loads(json.dumps(state))
+        self.saves += 1
+        if self.kill_after is not None and self.saves >= self.kill_after:
+            raise KeyboardInterrupt
+
+    def load_checkpoint(self):
+        return copy.deepcopy(self._ck)
+
+
+def _goal_run(ctx, asked):
+    def goal(x):
+        asked.append(float(x[0]))
+        return GoalCheck(bool(x[0] >= 3), evaluations=1, totals={"sim_steps": 7})
+
+    return run_search(_Toy(), lambda x: Generation(x[:, 0].copy(), totals={"sim_steps": 10}), 10, ctx,
+                      goal=goal, stop_at_goal=True)
+
+
+def test_the_goal_stops_the_search_is_asked_once_per_new_best_and_resumes():
+    asked = []
+    out = _goal_run(_Ctx(), asked)
+    assert out.stop_reason == "target_met" and out.generations_run == 4 and asked == [0.0, 1.0, 2.0, 3.0]
+    assert [r["target_met"] for r in out.history] == [0, 0, 0, 1] and out.time_to_target_s is not None
+    assert out.evaluations == 4 * 2 + 4 and out.totals["sim_steps"] == 4 * 10 + 4 * 7
+    killed = _Ctx(kill_after=2)
+    with pytest.raises(KeyboardInterrupt):
+        _goal_run(killed, [])
+    again = []
+    resumed = _goal_run(_Ctx(ckpt=killed.load_checkpoint()), again)
+    assert again == [2.0, 3.0] and resumed.history == out.history and resumed.evaluations == out.evaluations
+
+
+def test_the_fast_preset_fills_what_the_spec_leaves_out_and_round_trips():
+    s = parse_spec({"kind": "recovery", "preset": "fast", "stop": {"plateau_generations": 4}})
+    assert s.stop.at_target and s.search.cut_walks and s.stop.plateau_generations == 4
+    assert parse_spec(s.model_dump(mode="json")) == s
+    paper = parse_spec({"kind": "recovery"})
+    assert paper.preset == "paper" and not paper.stop.at_target and not paper.search.cut_walks
+    assert paper == parse_spec({"kind": "recovery", "preset": "paper"})
+    assert set(PRESETS) == {"paper", "fast"}
+    prop = RecoverySpec.model_json_schema()["properties"]["preset"]
+    assert prop["default"] == "paper" and "fast" in prop["description"]
+
+
+def test_a_search_stopped_at_the_target_met_it_at_half_the_step(tmp_path):
+    """Leg 1 lost: the nominal tripod already meets the target, so a small search finds
+    such a gait at once; the stop is confirmed by a walk at half the step."""
+    spec = parse_spec({"kind": "recovery", "damage": {"lost_legs": [1]}, "preset": "fast",
+                       "search": {"population": 6, "generations": 6, "seed": 0},
+                       "controls": {"random_search": False}, "robustness": {"cases": ["dt_half"]}})
+    s = run(spec, MemoryContext()).summary
+    assert s["search"]["stop_reason"] == "target_met" and s["best"]["target_met"]
+    assert s["search"]["target_generation"] == s["search"]["generations_run"] - 1
+    assert s["timing"]["time_to_target_s"] > 0
+    half = s["robustness"]["cases"][0]
+    assert half["name"] == "dt_half" and half["target_met"]
+    assert s["timing"]["evaluations"] <= spec.evaluations_budget
