@@ -1,8 +1,10 @@
-"""The paper's three simulation examples (Sec. 5.1), circling and spinning runs, and the
-density sweep beyond the paper: ``gaitmend reproduce freegait`` (k_ev, the first),
-``freegait-zones``, ``freegait-crab``, ``freegait-circling``, ``freegait-spinning``,
-``freegait-sweep``. Each returns markdown and, with ``json_out``, the raw rows; the
-numbers in docs/freegait.md come from these commands."""
+"""The paper's three simulation examples (Sec. 5.1), circling and spinning runs, the density
+sweep beyond the paper, and the walk under localisation and zone-position errors (issue
+28): ``gaitmend reproduce freegait`` (k_ev, the first), ``freegait-zones``,
+``freegait-crab``, ``freegait-circling``, ``freegait-spinning``, ``freegait-sweep``,
+``freegait-noise``. Each appends its finished runs to its JSON under docs/ (a re-run skips
+them: ``--write-docs``) and docs/freegait.md's generated sections are rendered from those
+files alone."""
 
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, Field
 
+from app.jobs import stats
 from app.jobs.base import BenchEntry, Experiment
 from app.jobs.freegait.planner.geometry import Motion, kinematic_margin
 from app.jobs.freegait.planner.params import GaitParams, nominal_re, r1
@@ -22,10 +25,20 @@ from app.jobs.freegait.planner.route import Change, Route
 from app.jobs.freegait.planner.search import SearchInput, candidate_grid, search
 from app.jobs.freegait.planner.walk import WalkConfig, stand_pose, walk
 from app.jobs.freegait.spec import target_met
+from app.jobs.ledger import Ledger, current_runs, results_by_name
+from app.jobs.reporting import Section, md_table, missing, progress_note
 from app.robots.silo6 import SILO6, TRIPODS
 from app.jobs.freegait.terrain import Minefield, make_minefield, make_terrain
 
 KEVS = (0.0, 0.02, 0.04, 0.06, 0.08, 0.1)
+SCIENCE = ("app/jobs/freegait/planner", "app/jobs/freegait/terrain.py", "app/robots/silo6.py")
+KEV_JSON, ZONES_JSON, CRAB_JSON = "docs/freegait_kev.json", "docs/freegait_zones.json", "docs/freegait_crab.json"
+CIRCLING_JSON, SPINNING_JSON = "docs/freegait_circling.json", "docs/freegait_spinning.json"
+SWEEP_JSON, NOISE_JSON = "docs/freegait_sweep.json", "docs/freegait_noise.json"
+
+
+def _cmd(name: str) -> str:
+    return f"gaitmend reproduce freegait{'-' + name if name != 'kev' else ''} --write-docs"
 
 
 def _world(length: float, width: float, roughness: float, t_seed: int, density: float, f_seed: int):
@@ -34,18 +47,18 @@ def _world(length: float, width: float, roughness: float, t_seed: int, density: 
     return ter, make_minefield(ter, density, 0.05, 0.15, f_seed, cleared=feet[:, :2])
 
 
-def _write(p, md: str, rows) -> str:
-    if getattr(p, "out", None):
-        p.out.parent.mkdir(parents=True, exist_ok=True)
-        p.out.write_text(md + "\n")
-    if getattr(p, "json_out", None):
-        p.json_out.parent.mkdir(parents=True, exist_ok=True)
-        p.json_out.write_text(json.dumps(rows, indent=1, default=float))
-    return md
+def _ledger(p, name: str, planned: int) -> Ledger:
+    return Ledger(p.json_out, f"freegait-{name}", _cmd(name), p.model_dump(mode="json"), SCIENCE, planned=planned)
 
 
 def _f(v, fmt="{:.3f}"):
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt.format(v)
+
+
+def _first(datas: list) -> tuple[dict | None, dict]:
+    """(the ledger data or None, its current results by run name)."""
+    data = datas[0]
+    return data, (results_by_name(data) if data else {})
 
 
 # -- example 1: k_ev --------------------------------------------------------------------------
@@ -57,8 +70,7 @@ class KevParams(BaseModel):
     constant_m: float = Field(1.5, gt=0.2, le=5.0, description="route length of each constant-k_ev run")
     roughness_m: float = Field(0.04, ge=0.0, le=0.09)
     extra_kevs: str = Field("1,5", description="k_ev values beyond the paper's range for the constant runs")
-    out: Path | None = None
-    json_out: Path | None = None
+    json_out: Path | None = Field(Path(KEV_JSON), description="the ledger (resumable)")
 
 
 def _phase_stats(r, t0: float, t1: float) -> dict:
@@ -74,43 +86,65 @@ def _phase_stats(r, t0: float, t1: float) -> dict:
             "stop_s": float((s["stop"][w] > 0).sum() * 0.1), "sm_t": float(np.mean([x["sm_t"] for x in tr if "sm_t" in x] or [np.nan]))}
 
 
-def kev(p: KevParams, log: Callable[[str], None]) -> str:
-    dur = p.step_s * len(KEVS)
-    dist = p.speed_m_s * dur
+def _stepped(p: KevParams) -> dict:
+    dist = p.speed_m_s * p.step_s * len(KEVS)
     ter, fld = _world(dist + 2.5, 3.0, p.roughness_m, 0, 0.0, 0)
-    route = Route(speed=p.speed_m_s, distance=dist,
-                  changes=tuple(Change(p.step_s * i, k_ev=k) for i, k in enumerate(KEVS)))
-    log(f"stepped k_ev walk: {dist:.2f} m")
+    route = Route(speed=p.speed_m_s, distance=dist, changes=tuple(Change(p.step_s * i, k_ev=k) for i, k in enumerate(KEVS)))
     r = walk(ter, fld, WalkConfig(route=route, params=GaitParams(k_ev=KEVS[0])))
-    stepped = [{"k_ev": k, **_phase_stats(r, p.step_s * i, p.step_s * (i + 1))} for i, k in enumerate(KEVS)]
-    const = []
-    extra = [float(x) for x in p.extra_kevs.split(",") if x.strip()]
-    for k in (*KEVS, *extra):
-        acc = []
-        for seed in range(p.seeds):
-            log(f"constant k_ev {k} seed {seed}")
-            ter_c, fld_c = _world(p.constant_m + 2.5, 3.0, p.roughness_m, seed, 0.0, 0)
-            rc = walk(ter_c, fld_c, WalkConfig(route=Route(speed=p.speed_m_s, distance=p.constant_m),
-                                              params=GaitParams(k_ev=k)))
-            st = _phase_stats(rc, 0.0, 1e9)
-            st.update(mean_speed=rc.summary()["mean_speed_m_s"], finished=rc.outcome == "finished")
-            acc.append(st)
-        const.append({"k_ev": k, **{key: float(np.nanmean([a[key] for a in acc])) for key in acc[0]}})
-    md = [f"Stepped k_ev (the paper's protocol: one walk, k_ev raised every {p.step_s:g} s, {p.speed_m_s} m/s, "
-          f"ground {p.roughness_m} m, outcome {r.outcome}):", "",
-          "| k_ev | transfers | support (s) | transfer (s) | mean SM (m) | min SM (m) | min K_R (m) | SM_t chosen (m) | stopped (s) |",
-          "|---|---|---|---|---|---|---|---|---|"]
-    for s in stepped:
-        md.append(f"| {s['k_ev']:g} | {s['transfers']} | {_f(s['support_s'], '{:.2f}')} | {_f(s['transfer_s'], '{:.2f}')} | "
-                  f"{_f(s['mean_sm_m'])} | {_f(s['min_sm_m'])} | {_f(s['min_k_r_m'])} | {_f(s['sm_t'])} | {s['stop_s']:.1f} |")
-    md += ["", f"Constant k_ev, one walk of {p.constant_m} m per k_ev on each of {p.seeds} terrain seeds (means; "
-               f"k_ev above 0.1 is beyond the paper's range):", "",
-           "| k_ev | transfers | support (s) | transfer (s) | mean SM (m) | min SM (m) | min K_R (m) | SM_t chosen (m) | mean speed (m/s) |",
-           "|---|---|---|---|---|---|---|---|---|"]
-    for s in const:
-        md.append(f"| {s['k_ev']:g} | {s['transfers']:.1f} | {_f(s['support_s'], '{:.2f}')} | {_f(s['transfer_s'], '{:.2f}')} | "
-                  f"{_f(s['mean_sm_m'])} | {_f(s['min_sm_m'])} | {_f(s['min_k_r_m'])} | {_f(s['sm_t'])} | {_f(s['mean_speed'], '{:.4f}')} |")
-    return _write(p, "\n".join(md), {"stepped": stepped, "constant": const})
+    return {"outcome": r.outcome, "rows": [{"k_ev": k, **_phase_stats(r, p.step_s * i, p.step_s * (i + 1))}
+                                           for i, k in enumerate(KEVS)]}
+
+
+def _constant(p: KevParams, k: float) -> dict:
+    acc = []
+    for seed in range(p.seeds):
+        ter, fld = _world(p.constant_m + 2.5, 3.0, p.roughness_m, seed, 0.0, 0)
+        rc = walk(ter, fld, WalkConfig(route=Route(speed=p.speed_m_s, distance=p.constant_m), params=GaitParams(k_ev=k)))
+        acc.append(_phase_stats(rc, 0.0, 1e9) | {"mean_speed": rc.summary()["mean_speed_m_s"],
+                                                   "finished": rc.outcome == "finished"})
+    return {"k_ev": k, "seeds": acc}
+
+
+def kev(p: KevParams, log: Callable[[str], None]) -> str:
+    kevs = [*KEVS, *(float(x) for x in p.extra_kevs.split(",") if x.strip())]
+    led = _ledger(p, "kev", 1 + len(kevs))
+    led.run("stepped", {"what": "stepped"} | p.model_dump(mode="json", exclude={"json_out"}), 0,
+            lambda: _stepped(p), log)
+    for k in kevs:
+        led.run(f"constant {k:g}", {"what": "constant", "k_ev": k} | p.model_dump(mode="json", exclude={"json_out"}),
+                0, lambda k=k: _constant(p, k), log)
+    return render_kev([led.data])
+
+
+_KEV_COLS = ["k_ev", "transfers", "support (s)", "transfer (s)", "mean SM (m)", "min SM (m)", "min K_R (m)", "SM_t chosen (m)"]
+
+
+def _kev_cells(s: dict, transfers: str) -> list[str]:
+    return [f"{s['k_ev']:g}", transfers, _f(s["support_s"], "{:.2f}"), _f(s["transfer_s"], "{:.2f}"), _f(s["mean_sm_m"]),
+            _f(s["min_sm_m"]), _f(s["min_k_r_m"]), _f(s["sm_t"])]
+
+
+def render_kev(datas: list) -> str:
+    data, res = _first(datas)
+    if not res:
+        return missing(KEV_JSON, _cmd("kev"))
+    p, out = data["params"], []
+    if "stepped" in res:
+        st = res["stepped"]
+        out += [f"Stepped k_ev (the paper's protocol: one walk, k_ev raised every {p['step_s']:g} s, {p['speed_m_s']} m/s, "
+                f"ground {p['roughness_m']} m, outcome {st['outcome']}):", "",
+                md_table(_KEV_COLS + ["stopped (s)"], [_kev_cells(s, str(s["transfers"])) + [f"{s['stop_s']:.1f}"]
+                                                       for s in st["rows"]])]
+    const = sorted((v for k, v in res.items() if k.startswith("constant")), key=lambda v: v["k_ev"])
+    rows = []
+    for c in const:
+        mean = {key: float(np.nanmean([np.nan if a[key] is None else a[key] for a in c["seeds"]]))
+                for key in c["seeds"][0] if key != "finished"}
+        rows.append(_kev_cells(mean | {"k_ev": c["k_ev"]}, f"{mean['transfers']:.1f}") + [_f(mean["mean_speed"], "{:.4f}")])
+    if rows:
+        out += [f"Constant k_ev, one walk of {p['constant_m']} m per k_ev on each of {p['seeds']} terrain seeds (means; "
+                "k_ev above 0.1 is beyond the paper's range):", "", md_table(_KEV_COLS + ["mean speed (m/s)"], rows)]
+    return "\n".join(out) + progress_note(data, len(current_runs(data)))
 
 
 # -- example 2: zones, aware vs unaware -------------------------------------------------------
@@ -120,41 +154,51 @@ class ZonesParams(BaseModel):
     fields: int = Field(10, ge=1, le=100, description="random minefields (seeds 0..fields-1)")
     distance_m: float = Field(2.0, gt=0.2, le=10.0)
     roughness_m: float = Field(0.04, ge=0.0, le=0.09)
-    out: Path | None = None
-    json_out: Path | None = None
+    json_out: Path | None = Field(Path(ZONES_JSON), description="the ledger: one run per field")
 
 
-def _pair(ter, fld, route, seed):
-    out = {}
+ZONE_KEYS = ("footholds", "footholds_in_zones", "footholds_in_safe_areas", "finished", "stop_time_s", "min_sm_m",
+             "closest_zone_m")
+
+
+def _zone_field(p: ZonesParams, seed: int) -> dict:
+    ter, fld = _world(p.distance_m + 2.5, 3.0, p.roughness_m, seed, p.density_per_m2, seed)
+    out = {"field": seed, "zones": len(fld.centres)}
     for aware in (True, False):
-        s = walk(ter, fld, WalkConfig(route=route, aware=aware, seed=seed)).summary()
-        out["aware" if aware else "unaware"] = s
+        s = walk(ter, fld, WalkConfig(route=Route(distance=p.distance_m), aware=aware, seed=seed)).summary()
+        out |= {f"{'aware' if aware else 'unaware'}_{m}": s[m] for m in ZONE_KEYS}
     return out
 
 
 def zones(p: ZonesParams, log: Callable[[str], None]) -> str:
-    rows = []
-    route = Route(distance=p.distance_m)
+    led = _ledger(p, "zones", p.fields)
+    base = p.model_dump(mode="json", exclude={"json_out", "fields"})
     for seed in range(p.fields):
-        log(f"field {seed}")
-        ter, fld = _world(p.distance_m + 2.5, 3.0, p.roughness_m, seed, p.density_per_m2, seed)
-        r = _pair(ter, fld, route, seed)
-        rows.append({"field": seed, "zones": len(fld.centres), **{f"{k}_{m}": r[k][m] for k in r for m in (
-            "footholds", "footholds_in_zones", "footholds_in_safe_areas", "finished", "stop_time_s", "min_sm_m")}})
-    md = [f"{p.fields} random minefields of {p.density_per_m2:g} zones/m^2 (zone 0.05 m, safe area 0.15 m), "
-          f"{p.distance_m} m straight route, ground {p.roughness_m} m; the same field for both planners:", "",
-          "| field | zones | aware: footholds / in zones / in safe areas / finished | unaware: footholds / in zones / in safe areas / finished |",
-          "|---|---|---|---|"]
-    for r in rows:
-        md.append(f"| {r['field']} | {r['zones']} | {r['aware_footholds']} / **{r['aware_footholds_in_zones']}** / "
-                  f"{r['aware_footholds_in_safe_areas']} / {r['aware_finished']} | {r['unaware_footholds']} / "
-                  f"**{r['unaware_footholds_in_zones']}** / {r['unaware_footholds_in_safe_areas']} / {r['unaware_finished']} |")
-    tot = {k: sum(r[k] for r in rows) for k in ("aware_footholds", "aware_footholds_in_zones", "unaware_footholds",
-                                                "unaware_footholds_in_zones", "unaware_footholds_in_safe_areas")}
-    md += ["", f"Total: aware {tot['aware_footholds_in_zones']} of {tot['aware_footholds']} footholds in zones; unaware "
-               f"{tot['unaware_footholds_in_zones']} of {tot['unaware_footholds']} in zones "
-               f"({tot['unaware_footholds_in_safe_areas']} in safe areas)."]
-    return _write(p, "\n".join(md), rows)
+        led.run(f"field {seed}", base | {"field": seed}, seed, lambda seed=seed: _zone_field(p, seed), log)
+    return render_zones([led.data])
+
+
+def render_zones(datas: list) -> str:
+    data, res = _first(datas)
+    if not res:
+        return missing(ZONES_JSON, _cmd("zones"))
+    p, rows = data["params"], sorted(res.values(), key=lambda r: r["field"])
+    tab = [[r["field"], r["zones"]] + [f"{r[f'{k}_footholds']} / **{r[f'{k}_footholds_in_zones']}** / "
+                                       f"{r[f'{k}_footholds_in_safe_areas']} / {r[f'{k}_finished']}"
+                                       for k in ("aware", "unaware")] for r in rows]
+    tot = {k: sum(r[k] for r in rows) for k in ("aware_footholds", "aware_footholds_in_zones", "aware_footholds_in_safe_areas",
+                                                "unaware_footholds", "unaware_footholds_in_zones",
+                                                "unaware_footholds_in_safe_areas")}
+    hit = stats.success_rate(sum(r["unaware_footholds_in_zones"] > 0 for r in rows), len(rows))
+    return (f"{len(rows)} random minefields of {p['density_per_m2']:g} zones/m^2 (zone 0.05 m, safe area 0.15 m), "
+            f"{p['distance_m']} m straight route, ground {p['roughness_m']} m; the same field for both planners:\n\n"
+            + md_table(["field", "zones", "aware: footholds / in zones / in safe areas / finished",
+                        "unaware: footholds / in zones / in safe areas / finished"], tab)
+            + f"\nTotal: aware {tot['aware_footholds_in_zones']} of {tot['aware_footholds']} footholds in zones "
+              f"({tot['aware_footholds_in_safe_areas']} in safe areas); unaware {tot['unaware_footholds_in_zones']} of "
+              f"{tot['unaware_footholds']} in zones ({tot['unaware_footholds_in_safe_areas']} in safe areas); runs in "
+              f"which the unaware planner stepped into a zone: {stats.rate_text(hit)}.\n"
+            + progress_note(data, len(rows)))
 
 
 # -- example 3: crab angle 0 -> 20 deg --------------------------------------------------------
@@ -164,8 +208,7 @@ class CrabParams(BaseModel):
     to_deg: float = Field(20.0, ge=-45.0, le=45.0)
     distance_m: float = Field(1.2, gt=0.2, le=5.0)
     roughness_m: float = Field(0.04, ge=0.0, le=0.09)
-    out: Path | None = None
-    json_out: Path | None = None
+    json_out: Path | None = Field(Path(CRAB_JSON), description="the ledger (one run)")
     figure: Path | None = Field(None, description="write the five states' footholds in the body frame (SVG/PNG stem)")
 
 
@@ -177,40 +220,123 @@ def _direction(pos: np.ndarray, t: np.ndarray, t0: float, t1: float) -> float:
     return math.degrees(math.atan2(d[1], d[0]))
 
 
-def crab(p: CrabParams, log: Callable[[str], None]) -> str:
+def _crab_walk(p: CrabParams) -> dict:
     ter, fld = _world(p.distance_m + 2.5, 4.0, p.roughness_m, 0, 0.0, 0)
-    route = Route(distance=p.distance_m, changes=(Change(p.change_at_s, crab_angle_deg=p.to_deg),))
-    r = walk(ter, fld, WalkConfig(route=route))
-    s = r.steps
+    r = walk(ter, fld, WalkConfig(route=Route(distance=p.distance_m, changes=(Change(p.change_at_s, crab_angle_deg=p.to_deg),))))
+    s, trs = r.steps, r.transfers
     t = s["t"]
     applied = t[np.flatnonzero(np.abs(s["crab_deg"] - p.to_deg) < 1e-9)]
     t_applied = float(applied[0]) if len(applied) else float("nan")
-    before = _direction(s["pos"], t, 2.0, p.change_at_s)
-    after = _direction(s["pos"], t, t_applied + 2.0, t[-1]) if math.isfinite(t_applied) else float("nan")
-    # the five states of Figs. 10-14 around the change
-    trs = r.transfers
     during = next((x for x in trs if x["t_lift"] <= p.change_at_s <= x.get("t_touchdown", 1e9)), None)
-    nxt = [x for x in trs if x["t_lift"] > p.change_at_s]
-    rows = [{"transfer": i + 1, "tripod": x["tripod"], "t_lift": x["t_lift"], "t_search": x["t_search"],
-             "t_touchdown": x.get("t_touchdown"), "crab_deg_at_search": float(s["crab_deg"][int(round(x["t_search"] / 0.1))])}
-            for i, x in enumerate(trs)]
-    md = [f"Crab angle commanded 0 -> {p.to_deg:g} deg at {p.change_at_s:g} s (ground {p.roughness_m} m, no zones, "
-          f"outcome {r.outcome}):", "",
-          f"- the new angle took effect at {t_applied:.1f} s, when the transfer in progress at the command had ended "
-          f"(tripod {during['tripod'] if during else '-'}, {during['t_lift'] if during else '-'} -> "
-          f"{during.get('t_touchdown') if during else '-'} s), as in Figs. 11-12",
-          f"- realised direction of travel (world): {before:.1f} deg before, {after:.1f} deg after (commanded 0 and {p.to_deg:g})",
-          f"- body-frame heading drift over the walk: {math.degrees(s['rpy'][-1][2]):.2f} deg", "",
-          "| transfer | tripod | lift (s) | search (s) | touchdown (s) | crab angle used (deg) |", "|---|---|---|---|---|---|"]
-    for x in rows:
-        md.append(f"| {x['transfer']} | {x['tripod']} | {x['t_lift']:.1f} | {x['t_search']:.1f} | "
-                  f"{_f(x['t_touchdown'], '{:.1f}')} | {x['crab_deg_at_search']:.0f} |")
     if p.figure:
-        _crab_figure(r, p.change_at_s, during, nxt, p.figure)
-    return _write(p, "\n".join(md), {"applied_s": t_applied, "direction_before_deg": before, "direction_after_deg": after,
-                                     "transfers": rows})
+        _crab_figure(r, p.change_at_s, during, [x for x in trs if x["t_lift"] > p.change_at_s], p.figure)
+    return {"outcome": r.outcome, "applied_s": t_applied, "direction_before_deg": _direction(s["pos"], t, 2.0, p.change_at_s),
+            "direction_after_deg": _direction(s["pos"], t, t_applied + 2.0, t[-1]) if math.isfinite(t_applied) else None,
+            "heading_drift_deg": math.degrees(s["rpy"][-1][2]),
+            "during": None if during is None else {k: during.get(k) for k in ("tripod", "t_lift", "t_touchdown")},
+            "transfers": [{"transfer": i + 1, "tripod": x["tripod"], "t_lift": x["t_lift"], "t_search": x["t_search"],
+                           "t_touchdown": x.get("t_touchdown"),
+                           "crab_deg_at_search": float(s["crab_deg"][int(round(x["t_search"] / 0.1))])}
+                          for i, x in enumerate(trs)]}
 
 
+def crab(p: CrabParams, log: Callable[[str], None]) -> str:
+    led = _ledger(p, "crab", 1)
+    led.run("crab", p.model_dump(mode="json", exclude={"json_out", "figure"}), 0, lambda: _crab_walk(p), log)
+    return render_crab([led.data])
+
+
+def render_crab(datas: list) -> str:
+    data, res = _first(datas)
+    if "crab" not in res:
+        return missing(CRAB_JSON, _cmd("crab"))
+    p, r = data["params"], res["crab"]
+    d = r["during"] or {}
+    rows = [[x["transfer"], x["tripod"], f"{x['t_lift']:.1f}", f"{x['t_search']:.1f}", _f(x["t_touchdown"], "{:.1f}"),
+             f"{x['crab_deg_at_search']:.0f}"] for x in r["transfers"]]
+    return (f"Crab angle commanded 0 -> {p['to_deg']:g} deg at {p['change_at_s']:g} s (ground {p['roughness_m']} m, no zones, "
+            f"outcome {r['outcome']}):\n\n"
+            f"- the new angle took effect at {_f(r['applied_s'], '{:.1f}')} s, when the transfer in progress at the command "
+            f"had ended (tripod {d.get('tripod', '-')}, {_f(d.get('t_lift'), '{:.1f}')} -> {_f(d.get('t_touchdown'), '{:.1f}')} s), "
+            "as in Figs. 11-12\n"
+            f"- realised direction of travel (world): {_f(r['direction_before_deg'], '{:.1f}')} deg before, "
+            f"{_f(r['direction_after_deg'], '{:.1f}')} deg after (commanded 0 and {p['to_deg']:g})\n"
+            f"- body-frame heading drift over the walk: {r['heading_drift_deg']:.2f} deg\n\n"
+            + md_table(["transfer", "tripod", "lift (s)", "search (s)", "touchdown (s)", "crab angle used (deg)"], rows))
+
+
+# -- circling and spinning --------------------------------------------------------------------
+
+class TurnParams(BaseModel):
+    turn_rate_deg_s: float = Field(0.5, ge=-5.0, le=5.0)
+    speed_m_s: float = Field(0.015, ge=0.0, le=0.03)
+    distance_m: float = Field(1.0, gt=0.1, le=5.0)
+    turn_deg: float = Field(90.0, gt=0.0, le=360.0)
+    density_per_m2: float = Field(3.0, ge=0.0, le=20.0)
+    roughness_m: float = Field(0.04, ge=0.0, le=0.09)
+    json_out: Path | None = Field(Path(CIRCLING_JSON), description="the ledger (aware and unaware runs)")
+
+
+class SpinParams(TurnParams):
+    turn_rate_deg_s: float = Field(2.0, ge=-5.0, le=5.0)
+    speed_m_s: float = Field(0.0, ge=0.0, le=0.0)
+    json_out: Path | None = Field(Path(SPINNING_JSON), description="the ledger (aware and unaware runs)")
+
+
+TURN_KEYS = ("outcome", "time_s", "transfers", "footholds", "footholds_in_zones", "min_sm_m", "min_k_r_m", "stop_time_s",
+             "tracking_error_max_m")
+
+
+def _turn_walk(p: TurnParams, gait: str, aware: bool) -> dict:
+    ter, fld = _world(5.0, 5.0, p.roughness_m, 0, p.density_per_m2, 0)
+    route = Route(gait=gait, speed=p.speed_m_s if gait == "circling" else 0.0, distance=p.distance_m,
+                  turn_rate_deg_s=p.turn_rate_deg_s, turn_deg=p.turn_deg)
+    r = walk(ter, fld, WalkConfig(route=route, aware=aware))
+    s = r.summary()
+    return {**{k: s[k] for k in TURN_KEYS}, "yaw_deg": math.degrees(r.steps["rpy"][-1][2] - r.steps["rpy"][0][2]),
+            "end_xy": r.steps["pos"][-1, :2].tolist()}
+
+
+def _turn(p: TurnParams, gait: str, log) -> str:
+    led = _ledger(p, gait, 2)
+    for aware in (True, False):
+        name = "aware" if aware else "unaware"
+        led.run(name, {"gait": gait, "aware": aware} | p.model_dump(mode="json", exclude={"json_out"}), 0,
+                lambda aware=aware: _turn_walk(p, gait, aware), log)
+    return render_turn(gait)([led.data])
+
+
+def circling(p: TurnParams, log) -> str:
+    return _turn(p, "circling", log)
+
+
+def spinning(p: SpinParams, log) -> str:
+    return _turn(p, "spinning", log)
+
+
+def render_turn(gait: str) -> Callable[[list], str]:
+    def render(datas: list) -> str:
+        data, res = _first(datas)
+        if not res:
+            return missing(CIRCLING_JSON if gait == "circling" else SPINNING_JSON, _cmd(gait))
+        p = data["params"]
+        if gait == "circling":
+            radius = p["speed_m_s"] / math.radians(abs(p["turn_rate_deg_s"]))
+            head = (f"Circling: {p['speed_m_s']} m/s at {p['turn_rate_deg_s']:g} deg/s (radius {radius:.2f} m) for "
+                    f"{p['distance_m']} m, {p['density_per_m2']:g} zones/m^2, ground {p['roughness_m']} m")
+            expect = math.degrees(p["distance_m"] / radius)
+        else:
+            head = (f"Spinning: {p['turn_rate_deg_s']:g} deg/s to {p['turn_deg']:g} deg, {p['density_per_m2']:g} zones/m^2, "
+                    f"ground {p['roughness_m']} m")
+            expect = p["turn_deg"]
+        rows = [[k, v["outcome"], f"{v['time_s']:.1f}", f"{v['yaw_deg']:.1f} ({expect:.1f})",
+                 f"({v['end_xy'][0]:.2f}, {v['end_xy'][1]:.2f})", v["transfers"], v["footholds_in_zones"],
+                 _f(v["min_sm_m"]), _f(v["min_k_r_m"]), f"{v['stop_time_s']:.1f}", _f(v["tracking_error_max_m"])]
+                for k, v in res.items()]
+        return head + ":\n\n" + md_table(["planner", "outcome", "time (s)", "yaw turned (deg; commanded)", "end (x, y) m",
+                                          "transfers", "in zones", "min SM (m)", "min K_R", "stopped (s)",
+                                          "track err (m)"], rows)
+    return render
 def _crab_figure(r, t_change, during, nxt, stem: Path) -> None:
     import matplotlib
 
@@ -254,64 +380,10 @@ def _crab_figure(r, t_change, during, nxt, stem: Path) -> None:
 
 # -- circling and spinning --------------------------------------------------------------------
 
-class TurnParams(BaseModel):
-    turn_rate_deg_s: float = Field(0.5, ge=-5.0, le=5.0)
-    speed_m_s: float = Field(0.015, ge=0.0, le=0.03)
-    distance_m: float = Field(1.0, gt=0.1, le=5.0)
-    turn_deg: float = Field(90.0, gt=0.0, le=360.0)
-    density_per_m2: float = Field(3.0, ge=0.0, le=20.0)
-    roughness_m: float = Field(0.04, ge=0.0, le=0.09)
-    out: Path | None = None
-    json_out: Path | None = None
-
-
-def _turn(p: TurnParams, gait: str, log) -> str:
-    ter, fld = _world(5.0, 5.0, p.roughness_m, 0, p.density_per_m2, 0)
-    route = Route(gait=gait, speed=p.speed_m_s if gait == "circling" else 0.0, distance=p.distance_m,
-                  turn_rate_deg_s=p.turn_rate_deg_s, turn_deg=p.turn_deg)
-    rows = {}
-    for aware in (True, False):
-        r = walk(ter, fld, WalkConfig(route=route, aware=aware))
-        s = r.summary()
-        pos = r.steps["pos"]
-        yaw = math.degrees(r.steps["rpy"][-1][2] - r.steps["rpy"][0][2])
-        rows["aware" if aware else "unaware"] = {**{k: s[k] for k in ("outcome", "time_s", "transfers", "footholds",
-                                                                        "footholds_in_zones", "min_sm_m", "min_k_r_m",
-                                                                        "stop_time_s", "tracking_error_max_m")},
-                                                 "yaw_deg": yaw, "end_xy": pos[-1, :2].tolist()}
-    a = rows["aware"]
-    if gait == "circling":
-        radius = p.speed_m_s / math.radians(abs(p.turn_rate_deg_s))
-        head = (f"Circling: {p.speed_m_s} m/s at {p.turn_rate_deg_s:g} deg/s (radius {radius:.2f} m) for {p.distance_m} m, "
-                f"{p.density_per_m2:g} zones/m^2, ground {p.roughness_m} m")
-        expect = math.degrees(p.distance_m / radius)
-    else:
-        head = f"Spinning: {p.turn_rate_deg_s:g} deg/s to {p.turn_deg:g} deg, {p.density_per_m2:g} zones/m^2, ground {p.roughness_m} m"
-        expect = p.turn_deg
-    md = [head + ":", "", "| planner | outcome | time (s) | yaw turned (deg; commanded) | end (x, y) m | transfers | "
-          "in zones | min SM (m) | min K_R | stopped (s) | track err (m) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for k, v in rows.items():
-        md.append(f"| {k} | {v['outcome']} | {v['time_s']:.1f} | {v['yaw_deg']:.1f} ({expect:.1f}) | "
-                  f"({v['end_xy'][0]:.2f}, {v['end_xy'][1]:.2f}) | {v['transfers']} | {v['footholds_in_zones']} | "
-                  f"{_f(v['min_sm_m'])} | {_f(v['min_k_r_m'])} | {v['stop_time_s']:.1f} | {_f(v['tracking_error_max_m'])} |")
-    del a
-    return _write(p, "\n".join(md), rows)
-
-
-def circling(p: TurnParams, log) -> str:
-    return _turn(p, "circling", log)
-
-
-class SpinParams(TurnParams):
-    turn_rate_deg_s: float = Field(2.0, ge=-5.0, le=5.0)
-    speed_m_s: float = Field(0.0, ge=0.0, le=0.0)
-
-
-def spinning(p: SpinParams, log) -> str:
-    return _turn(p, "spinning", log)
 
 
 # -- beyond the paper: density sweep ----------------------------------------------------------
+# (its JSON, written before issue 28, is a plain list of rows with a ``rerun`` flag, not a ledger)
 
 class SweepParams(BaseModel):
     densities: str = Field("0,2,4,6,8", description="zone densities per m^2, comma-separated")
@@ -350,6 +422,18 @@ def sweep(p: SweepParams, log: Callable[[str], None]) -> str:
     return _write(p, sweep_markdown(rows, dens, p), rows)
 
 
+
+
+def _write(p, md: str, rows) -> str:
+    if getattr(p, "out", None):
+        p.out.parent.mkdir(parents=True, exist_ok=True)
+        p.out.write_text(md + "\n")
+    if getattr(p, "json_out", None):
+        p.json_out.parent.mkdir(parents=True, exist_ok=True)
+        p.json_out.write_text(json.dumps(rows, indent=1, default=float))
+    return md
+
+
 def sweep_markdown(rows: list[dict], dens: list[float], p: SweepParams) -> str:
     fields = len({r["field"] for r in rows})
     md = [f"{fields} random minefields per density (terrain and zones from seeds 1000+i / 2000+i), {p.distance_m} m "
@@ -373,19 +457,147 @@ def sweep_markdown(rows: list[dict], dens: list[float], p: SweepParams) -> str:
     return "\n".join(md)
 
 
+def render_sweep(datas: list) -> str:
+    rows = datas[0]
+    if not rows:
+        return missing(SWEEP_JSON, "gaitmend reproduce freegait-sweep --json-out docs/freegait_sweep.json")
+    dens = sorted({r["density"] for r in rows})
+    aw, un = [r for r in rows if r["aware"]], [r for r in rows if not r["aware"]]
+    hit_un = [r for r in un if r["footholds_in_zones"] > 0]
+    top = max(dens)
+    un_top = [r for r in un if r["density"] == top]
+    return (sweep_markdown(rows, dens, SweepParams()) + "\n\n"
+            f"{len(rows)} walks ({len(dens)} densities x {len({r['field'] for r in rows})} fields x 2 planners); "
+            f"{sum(r['finished'] for r in rows)} ran to the end. The zone-aware planner finished "
+            f"{sum(r['finished'] for r in aw)} of its {len(aw)} routes with **{sum(r['footholds_in_zones'] for r in aw)} "
+            f"footholds in zones out of {sum(r['footholds'] for r in aw)}** (runs with none: "
+            f"{stats.rate_text(stats.success_rate(sum(r['footholds_in_zones'] == 0 for r in aw), len(aw)))}); on the same "
+            f"fields the zone-blind planner stepped into {sum(r['footholds_in_zones'] for r in un)} zones in "
+            f"{stats.rate_text(stats.success_rate(len(hit_un), len(un)))} of its runs ({sum(r['footholds_in_zones'] for r in un_top)} "
+            f"in {sum(r['footholds_in_zones'] > 0 for r in un_top)} of {len(un_top)} runs at {top:g}/m^2). Body stops of the "
+            f"aware planner: at most {max(r['stop_time_s'] for r in aw):.1f} s in one run. Rows re-run with later code "
+            f"(`rerun`): {sum(bool(r.get('rerun')) for r in rows)}.\n")
+
+
+# -- issue 28: avoidance under localisation and zone-position errors ----------------------------
+
+DGPS_SIGMA_M = 0.01  # Table 1: DGPS accuracy +-0.02 m, taken as two standard deviations per axis
+NOISE_ARMS = {"exact": (True, 0.0), "dgps": (True, 1.0), "dgps_x2": (True, 2.0), "dgps_x4": (True, 4.0),
+              "unaware": (False, 0.0)}
+
+
+class NoiseParams(BaseModel):
+    density_per_m2: float = Field(8.0, ge=0.0, le=20.0, description="zones per m^2 (8: the sweep's densest)")
+    fields: int = Field(10, ge=1, le=100, description="random minefields (the sweep's seeds 1000+i / 2000+i)")
+    arms: str = Field("exact,dgps,dgps_x4,unaware", description="of " + ", ".join(NOISE_ARMS) + " (dgps: position and "
+                      "zone errors of Table 1's DGPS, sigma 0.01 m per axis; _x2, _x4 twice, four times that)")
+    distance_m: float = Field(2.0, gt=0.2, le=10.0)
+    roughness_m: float = Field(0.04, ge=0.0, le=0.09)
+    json_out: Path | None = Field(Path(NOISE_JSON), description="the ledger: one run per field and arm")
+
+
+NOISE_KEYS = ("finished", "outcome", "footholds", "footholds_in_zones", "footholds_in_safe_areas", "closest_zone_m",
+              "min_sm_m", "foothold_error_max_m", "stop_time_s", "tracking_error_max_m")
+
+
+def _noise_walk(p: NoiseParams, arm: str, f: int) -> dict:
+    aware, scale = NOISE_ARMS[arm]
+    ter, fld = _world(p.distance_m + 2.5, 3.0, p.roughness_m, 1000 + f, p.density_per_m2, 2000 + f)
+    cfg = WalkConfig(route=Route(distance=p.distance_m), aware=aware, seed=f, position_error_m=scale * DGPS_SIGMA_M,
+                     zone_error_m=scale * DGPS_SIGMA_M)
+    s = walk(ter, fld, cfg).summary()
+    return {k: s[k] for k in NOISE_KEYS} | {"zones": len(fld.centres), "sigma_m": scale * DGPS_SIGMA_M}
+
+
+def noise(p: NoiseParams, log: Callable[[str], None]) -> str:
+    arms = [a.strip() for a in p.arms.split(",") if a.strip()]
+    bad = [a for a in arms if a not in NOISE_ARMS]
+    if bad:
+        raise ValueError(f"--arms: unknown {bad}; known: {list(NOISE_ARMS)}")
+    led = _ledger(p, "noise", p.fields * len(arms))
+    base = p.model_dump(mode="json", exclude={"json_out", "fields", "arms"})
+    for f in range(p.fields):  # field-major: a partial run covers every arm evenly
+        for arm in arms:
+            led.run(f"{arm} field {f}", base | {"arm": arm, "field": f, "sigma_m": NOISE_ARMS[arm][1] * DGPS_SIGMA_M},
+                    f, lambda arm=arm, f=f: _noise_walk(p, arm, f), log)
+    return render_noise([led.data])
+
+
+def _noise_arms(data: dict) -> dict[str, dict[int, dict]]:
+    out: dict[str, dict[int, dict]] = {}
+    for r in current_runs(data):
+        out.setdefault(r["spec"]["arm"], {})[r["spec"]["field"]] = r["result"]
+    return out
+
+
+def render_noise(datas: list) -> str:
+    data = datas[0]
+    arms = _noise_arms(data) if data else {}
+    if not arms:
+        return missing(NOISE_JSON, _cmd("noise"))
+    p, rows = data["params"], []
+    for arm in (a for a in NOISE_ARMS if a in arms):
+        rs = list(arms[arm].values())
+        close = [r["closest_zone_m"] for r in rs if r["closest_zone_m"] is not None]
+        rows.append([arm, f"{rs[0]['sigma_m']:.2f}", f"{sum(r['finished'] for r in rs)}/{len(rs)}",
+                     f"{sum(r['footholds_in_zones'] for r in rs)} / {sum(r['footholds'] for r in rs)}",
+                     stats.rate_text(stats.success_rate(sum(r["footholds_in_zones"] > 0 for r in rs), len(rs))),
+                     sum(r["footholds_in_safe_areas"] for r in rs), _f(min(close, default=None)),
+                     _f(float(np.mean(close)) if close else None), _f(max(r["foothold_error_max_m"] for r in rs))])
+    out = [f"{p['density_per_m2']:g} zones/m^2 (zone 0.05 m, safe area 0.15 m: 0.05 m of clearance around a zone), "
+           f"{p['distance_m']} m straight route, ground {p['roughness_m']} m, the sweep's fields (seeds 1000+i / 2000+i); "
+           "sigma is the standard deviation per axis of both the believed position (Gauss-Markov, 60 s) and each "
+           "zone's surveyed centre; footholds are counted against the true zones:\n",
+           md_table(["arm", "sigma (m)", "finished", "footholds in zones / all", "runs with a foothold in a zone "
+                     "(Clopper-Pearson 95 %)", "in safe areas", "closest foot centre to a zone centre (m): worst",
+                     "mean of each run's closest", "touchdown vs believed plan, worst (m)"], rows)]
+    for arm in (a for a in NOISE_ARMS if a in arms and a != "exact"):
+        common = sorted(set(arms[arm]) & set(arms.get("exact", {})))
+        if len(common) >= 2:
+            a = [arms[arm][f]["footholds_in_zones"] for f in common]
+            b = [arms["exact"][f]["footholds_in_zones"] for f in common]
+            out.append(f"- {arm} against exact, footholds in zones per field (lower is better): "
+                       + stats.paired_text(stats.paired(a, b, higher_is_better=False, names=(arm, "exact")), digits=2))
+            ca = [arms[arm][f]["closest_zone_m"] for f in common]
+            cb = [arms["exact"][f]["closest_zone_m"] for f in common]
+            if None not in ca and None not in cb:
+                out.append(f"- {arm} against exact, each run's closest foot centre to a zone centre (higher is better): "
+                           + stats.paired_text(stats.paired(ca, cb, names=(arm, "exact")), "m", digits=3))
+    out += ["", stats.PAIRED_NOTE, progress_note(data, len(current_runs(data)))]
+    return "\n".join(out) + "\n"
+
+
+def render_noise_summary(datas: list) -> str:
+    data = datas[0]
+    arms = _noise_arms(data) if data else {}
+    if "dgps" not in arms:
+        return ""
+    rs = list(arms["dgps"].values())
+    k = sum(r["footholds_in_zones"] > 0 for r in rs)
+    return (f"- **freegait** (paper 004): with DGPS-sized position and zone errors the zone-aware walk stepped into a "
+            f"zone in {stats.rate_text(stats.success_rate(k, len(rs)))} of {len(rs)} runs at "
+            f"{data['params']['density_per_m2']:g} zones/m^2 ([docs/freegait.md](docs/freegait.md)).\n")
+
+
 EXPERIMENTS = [
     Experiment("kev", "Example 1 (Fig. 8): k_ev in 0..0.1 stepped every 30 s; phase durations, SM and K_R per k_ev",
-               KevParams, kev),
+               KevParams, kev, (Section("freegait-kev", (KEV_JSON,), render_kev),)),
     Experiment("zones", "Example 2 (Fig. 9): random forbidden zones, planner aware vs unaware on the same fields",
-               ZonesParams, zones),
+               ZonesParams, zones, (Section("freegait-zones", (ZONES_JSON,), render_zones),)),
     Experiment("crab", "Example 3 (Figs. 10-14): crab angle 0 -> 20 deg mid-walk, direction before and after",
-               CrabParams, crab),
-    Experiment("circling", "Circling gait (Sec. 4.1) over a minefield, aware and unaware", TurnParams, circling),
-    Experiment("spinning", "Spinning gait (Sec. 4.2) over a minefield, aware and unaware", SpinParams, spinning),
+               CrabParams, crab, (Section("freegait-crab", (CRAB_JSON,), render_crab),)),
+    Experiment("circling", "Circling gait (Sec. 4.1) over a minefield, aware and unaware", TurnParams, circling,
+               (Section("freegait-circling", (CIRCLING_JSON,), render_turn("circling")),)),
+    Experiment("spinning", "Spinning gait (Sec. 4.2) over a minefield, aware and unaware", SpinParams, spinning,
+               (Section("freegait-spinning", (SPINNING_JSON,), render_turn("spinning")),)),
     Experiment("sweep", "Beyond the paper: zone density sweep x random fields; finished share, footholds in zones, "
-                        "stops, minimum SM, tracking error", SweepParams, sweep),
+                        "stops, minimum SM, tracking error", SweepParams, sweep,
+               (Section("freegait-sweep", (SWEEP_JSON,), render_sweep),)),
+    Experiment("noise", "Avoidance tested: the zone-aware walk with Table 1's DGPS error on its position and on the "
+                        "zones' surveyed centres (and 2x, 4x), against exact knowledge and the zone-blind planner",
+               NoiseParams, noise, (Section("freegait-noise", (NOISE_JSON,), render_noise),
+                                    Section("freegait-summary", (NOISE_JSON,), render_noise_summary, readme=True))),
 ]
-
 
 # -- bench ------------------------------------------------------------------------------------
 

@@ -68,6 +68,15 @@ class WalkConfig:
     time_limit_factor: float = 4.0
     fall_tilt_deg: float = 30.0
     seed: int = 0
+    # Localisation and map errors (issue 28; 0 = exact, the default). Table 1's DGPS is
+    # accurate to +-0.02 m: ``position_error_m`` is the standard deviation per axis of the
+    # position the planner believes (a first-order Gauss-Markov error with time constant
+    # ``position_error_tau_s``, as a DGPS error drifts over minutes); ``zone_error_m`` the
+    # standard deviation per axis of each zone's surveyed centre (Sec. 5.2: measured in
+    # advance with a DGPS). Footholds are counted against the true zones.
+    position_error_m: float = 0.0
+    position_error_tau_s: float = 60.0
+    zone_error_m: float = 0.0
 
 
 def build_spec(terrain: Terrain, field: Minefield, cfg: WalkConfig, geom: Silo6Geometry = SILO6,
@@ -406,6 +415,13 @@ class _Walker:
         self.g = _GaitState(phase=np.zeros(6, dtype=int), p_cmd=feet0.copy(), cmd_xy=np.array(pos0[:2]),
                             alpha=self.route.crab_angle(0.0))
         self.rec = _Recorder()
+        self.known, self.loc_err, self.err_rng = field, np.zeros(2), None
+        if cfg.position_error_m > 0 or cfg.zone_error_m > 0:  # its own stream: the exact walk draws nothing
+            self.err_rng = np.random.default_rng(np.random.SeedSequence([int(cfg.seed), 0xD695]))
+            if cfg.zone_error_m > 0 and len(field.centres):
+                self.known = Minefield(field.centres + self.err_rng.normal(0.0, cfg.zone_error_m, field.centres.shape),
+                                       field.zone_radius, field.safe_radius)
+            self.loc_err = self.err_rng.normal(0.0, cfg.position_error_m, 2)
         self.t_limit = self.route.nominal_duration() * cfg.time_limit_factor + 30.0
         self.v_nom, self.omega_nom = self.route.body_speed, self.route.omega
 
@@ -418,6 +434,7 @@ class _Walker:
         s = _Sensors.read(self.sens, self.geom)
         if self.ended(t, s):
             return False
+        self.localise()
         p = self.margins(t, s)
         if self.g.transfer is None:
             self.lift_feet(p)
@@ -430,6 +447,18 @@ class _Walker:
         self.sens = self.sim.period(self.q_cmd, q_new)
         self.q_cmd = q_new
         return True
+
+    def localise(self) -> None:
+        """One control period of the localisation error (Gauss-Markov, stationary spread
+        ``position_error_m`` per axis)."""
+        if self.err_rng is not None and self.cfg.position_error_m > 0:
+            a = math.exp(-self.dt / self.cfg.position_error_tau_s)
+            self.loc_err = a * self.loc_err + math.sqrt(1 - a * a) * self.err_rng.normal(0.0, self.cfg.position_error_m, 2)
+
+    def believed(self, pos: np.ndarray) -> np.ndarray:
+        """Where the planner believes the body is (horizontal): the true position plus the
+        localisation error."""
+        return np.asarray(pos[:2]) + self.loc_err
 
     def ended(self, t: float, s: _Sensors) -> bool:
         cfg, route, g = self.cfg, self.route, self.g
@@ -555,7 +584,7 @@ class _Walker:
         if res is not None:
             tr.row.update(ev=res.ev, k=res.k, sm_t=res.sm_t, l=res.l, r_t2=res.r_t2, valid=res.counts["valid"],
                           index=list(res.index))
-            tr.planned_w = _world_xy(p.s.pos, p.s.yaw, res.ground_points)
+            tr.planned_w = _world_xy(self.believed(p.s.pos), p.s.yaw, res.ground_points)
         g.phase[tr.legs] = 2
         return True
 
@@ -569,7 +598,7 @@ class _Walker:
             return cand[:, -1 if n < 6 else -2], None
         inp = SearchInput(p.motion, p.params, cand, p.s.feet_h[tr.legs, :2], self.rects[tr.legs],
                           float(p.kl[sup_legs].min()), p.re,
-                          _Allowed.at(self.field, self.cfg.aware, self.g.missed, p.s.pos[:2], p.s.yaw))
+                          _Allowed.at(self.known, self.cfg.aware, self.g.missed, self.believed(p.s.pos), p.s.yaw))
         pick = self.rng if self.cfg.chooser == "random" else None
         res = search(inp, pick)
         self.g.searches += 1
@@ -649,7 +678,8 @@ class _Walker:
         g = self.g
         for n_, l in enumerate(tr.legs):
             if not tr.touched[n_]:
-                xy = tr.planned_w[n_] if tr.planned_w is not None else _world_xy(p.s.pos, p.s.yaw, p.s.feet_h[l, :2])
+                xy = tr.planned_w[n_] if tr.planned_w is not None else _world_xy(self.believed(p.s.pos), p.s.yaw,
+                                                                                  p.s.feet_h[l, :2])
                 g.missed.append(np.asarray(xy, dtype=float))
         tr.failed_legs += int((~tr.touched).sum())
         tr.sub, tr.tau, tr.rise, tr.hold = 1, 0.0, 0.0, _CAUSE["touchdown_failed"]
