@@ -14,23 +14,26 @@ from fastapi.responses import JSONResponse
 from app import __version__
 from app.api import errors
 from app.api.auth import auth_required
-from app.api.routes import jobs, meta
+from app.api.routes import jobs, meta, robots
 from app.api.schemas import spec_json_schema
 from app.core.settings import Settings, get_settings
 
 
 class BodyLimit:
     """Refuses a declared Content-Length above the limit before reading anything
-    (streamed bodies are counted by the route that reads them)."""
+    (streamed bodies are counted by the route that reads them). `wider`: paths allowed a
+    larger body (robot uploads, app/api/routes/robots.py)."""
 
-    def __init__(self, app, limit: int):
-        self.app, self.limit = app, limit
+    def __init__(self, app, limit: int, wider: dict[str, int] | None = None):
+        self.app, self.limit, self.wider = app, limit, wider or {}
 
     async def __call__(self, scope, receive, send):
         if scope["type"] == "http":
+            limit = self.wider.get(scope.get("path", "").rstrip("/"), self.limit)
             for k, v in scope.get("headers", ()):
-                if k == b"content-length" and v.isdigit() and int(v) > self.limit:
-                    msg = f"request body larger than {self.limit} bytes (GAITMEND_MAX_BODY_BYTES)"
+                if k == b"content-length" and v.isdigit() and int(v) > limit:
+                    msg = f"request body larger than {limit} bytes" + (
+                        " (GAITMEND_MAX_BODY_BYTES)" if limit == self.limit else "")
                     resp = JSONResponse(errors.error_body(msg, [{"field": "body", "message": msg}]), status_code=413)
                     await resp(scope, receive, send)
                     return
@@ -79,6 +82,7 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     app.state.auth_required = auth_required(settings.auth, host)
     errors.install(app)
     app.include_router(jobs.router, prefix="/api")
+    app.include_router(robots.router, prefix="/api")  # built-in and uploaded robots (issue 23)
     app.include_router(meta.router, prefix="/api")
     from app.api.routes import studies
 
@@ -86,7 +90,7 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     from app.api.routes import media
 
     app.include_router(media.router, prefix="/api")  # a job's video and thumbnail
-    app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+    app.add_middleware(BodyLimit, limit=settings.max_body_bytes, wider={"/api/robots": robots.MAX_BODY_BYTES})
     # JSON, pages and static files compressed on the wire (event streams and bodies already
     # compressed, such as the dashboard's gzipped plotly.min.js, pass through)
     app.add_middleware(GZipMiddleware, minimum_size=1024)

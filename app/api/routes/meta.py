@@ -1,4 +1,4 @@
-"""/api/robots and /api/health."""
+"""/api/health (/api/robots: app/api/routes/robots.py)."""
 
 from __future__ import annotations
 
@@ -10,22 +10,8 @@ from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import Health, WorkerOut
 from app.service.health import assess
-from app.jobs.registry import KINDS, robots as all_robots
 
 router = APIRouter(tags=["service"])
-
-
-@router.get("/robots")
-async def robots() -> list[dict]:
-    """Every robot a job kind simulates, with the kinds that serve it and each kind's
-    details of it (legs, joints, modules, the parameters of the search)."""
-    out = []
-    for name, entry in all_robots().items():
-        info: dict = {}
-        for k in entry["kinds"]:
-            info |= KINDS[k].robot_info(name)
-        out.append(info | {"name": name, "description": entry["description"], "kinds": entry["kinds"]})
-    return out
 
 
 @router.get("/health", response_model=Health, response_model_exclude_none=True)

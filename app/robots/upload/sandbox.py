@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 from app.robots.upload.errors import RefusedUpload
@@ -20,6 +21,10 @@ from app.robots.upload.limits import LIMITS, Limits
 from app.robots.upload.mjcf import Sanitised
 
 _ROOT = Path(__file__).resolve().parents[3]  # the folder holding the app package
+# At most this many confined compiles at once per process (each may map +1 GiB): more
+# uploads wait their turn instead of exhausting the machine's memory together.
+MAX_CONCURRENT = 2
+_slots = threading.BoundedSemaphore(MAX_CONCURRENT)
 
 
 def _env() -> dict[str, str]:
@@ -32,6 +37,11 @@ def _env() -> dict[str, str]:
 
 def compile_confined(model: Sanitised, legs: dict | None, forward: str | None, limits: Limits = LIMITS) -> dict:
     """The child's answer (ok, legs, detected, points, stats, sandbox) or RefusedUpload."""
+    with _slots:
+        return _compile(model, legs, forward, limits)
+
+
+def _compile(model: Sanitised, legs: dict | None, forward: str | None, limits: Limits) -> dict:
     payload = json.dumps({"xml": model.xml, "assets": {k: base64.b64encode(v).decode() for k, v in model.assets.items()},
                           "legs": legs, "forward": forward, "limits": dataclasses.asdict(limits)}).encode()
     read_fd, write_fd = os.pipe()
