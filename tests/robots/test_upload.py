@@ -185,3 +185,13 @@ def test_cli_refuses_with_exit_2_and_stores_nothing(tmp_path, secret):
     data = tmp_path / "data" / "robots"
     assert not data.exists() or not any(data.iterdir())
     assert json.loads(_cli(tmp_path, "list", "--json").stdout.strip().splitlines()[-1]) == []
+
+
+def test_the_wall_clock_limit_kills_a_compile_that_runs_long():
+    import dataclasses
+
+    from app.robots.upload import LIMITS
+
+    model = Sanitised(xml=hc.legged().decode(), assets={})
+    with pytest.raises(RefusedUpload, match="took longer than"):
+        compile_confined(model, None, None, dataclasses.replace(LIMITS, compile_wall_s=0.05))
