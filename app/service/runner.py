@@ -153,7 +153,8 @@ class DbRunContext:
         """Retries of a dropped connection stop where the lease would have run out."""
         return self._renewed + self.settings.lease_s
 
-    def _tx(self, what: str, fn: Callable[[Any], T], readonly: bool = False, space_wait: bool = True) -> T:
+    def _tx(self, what: str, fn: Callable[[Any], T], readonly: bool = False, space_wait: bool = True,
+            abandonable: bool = True) -> T:
         def once():
             with session_scope(self.settings.db_url, readonly=readonly) as s:
                 return fn(s)
@@ -161,10 +162,11 @@ class DbRunContext:
         until = self._lease_until()
         space_until = max(until, time.monotonic() + self.settings.storage_wait_s) if space_wait else until
         return retry(once, until=until, space_until=space_until, what=f"job {self.claim.job_id}: {what}",
-                     should_stop=self._should_abandon)
+                     should_stop=self._should_abandon if abandonable else None)
 
     def _should_abandon(self) -> bool:
-        return self.lost.is_set() or self._state == "handed-back"
+        return self.lost.is_set() or self._state == "handed-back" or (
+            self._stop.is_set() and threading.current_thread() is self._beat)
 
     def _heartbeat(self) -> None:
         every = self.settings.lease_s / 3
@@ -206,8 +208,9 @@ class DbRunContext:
             next_beat = self._renewed + every
 
     def _quietly(self, what: str, fn) -> Any:
+        """A write that must not be abandoned half-way (marking the stop, handing back)."""
         try:
-            return self._tx(what, fn, space_wait=False)
+            return self._tx(what, fn, space_wait=False, abandonable=False)
         except Exception as e:  # noqa: BLE001
             log.warning("job %s: %s failed: %s", self.claim.job_id, what, safe_message(e))
             return None
