@@ -109,26 +109,65 @@ const GM = (() => {
     return `${p.done}/${p.total} (${Math.round(100 * p.fraction)} %)`;
   }
 
-  // Plotly with the same look everywhere; responsive, no logo, hover on.
-  function plot(div, traces, layout = {}) {
+  // Plotly (4.8 MB unpacked) is loaded only by a page that draws a plot, once, after the
+  // page's own content: the server names its versioned URL in the head (gm-plotly).
+  let plotlyLoad = null;
+  function loadPlotly() {
+    if (window.Plotly) return Promise.resolve(window.Plotly);
+    if (!plotlyLoad) {
+      plotlyLoad = new Promise((resolve, reject) => {
+        const meta = document.querySelector('meta[name="gm-plotly"]');
+        const s = document.createElement("script");
+        s.src = meta ? meta.content : "/vendor/plotly.min.js";
+        s.onload = () => resolve(window.Plotly);
+        s.onerror = () => { plotlyLoad = null; reject(new Error("plotly.min.js did not load")); };
+        document.head.append(s);
+      });
+    }
+    return plotlyLoad;
+  }
+
+  const narrow = () => window.matchMedia("(max-width: 700px)").matches;
+
+  // Plotly with the same look everywhere; responsive, no logo, hover on. On a phone the
+  // toolbar is off (it covered the legends); pinch and the legend still work. Resolves once
+  // drawn (the div then carries data-rendered="1").
+  async function plot(div, traces, layout = {}) {
     const base = {
       margin: { l: 56, r: 16, t: 36, b: 44 }, font: { family: "system-ui, sans-serif", size: 13, color: "#18202b" },
       paper_bgcolor: "#ffffff", plot_bgcolor: "#ffffff", hovermode: "x unified",
       legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
       xaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" }, yaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" },
     };
+    const P = await loadPlotly();
     if (div.classList.contains("plot-empty")) { // a placeholder text, not a graph yet
       div.classList.remove("plot-empty");
       div.textContent = "";
     }
-    return Plotly.react(div, traces, Object.assign(base, layout),
-      { responsive: true, displaylogo: false, modeBarButtonsToRemove: ["lasso2d", "select2d"] });
+    const out = await P.react(div, traces, Object.assign(base, layout),
+      { responsive: true, displaylogo: false, displayModeBar: narrow() ? false : "hover",
+        modeBarButtonsToRemove: ["lasso2d", "select2d"] });
+    div.dataset.rendered = "1";
+    return out;
   }
 
   function empty(div, text) {
-    if (div.data) Plotly.purge(div);
+    if (div.data && window.Plotly) window.Plotly.purge(div);
     div.classList.add("plot-empty");
     div.textContent = text;
+  }
+
+  // Durations and dates as a person reads them.
+  function duration(s) {
+    if (s === null || s === undefined || !Number.isFinite(s)) return "–";
+    if (s < 90) return `${Math.max(1, Math.round(s))} s`;
+    if (s < 5400) return `${Math.round(s / 60)} min`;
+    if (s < 172800) return `${(s / 3600).toFixed(1)} h`;
+    return `${(s / 86400).toFixed(1)} days`;
+  }
+  function date(iso) {
+    const t = Date.parse(iso);
+    return Number.isFinite(t) ? new Date(t).toLocaleString(undefined, { dateStyle: "medium", timeStyle: "short" }) : "–";
   }
 
   // Header: an API token box, shown when the server asks for one (non-loopback servers).
@@ -185,5 +224,5 @@ const GM = (() => {
 
   document.addEventListener("DOMContentLoaded", initAuth);
   return { api, events, el, num, age, badge, progressText, plot, empty, download, thumbnail, token, authHeaders,
-           ApiError, FINAL, COLORS, PALETTE, ROLES };
+           ApiError, FINAL, COLORS, PALETTE, ROLES, loadPlotly, duration, date, narrow };
 })();

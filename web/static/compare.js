@@ -112,10 +112,10 @@
       }
       if (traces.length) {
         const maxX = Math.max(...traces.map((t) => t.x.length));
+        // the legend above the plot (below it, it sat on the x axis's title)
         plot(div, traces, { xaxis: { title: { text: conv.x }, dtick: maxX <= 12 ? 1 : undefined },
                             yaxis: { title: { text: `${conv.y}${conv.better ? `, ${conv.better} better` : ""}` } },
-                            legend: { orientation: "h", y: -0.25 } });
-        div.dataset.rendered = "1";
+                            legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 }, margin: { l: 56, r: 16, t: 24, b: 48 } });
       } else empty(div, conv ? "No history yet." : "These jobs report no objective per generation; their numbers are in the table.");
     };
     return card;

@@ -41,7 +41,7 @@
     $("compare-link").href = `/compare?ids=${j.id}`;
     const spec = j.spec || {};
     const s = spec.search || {};
-    const facts = [["Robot", j.robot || "–"], ["Damage", j.damage || "–"]];
+    const facts = [["Robot", j.robot || "–"], [(meta && meta.damage_label) || "Damage", j.damage || "–"]];
     if (s.optimizer && s.population !== undefined) {
       facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
     } else if (Object.keys(s).length) {
@@ -89,11 +89,11 @@
     const better = conv.better ? `, ${conv.better} better` : "";
     $("conv-note").textContent = [conv.x_note && `${xKey[0].toUpperCase()}${xKey.slice(1)} ${conv.x_note.replace(/^generation /, "")}.`,
                                   conv.better && `${conv.y}: ${conv.better} is better.`].filter(Boolean).join(" ");
-    plot(div, traces, { xaxis: { title: { text: xKey }, gridcolor: "#e3e8ee",
-                                 dtick: x.length <= 12 ? 1 : undefined },
-                        yaxis: { title: { text: `${conv.y}${better}` }, gridcolor: "#e3e8ee" } });
     div.setAttribute("aria-label", `${conv.y} per ${xKey}${conv.better ? `; ${conv.better} is better` : ""}`);
-    if (firstPlot) { firstPlot = false; window.gmFirstPlotAt = performance.now(); div.dataset.rendered = "1"; }
+    return plot(div, traces, { xaxis: { title: { text: xKey }, gridcolor: "#e3e8ee",
+                                        dtick: x.length <= 12 ? 1 : undefined },
+                               yaxis: { title: { text: `${conv.y}${better}` }, gridcolor: "#e3e8ee" } })
+      .then(() => { if (firstPlot) { firstPlot = false; window.gmFirstPlotAt = performance.now(); } });
   }
 
   function historyTable(rows) {
@@ -197,14 +197,79 @@
       $("panels").replaceChildren(el("p", { class: "alert", text: `The result views could not be loaded: ${e.message}` }));
       return;
     }
+    header(j);
+    verdict(meta.verdict);
     headline(meta.headline || []);
-    try { convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* kept as it was */ }
-    if (j.status !== "succeeded") return;
-    GMViews.panels($("panels"), meta.panels || []);
-    GMViews.panels($("evidence"), meta.evidence || []);
+    const history = api(`/api/jobs/${jobId}/history`).then(convergence).catch(() => null);
+    if (j.status !== "succeeded") { await history; return; }
+    const drawn = [history, ...GMViews.panels($("panels"), meta.panels || []).map((sec) => sec._drawn),
+                   ...GMViews.panels($("evidence"), meta.evidence || []).map((sec) => sec._drawn)];
     figures(meta.figures || []);
     files(meta.files || []);
     replay(meta.files || [], meta.replay || []);
+    await Promise.all(drawn.filter(Boolean));
+    performance.mark("gm-drawn"); // every plot of the page drawn (tests read it with the timing API)
+    document.body.dataset.drawn = "1";
+  }
+
+  // ---------- the verdict at a glance (the kind's verdict: app/jobs/verdict.py) ----------
+  const fill = (node, ...kids) => node.replaceChildren(...kids.filter((k) => k !== null && k !== undefined));
+  const OUTCOME = { beat: ["▲", "beat", "better"], tied: ["=", "tied", "tied"], lost: ["▼", "lost", "worse"] };
+
+  function verdict(v) {
+    const box = $("verdict");
+    if (!v) { box.hidden = true; return; }
+    box.hidden = false;
+    $("verdict-sentence").textContent = v.sentence || "";
+    const t = v.target || {};
+    const mark = t.met === true ? el("span", { class: "mark met", text: "✓ target met" })
+      : t.met === false ? el("span", { class: "mark unmet", text: "✗ target not met" }) : el("span", { class: "mark none", text: "no target of its own" });
+    const p = v.primary;
+    fill($("verdict-target"), el("h3", { text: "Target" }), mark,
+      el("p", { class: "small", text: t.text || "The kind states no target." }),
+      p ? el("p", { class: "verdict-primary" }, el("span", { class: "small muted", text: `${p.label}: ` }),
+             el("strong", { text: `${GMViews.show(p.value, 3)}${p.unit ? ` ${p.unit}` : ""}` }),
+             p.better ? el("span", { class: "small muted", text: ` (${p.better} is better)` }) : null) : null);
+    const compared = (v.controls || []).filter((c) => c.compared);
+    const others = (v.controls || []).filter((c) => !c.compared);
+    const item = (c) => {
+      const [sym, word, cls] = OUTCOME[c.outcome] || ["–", "–", "tied"];
+      return el("li", { "data-control": c.name, "data-outcome": c.outcome },
+        el("span", { class: `mark ${cls}`, text: `${sym} ${word}` }), " ", el("strong", { text: c.label }),
+        el("div", { class: "small", text: c.text }));
+    };
+    fill($("verdict-controls"), el("h3", { text: "Against the controls (same budget)" }),
+      compared.length ? el("ul", { class: "verdict-list" }, compared.map(item))
+        : el("p", { class: "small", text: (v.controls || []).length ? "No control shares a number with the method." : "No controls were run." }),
+      others.length ? el("p", { class: "small muted", text: `Judged on their own terms (see Controls below): ${others.map((c) => c.label).join("; ")}.` }) : null,
+      v.criteria && v.criteria.length ? el("p", { class: "small muted", text: `Compared on: ${v.criteria.join(", then ")}.` }) : null);
+    const r = v.robustness;
+    fill($("verdict-robustness"), el("h3", { text: "Robustness" }),
+      r ? el("p", {}, el("span", { class: `mark ${r.met === r.total ? "met" : "unmet"}`, text: `${r.met} of ${r.total}` }),
+             " re-runs meet the target") : el("p", { class: "small", text: "No robustness re-runs were recorded." }),
+      r ? el("ul", { class: "verdict-list small" }, r.groups.map((g) => el("li", { "data-group": g.name, text: `${g.label}: ${g.met} of ${g.total}` }))) : null,
+      r && r.failed.length ? el("p", { class: "small muted", text: `Missed under: ${r.failed.join("; ")}.` }) : null);
+    performance.mark("gm-verdict");
+  }
+
+  // ---------- queue position and ETA while queued or running ----------
+  function queueLine(q, status) {
+    const line = $("queue-line");
+    if (!q || FINAL.has(status)) { line.hidden = true; return; }
+    const eta = q.eta_s === null || q.eta_s === undefined ? "no estimate yet (no job of this kind has finished here)"
+      : `about ${GM.duration(q.eta_s)} from now`;
+    line.hidden = false;
+    line.textContent = status === "queued"
+      ? `Queue position ${q.position}${q.held ? " (a study point waiting to be admitted)" : ""}: ${q.ahead} job${q.ahead === 1 ? "" : "s"} ahead, ${q.running} running on ${q.slots} worker slot${q.slots === 1 ? "" : "s"}. Finished ${eta}.`
+      : `Finished ${eta} (${q.how}).`;
+  }
+
+  let queueTimer = null;
+  async function pollQueue() {
+    clearTimeout(queueTimer);
+    if (!job || FINAL.has(job.status)) { queueLine(null, "succeeded"); return; }
+    try { meta = await api(`/api/jobs/${jobId}/views`); queueLine(meta.queue, job.status); } catch (e) { /* next time */ }
+    queueTimer = setTimeout(pollQueue, 5000);
   }
 
   // ---------- live updates ----------
@@ -242,10 +307,13 @@
       return;
     }
     header(job);
+    if (FINAL.has(job.status)) { results(job); return; }
     try { meta = await api(`/api/jobs/${jobId}/views`); } catch (e) { /* plain labels */ }
-    try { convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* shown as waiting */ }
-    if (FINAL.has(job.status)) results(job);
-    else follow();
+    header(job);
+    queueLine(meta && meta.queue, job.status);
+    try { await convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* shown as waiting */ }
+    pollQueue();
+    follow();
   }
 
   async function action(path, button) {

@@ -129,11 +129,27 @@
       try {
         const b = await api("/api/web/check", { method: "POST", json: specOf() });
         if (seq !== checkSeq) return;
-        $("budget").textContent = `Budget: ${b.evaluations} evaluations${b.formula ? ` (${b.formula})` : ""}.`;
+        $("budget").textContent = `Budget: ${b.evaluations} evaluations${b.formula ? ` (${b.formula})` : ""}. ${estimateText(b.estimate)}`;
       } catch (e) {
         if (seq === checkSeq) $("budget").textContent = "Budget: – (the spec is not valid yet; submit to see why).";
       }
     }, 250);
+  }
+
+  // The wall time a spec will take at this server's measured rate (app/api/glance.py says how).
+  function estimateText(e) {
+    if (!e) return "";
+    return e.wall_s === null || e.wall_s === undefined ? `Wall time: no estimate yet (${e.basis}).`
+      : `Estimated wall time: about ${GM.duration(e.wall_s)} (${e.basis}).`;
+  }
+
+  // Above the server's threshold the form asks before queueing (the estimate says why).
+  let confirmed = false;
+  function askFirst(e) {
+    $("confirm-text").textContent = `This job is estimated to take about ${GM.duration(e.wall_s)} of worker time, more than `
+      + `${GM.duration(e.confirm_above_s)}: ${e.basis}. Submit it anyway?`;
+    $("confirm").hidden = false;
+    $("confirm-yes").focus();
   }
 
   function clearErrors() {
@@ -186,7 +202,13 @@
     $("form-ok").hidden = true;
     const spec = specOf();
     $("submit").disabled = true;
+    $("confirm").hidden = true;
     try {
+      if (!confirmed) {
+        const b = await api("/api/web/check", { method: "POST", json: spec });
+        if (b.estimate && b.estimate.confirm) { askFirst(b.estimate); return; }
+      }
+      confirmed = false;
       const job = await api("/api/jobs", { method: "POST", json: spec });
       $("form-ok").replaceChildren(`Queued ${job.kind} job `, el("a", { href: `/jobs/${job.id}`, class: "id", text: job.id.slice(0, 8) }),
                                    ". It appears in the list; open it to watch it run.");
@@ -218,23 +240,70 @@
     return q.toString();
   }
 
-  // The kind's first headline row (what a user came for, with its unit), or while a search
-  // runs its best so far; never one bare number whose meaning changes from kind to kind.
-  function resultText(item) {
-    const r = (item.headline || [])[0];
-    if (r) {
-      const v = GMViews.show(r.value, 3);
-      return el("span", { title: r.better ? `${r.better} is better` : null }, `${r.label}: ${v}${r.unit ? ` ${r.unit}` : ""}`,
-        r.met === true ? el("span", { class: "mark met", text: "✓ met" }) : r.met === false ? el("span", { class: "mark unmet", text: "✗ not met" }) : null);
+  // What the list shows beside each job (GET /api/web/rows): the kind's list headline and its
+  // verdict in brief once succeeded, seed, budget and study, queue position and ETA while
+  // queued or running. Finished jobs are asked once; unfinished ones on every refresh.
+  const extras = new Map(); // id -> {status, row}
+
+  let extrasBusy = false;
+  function extrasSoon() {
+    if (extrasBusy) return;
+    extrasBusy = true;
+    fetchExtras().finally(() => { extrasBusy = false; });
+  }
+
+  async function fetchExtras() {
+    const want = order.filter((id) => { const e = extras.get(id); return !e || e.status !== rows.get(id).item.status || !FINAL.has(e.status); });
+    for (let i = 0; i < want.length; i += 100) {
+      const ids = want.slice(i, i + 100);
+      let got;
+      try { got = await api(`/api/web/rows?ids=${ids.join(",")}`); } catch (e) { return; }
+      for (const id of ids) {
+        const r = rows.get(id);
+        if (r && got[id]) { extras.set(id, { status: r.item.status, row: got[id] }); upsert(r.item); }
+      }
     }
-    return "–";
+  }
+
+  // The kind's list headline (what a user came for, with its unit and direction) and the
+  // verdict: target met, the method against its controls, robustness k of n.
+  function resultText(item) {
+    const x = (extras.get(item.id) || {}).row || {};
+    const r = x.headline;
+    if (!r) return item.status === "succeeded" ? "…" : "–";
+    const v = x.verdict || {};
+    const c = v.controls || {};
+    const tally = ["beat", "tied", "lost"].filter((w) => c[w]).map((w) => `${w} ${c[w]}`).join(", ");
+    return el("div", { title: v.sentence || null },
+      el("span", { class: "headline-value" }, `${r.label}: `, el("strong", { text: `${GMViews.show(r.value, 3)}${r.unit ? ` ${r.unit}` : ""}` }),
+         r.better ? el("span", { class: "small muted", text: ` (${r.better} better)` }) : null),
+      el("div", { class: "verdict-brief small" },
+        v.target_met === true ? el("span", { class: "mark met", text: "✓ target" }) : v.target_met === false ? el("span", { class: "mark unmet", text: "✗ target" }) : null,
+        tally ? ` vs controls: ${tally}` : "", v.robustness ? ` · robust ${v.robustness[0]}/${v.robustness[1]}` : ""));
+  }
+
+  function runText(item) {
+    const x = (extras.get(item.id) || {}).row || {};
+    const parts = [];
+    if (x.seed !== null && x.seed !== undefined) parts.push(`seed ${x.seed}`);
+    if (x.budget) parts.push(`${x.budget} evals`);
+    if (FINAL.has(item.status) && typeof item.wall_s === "number") parts.push(`${GM.duration(item.wall_s)} wall`);
+    const q = x.queue;
+    if (q && item.status === "queued") parts.push(`queue #${q.position}`);
+    if (q && q.eta_s !== null && q.eta_s !== undefined) parts.push(`ETA ${GM.duration(q.eta_s)}`);
+    return parts.join(" · ") || "–";
+  }
+
+  function studyTag(item) {
+    const st = ((extras.get(item.id) || {}).row || {}).study;
+    return st ? el("a", { class: "tag", href: `/studies/${st.id}`, title: `point ${st.point} of study ${st.name}` }, `study: ${st.name}`) : null;
   }
 
   // The job's link; a succeeded job's animated gait shows under it when the link is
   // hovered or focused (rendered by the server on first request: on demand, not per page view).
   function jobCell(item) {
     const link = el("a", { class: "id", href: `/jobs/${item.id}`, text: item.id.slice(0, 8) });
-    const cell = el("td", { "data-label": "Job" }, link);
+    const cell = el("td", { "data-label": "Job" }, link, studyTag(item));
     if (item.status === "succeeded") {
       let timer = null; // a pointer passing over (or a click on the way) asks the server for nothing
       const show = () => { timer = setTimeout(() => { if (!cell.querySelector(".thumb")) cell.append(GM.thumbnail(item.id)); }, 600); };
@@ -262,12 +331,13 @@
       el("td", { "data-label": "Status" }, badge(item.status), " ",
          el("span", { class: "small muted", text: item.status === "running" ? progressText(item) : "" }), bar),
       el("td", { class: "result", "data-label": "Result" }, resultText(item)),
-      el("td", { "data-label": "Age", title: item.created_at, text: age(item.created_at) }),
+      el("td", { class: "run small", "data-label": "Run" }, runText(item)),
+      el("td", { "data-label": "Age", title: GM.date(item.created_at), text: age(item.created_at) }),
     ];
   }
 
   function upsert(item) {
-    const sig = JSON.stringify([item.status, item.progress, item.headline, item.damage, age(item.created_at)]);
+    const sig = JSON.stringify([item.status, item.progress, item.damage, age(item.created_at), (extras.get(item.id) || {}).row]);
     let r = rows.get(item.id);
     if (!r) {
       r = { item, tr: el("tr", { "data-id": item.id, "data-status": item.status }), sig: null };
@@ -316,6 +386,7 @@
         } catch (e) { /* deleted meanwhile: leave it until the filters change */ }
       }
       draw();
+      extrasSoon();
     } catch (e) {
       $("jobs-count").textContent = `Could not load jobs: ${e.message}`;
     } finally {
@@ -333,6 +404,7 @@
       cursor = page.next_cursor;
       loadedOlder = true;
       draw();
+      extrasSoon();
     } finally {
       $("more").disabled = false;
     }
@@ -354,6 +426,8 @@
 
   async function init() {
     $("new-job").addEventListener("submit", submit);
+    $("confirm-yes").addEventListener("click", (e) => { confirmed = true; $("confirm").hidden = true; submit(e); });
+    $("confirm-no").addEventListener("click", () => { $("confirm").hidden = true; $("submit").focus(); });
     $("new-job").addEventListener("input", (e) => { if (e.target.id !== "kind" && e.target.id !== "robot") checkSoon(); });
     $("new-job").addEventListener("change", (e) => { if (e.target.type === "checkbox") checkSoon(); });
     $("kind").addEventListener("change", selectKind);

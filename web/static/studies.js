@@ -1,62 +1,172 @@
-// Studies list (/studies) and one study (/studies/{id}): progress, aggregate, job links.
+// Studies list (/studies) and one study (/studies/{id}): progress, the verdict over the
+// seeds, the aggregate with readable names and units, the kind's study views, every point's
+// job; and a new study, built-in or written here (a base job from the kind's form, a grid
+// editor), checked for size and wall time before anything is queued, confirmed above the
+// server's threshold. Plotly is loaded only when a study's page has a plot to draw.
+"use strict";
+
 (() => {
-  const { api, el, num, badge } = GM;
-  const body = document.getElementById("st-body");
-  const errBox = document.getElementById("st-error");
+  const { api, el, badge } = GM;
+  const $ = (id) => document.getElementById(id);
+  const body = $("st-body");
+  const errBox = $("st-error");
   const id = (location.pathname.match(/^\/studies\/([0-9a-f]+)/) || [])[1];
-  const showError = (e) => { errBox.hidden = false; errBox.textContent = (e.body && e.body.detail) || String(e); };
-  const cell = (st) => st.n ? `${num(st.median)} [${num(st.min)}, ${num(st.max)}]` : "–";
-  const progress = (p) => `${p.done}/${p.points} done, ${p.running} running, ${p.failed} failed, ${p.cancelled} cancelled`;
+  const showError = (e) => { errBox.hidden = false; errBox.textContent = (e.body && e.body.detail) || String(e.message || e); };
+  const progress = (p) => `${p.done} of ${p.points} done, ${p.running} running, ${p.failed} failed, ${p.cancelled} cancelled`;
+  // an override as a person reads it: "seed 2, lost legs 1, 6" (no JSON, no null)
+  const valueText = (v) => (v === null || v === undefined ? "default" : Array.isArray(v) ? (v.map(valueText).join(", ") || "none")
+    : typeof v === "object" ? JSON.stringify(v) : String(v));
+  const overridesText = (o) => Object.entries(o || {}).map(([k, v]) => `${k.split(".").pop().replace(/_/g, " ")} ${valueText(v)}`).join("; ") || "the base spec";
 
   async function list() {
     const r = await api("/api/studies");
-    body.replaceChildren(el("table", { class: "jobs" },
-      el("thead", {}, el("tr", {}, ["Study", "Status", "Progress", "Created"].map((h) => el("th", { text: h })))),
-      el("tbody", {}, r.items.map((s) => el("tr", {},
-        el("td", {}, el("a", { href: `/studies/${s.id}`, text: s.name })), el("td", {}, badge(s.status)),
-        el("td", { text: progress(s.progress) }), el("td", { text: s.created_at }))))));
+    body.replaceChildren(el("h2", { text: "Submitted studies" }),
+      r.items.length ? el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": "Submitted studies" },
+        el("table", { class: "data", id: "study-list" },
+          el("thead", {}, el("tr", {}, ["Study", "Status", "Progress", "Created"].map((h) => el("th", { scope: "col", text: h })))),
+          el("tbody", {}, r.items.map((s) => el("tr", {},
+            el("td", {}, el("a", { href: `/studies/${s.id}`, text: s.name })), el("td", {}, badge(s.status)),
+            el("td", { text: progress(s.progress) }), el("td", { text: GM.date(s.created_at) }))))))
+        : el("p", { class: "small muted", text: "No studies yet: submit one below." }));
   }
 
   async function one() {
+    $("new-study").hidden = true;
     const s = await api(`/api/studies/${id}`);
-    const a = s.aggregate;
-    const head = [...a.group_by, "done/points", ...a.metrics.map((m) => `${m} median [min, max]`)];
-    body.replaceChildren(
-      el("h2", { text: s.name }), el("p", {}, badge(s.status), " ", progress(s.progress), " · ",
-        el("a", { href: s.links.bundle, text: "study bundle" })),
-      s.status === "running" || s.status === "queued" ? el("button", { class: "secondary", onclick: async () => {
+    document.title = `gaitmend · study ${s.name}`;
+    $("st-h").textContent = `Study: ${s.name}`;
+    // (replaceChildren writes a null child as the text "null": the old page printed it twice)
+    body.replaceChildren(...[
+      el("p", {}, badge(s.status), " ", progress(s.progress), " · created ", GM.date(s.created_at), " · ",
+        el("a", { href: s.links.bundle, text: "study bundle (zip)" })),
+      s.status === "running" || s.status === "queued" ? el("button", { class: "secondary", type: "button", onclick: async () => {
         await api(`/api/studies/${id}/cancel`, { method: "POST" }).catch(showError); one(); }, text: "Cancel unfinished points" }) : null,
-      el("table", { class: "jobs", id: "aggregate" }, el("thead", {}, el("tr", {}, head.map((h) => el("th", { text: h })))),
-        el("tbody", {}, a.rows.map((r) => el("tr", {}, r.group.map((g) => el("td", { text: JSON.stringify(g) })),
-          el("td", { text: `${r.succeeded}/${r.points}` }), a.metrics.map((m) => el("td", { text: cell(r.metrics[m]) })))))),
-      s.infeasible.length ? el("p", { class: "small muted", text: `Infeasible, listed and never run: ${s.infeasible.map((x) => JSON.stringify(x.overrides)).join(", ")}` }) : null,
-      el("div", { id: "study-views" }),
-      el("h3", { text: "Points" }),
-      el("ul", {}, s.jobs.map((j) => el("li", {}, el("a", { href: `/jobs/${j.id}`, text: JSON.stringify(j.overrides) }), " ", badge(j.status),
-        j.error ? ` ${j.error}` : ""))));
+      s.infeasible.length ? el("p", { class: "small muted", text: `Infeasible, listed and never run: ${s.infeasible.map((x) => `${overridesText(x.overrides)} (${x.reason})`).join("; ")}` }) : null,
+      el("div", { id: "study-views", class: "panels" }),
+      el("h2", { text: "Points" }),
+      el("ul", { class: "points" }, s.jobs.map((j) => el("li", {}, el("a", { href: `/jobs/${j.id}`, text: overridesText(j.overrides) }), " ", badge(j.status),
+        j.error ? ` ${j.error}` : "")))].filter(Boolean));
     const v = await api(s.links.views);
-    GMViews.panels(document.getElementById("study-views"), v.panels);
+    GMViews.panels($("study-views"), v.panels);
     if (s.status === "running" || s.status === "queued") setTimeout(() => one().catch(showError), 3000);
   }
 
-  // The built-in studies come from the kinds (GET /api/studies/builtin): the page names none.
-  const builtin = document.getElementById("builtin");
-  const submitBuiltin = document.querySelector("#builtin-form button[type=submit]");
-  async function builtins() {
-    const r = await api("/api/studies/builtin");
-    builtin.replaceChildren(...r.items.map((b) => el("option", { value: b.name, title: b.title, text: b.name })));
-    submitBuiltin.disabled = !r.items.length;
+  // ---------- a new study: size and time first, then confirmation ----------
+  let pending = null; // the study spec waiting for its confirmation
+
+  async function checkStudy(spec, submitAfter) {
+    errBox.hidden = true;
+    const e = await api("/api/web/study-check", { method: "POST", json: spec });
+    const time = e.wall_s === null || e.wall_s === undefined ? `no estimate of the wall time yet (${e.basis})`
+      : `about ${GM.duration(e.wall_s)} on ${e.slots} worker slot${e.slots === 1 ? "" : "s"} (${e.basis})`;
+    const text = `${e.points} job${e.points === 1 ? "" : "s"}, ${e.evaluations} evaluations in all: ${time}.`
+      + (e.infeasible ? ` ${e.infeasible} infeasible point(s) listed, never run.` : "");
+    $("st-estimate").textContent = `“${e.name}”: ${text}`;
+    if (!submitAfter) return;
+    if (e.confirm) {
+      pending = spec;
+      $("st-confirm-text").textContent = `Queue “${e.name}”: ${text}${e.wall_s ? ` That is more than ${GM.duration(e.confirm_above_s)} of work.` : ""} Submit it?`;
+      $("st-confirm").hidden = false;
+      $("st-confirm-yes").focus();
+    } else await submitStudy(spec);
   }
 
-  document.getElementById("builtin-form").addEventListener("submit", async (ev) => {
+  async function submitStudy(spec) {
+    const s = await api("/api/studies", { method: "POST", json: spec });
+    location.href = `/studies/${s.id}`;
+  }
+
+  // The built-in studies come from the kinds (GET /api/studies/builtin): the page names none.
+  async function builtins() {
+    const r = await api("/api/studies/builtin");
+    $("builtin").replaceChildren(...r.items.map((b) => el("option", { value: b.name, title: b.title, text: `${b.name} (${b.kind})` })));
+    $("builtin-submit").disabled = !r.items.length;
+  }
+
+  // ---------- the custom study form ----------
+  let kinds = [];
+  let base = null; // SpecForm of the chosen kind
+
+  function leaves(schema, root, prefix = "", out = []) {
+    const s = SpecForm.unwrap(schema, root);
+    for (const [name, sub0] of Object.entries(s.properties || {})) {
+      const sub = SpecForm.unwrap(sub0, root);
+      const path = prefix ? `${prefix}.${name}` : name;
+      if (sub.const !== undefined || (sub.oneOf && sub.discriminator)) continue;
+      if (sub.type === "object" && sub.properties) leaves(sub, root, path, out);
+      else out.push(path);
+    }
+    return out;
+  }
+
+  const kindOf = () => kinds.find((k) => k.name === $("st-kind").value) || kinds[0];
+
+  function gridRow(path) {
+    const k = kindOf();
+    const n = $("grid-rows").children.length;
+    const sel = el("select", { id: `grid-path-${n}`, "aria-label": `axis ${n + 1}: field` },
+      leaves(k.schema, k.schema).map((p) => el("option", { value: p, text: p, selected: p === path ? true : null })));
+    const vals = el("input", { id: `grid-values-${n}`, type: "text", autocomplete: "off", "aria-label": `axis ${n + 1}: values`,
+                               value: path === "search.seed" ? "0, 1, 2" : "" });
+    const grp = el("input", { type: "checkbox", "aria-label": `group the results by axis ${n + 1}`, checked: path !== "search.seed" ? true : null });
+    const tr = el("tr", {}, el("td", {}, sel), el("td", {}, vals), el("td", {}, grp),
+      el("td", {}, el("button", { type: "button", class: "secondary", "aria-label": `remove axis ${n + 1}`, onclick: () => tr.remove() }, "Remove")));
+    $("grid-rows").append(tr);
+  }
+
+  function parseValues(text) {
+    const t = text.trim();
+    if (!t) return [];
+    try { return JSON.parse(`[${t}]`); } catch (e) { /* words */ }
+    return t.split(",").map((x) => x.trim()).filter(Boolean).map((x) => (Number.isFinite(Number(x)) ? Number(x) : x));
+  }
+
+  function customSpec() {
+    const grid = {};
+    const groupBy = [];
+    for (const tr of $("grid-rows").children) {
+      const [sel, vals, grp] = tr.querySelectorAll("select, input");
+      grid[sel.value] = parseValues(vals.value);
+      if (grp.checked) groupBy.push(sel.value);
+    }
+    const spec = { name: $("st-name").value.trim(), base: base.read(), grid, report: { group_by: groupBy } };
+    const metrics = $("st-metrics").value.split(",").map((x) => x.trim()).filter(Boolean);
+    if (metrics.length) spec.report.metrics = metrics;
+    return spec;
+  }
+
+  function selectKind() {
+    base = SpecForm.build($("st-base"), kindOf(), {});
+    $("grid-rows").replaceChildren();
+    gridRow("search.seed");
+  }
+
+  async function initCustom() {
+    kinds = await api("/api/web/kinds");
+    $("st-kind").replaceChildren(...kinds.map((k) => el("option", { value: k.name, text: k.name })));
+    $("st-kind").addEventListener("change", selectKind);
+    $("grid-add").addEventListener("click", () => gridRow(null));
+    $("custom-check").addEventListener("click", () => checkStudy(customSpec(), false).catch(showError));
+    $("custom-form").addEventListener("submit", (ev) => { ev.preventDefault(); checkStudy(customSpec(), true).catch(showError); });
+    selectKind();
+  }
+
+  $("builtin-form").addEventListener("submit", async (ev) => {
     ev.preventDefault();
-    if (!builtin.value) return;
+    if (!$("builtin").value) return;
     try {
-      const spec = await api(`/api/studies/builtin/${encodeURIComponent(builtin.value)}`);
-      const s = await api("/api/studies", { method: "POST", json: spec });
-      location.href = `/studies/${s.id}`;
+      await checkStudy(await api(`/api/studies/builtin/${encodeURIComponent($("builtin").value)}`), true);
     } catch (e) { showError(e); }
   });
-  builtins().catch(showError);
-  (id ? one() : list()).catch(showError);
+  $("st-confirm-yes").addEventListener("click", () => {
+    $("st-confirm").hidden = true;
+    if (pending) submitStudy(pending).catch(showError);
+  });
+  $("st-confirm-no").addEventListener("click", () => { $("st-confirm").hidden = true; pending = null; });
+  if (id) one().catch(showError);
+  else {
+    list().catch(showError);
+    builtins().catch(showError);
+    initCustom().catch(showError);
+  }
 })();

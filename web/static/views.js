@@ -41,7 +41,7 @@ const GMViews = (() => {
         el("thead", {}, el("tr", {}, t.foot_columns.map((c) => el("th", { scope: "col", text: c })))),
         el("tbody", {}, t.foot.map((r) => el("tr", {}, r.map((c, i) => (i === 0 ? cell(c, "th") : cell(c))))))));
     }
-    return el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": caption || "table" }, out);
+    return el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": caption ? `${caption}, table` : "table" }, out);
   }
 
   // Headline rows: {label, value, unit, better, baseline?, baseline_label?, target?, met?}.
@@ -92,12 +92,8 @@ const GMViews = (() => {
       const div = el("div", { class: "plot", id: `plot-${p.id}`, role: "figure", "aria-label": `${p.title}. ${p.caption || ""}` });
       sec.append(div);
       if (p.caption) sec.append(el("p", { class: "small muted caption", text: p.caption }));
-      sec._draw = () => {
-        const layout = Object.assign({}, p.figure.layout);
-        if (layout.height) div.style.minHeight = `${layout.height}px`;
-        plot(div, p.figure.data, layout);
-        div.dataset.rendered = "1";
-      };
+      if (p.figure.layout && p.figure.layout.height) div.style.minHeight = `${p.figure.layout.height}px`;
+      sec._draw = () => plot(div, p.figure.data, Object.assign({}, p.figure.layout));
     } else if (p.table) {
       if (p.caption) sec.append(el("p", { class: "small muted caption", text: p.caption }));
       sec.append(table(p.table, p.title));
@@ -105,11 +101,19 @@ const GMViews = (() => {
     return sec;
   }
 
-  // Cards go into the page first (plotly sizes a graph by its container), then draw.
+  // Cards go into the page first (plotly sizes a graph by its container), then draw one
+  // after another, those on the first screen first, yielding between them so the page
+  // stays responsive; each card's _drawn resolves once its plot is drawn.
   function panels(container, list) {
     const secs = list.map(panel);
     container.replaceChildren(...secs);
-    for (const s of secs) if (s._draw) s._draw();
+    const figs = secs.filter((s) => s._draw);
+    const near = (s) => s.getBoundingClientRect().top < window.innerHeight * 1.2;
+    let chain = Promise.resolve();
+    for (const s of [...figs.filter(near), ...figs.filter((x) => !near(x))]) {
+      s._drawn = chain = chain.then(() => new Promise((r) => setTimeout(r, 0))).then(() => s._draw())
+        .catch((e) => { s.append(el("p", { class: "alert", text: `This plot could not be drawn: ${e.message}` })); });
+    }
     return secs;
   }
 
