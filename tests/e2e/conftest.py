@@ -7,11 +7,14 @@ Screenshots go to $GAITMEND_E2E_SHOTS (default: a temporary folder of the run), 
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import httpx
 import pytest
 from service_support import Proc, deployment, free_port, migrated, wait_for
+
+sys.path.insert(0, os.path.dirname(__file__))  # tests/e2e/glance.py: the checks every page of ours gets
 
 # A second, different job for the compare page and the route tests: CMA-ES, legs 1 and 6.
 SECOND = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},

@@ -16,6 +16,8 @@ PHONE = {"width": 390, "height": 844}
 from PIL import Image
 from playwright.sync_api import expect
 
+import glance
+
 SMALL = {"kind": "recovery", "damage": {"lost_legs": [2, 5]},
          "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 2.0}}
 JOB_TIMEOUT_MS = 120_000
@@ -107,6 +109,11 @@ def test_form_shows_the_damage_an_untouched_form_runs(page, server):
         default budget would hold the worker for minutes)."""
         with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
             page.click("#submit")
+            # the full default budget may be over the confirmation threshold once a recovery
+            # job has finished here (a measured rate): then the form asks first
+            expect(page.locator("#form-ok, #confirm").first).to_be_visible()
+            if page.locator("#confirm").is_visible():
+                page.click("#confirm-yes")
         expect(page.locator("#form-ok")).to_be_visible()
         jid = page.locator("#form-ok a").get_attribute("href").rsplit("/", 1)[1]
         with server.client() as c:
@@ -176,13 +183,17 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     expect(row).to_be_visible()
     expect(row).to_have_attribute("data-status", "succeeded", timeout=JOB_TIMEOUT_MS)
     expect(row).to_contain_text("lost 2,5")
-    # the result column is the kind's first headline row, with its label and unit
+    # the result column is the kind's list headline (recovery: the forward distance, in cm)
+    # and the verdict in brief; the run column says seed and budget
     with server.client() as c:
-        first = c.get(f"/api/jobs/{job_id}").json()["headline"][0]
+        first = c.get("/api/web/rows", params={"ids": job_id}).json()[job_id]["headline"]
+    assert first["label"] == "forward distance" and first["unit"] == "cm", first
     expect(row.locator("td.result")).to_contain_text(f"{first['label']}: ")
     expect(row.locator("td.result")).to_contain_text(first["unit"])
+    expect(row.locator("td.run")).to_contain_text("seed 2")
     page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=shots / "jobs-1280.png")
+    glance.no_axe_faults(page, "jobs list")
 
     # the job page saw the end of the stream and shows everything
     expect(jp.locator("#status-line .badge")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
@@ -254,6 +265,14 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
             break
     assert share > 0.02, f"the replay canvas looks blank ({share:.2%} non-background pixels)"
     jp.screenshot(path=shots / "job-1280.png", full_page=True)
+    # the verdict at the top: the recovery target, the method against the baseline and the
+    # random search at the same budget, robustness k of n with numerics and physical apart
+    v = glance.check_verdict(jp, server, job_id)
+    assert {c["name"] for c in v["controls"] if c["compared"]} >= {"baseline", "random_search"}
+    assert [g["name"] for g in v["robustness"]["groups"]][:1] == ["numerics"]
+    jp.reload()
+    shares = glance.replay_frames(jp, shots, "recovery")
+    assert min(shares) > 0.02, shares
 
     # the bundle download carries the token (blob) and is the real zip
     with jp.expect_download() as dl:
@@ -285,6 +304,10 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
     pg.wait_for_timeout(1500)
     pg.screenshot(path=shots / "job-390.png", full_page=True)
     assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+    glance.no_axe_faults(pg, "recovery job page")
+    pg.goto(server.url + "/")
+    expect(pg.locator(f'#jobs-body tr[data-id="{job_id}"] td.result')).to_contain_text("forward distance")
+    glance.no_axe_faults(pg, "jobs list")
     # keyboard: the skip link comes first and leads to the content
     pg.keyboard.press("Tab")
     assert pg.evaluate("document.activeElement.className") == "skip"
@@ -311,6 +334,7 @@ def test_compare_two_jobs(page, server, shots, second_job):
     budget = page.locator("#groups tr").filter(has_text="Budget (evaluations")
     expect(budget.locator("td").first).to_have_text(str(want))
     page.screenshot(path=shots / "compare-1280.png", full_page=True)
+    glance.no_axe_faults(page, "compare page")
 
 
 def test_jobs_of_other_owners_stay_hidden(new_page, server):

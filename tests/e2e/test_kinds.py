@@ -12,6 +12,8 @@ import pytest
 from PIL import Image
 from playwright.sync_api import TimeoutError as PlaywrightTimeout, expect
 
+import glance
+
 JOB_TIMEOUT_MS = 180_000
 DONE: dict[str, str] = {}  # kind -> job id, for the compare test
 
@@ -95,12 +97,11 @@ def test_tipping_through_the_form(page, new_page, server, shots):
     expect(page.locator("#f-recovery-enabled")).to_be_checked()
     open_group(page, "sim")
     page.fill("#f-sim-duration-s", "14")
-    # the evidence runs (controls, robustness, the band search) are each many more runs:
-    # switched off here to keep the browser test short; the kind's own tests cover them
+    # the controls and robustness re-runs stay on (the verdict reads them: 10 more runs); the
+    # band search (many more) is switched off to keep the browser test short
     open_group(page, "evidence")
-    for box in ("controls", "robustness", "band"):
-        page.uncheck(f"#f-evidence-{box}")
-    expect(page.locator("#budget")).to_contain_text("Budget: 2 evaluations")
+    page.uncheck("#f-evidence-band")
+    expect(page.locator("#budget")).to_contain_text("Budget: 12 evaluations")
     with page.expect_request(lambda r: r.url.endswith("/api/jobs") and r.method == "POST") as req:
         job_id = submit(page)
     sent = req.value.post_data_json
@@ -108,7 +109,7 @@ def test_tipping_through_the_form(page, new_page, server, shots):
     # left out of the spec: the server fills it in
     assert sent["kind"] == "tipping" and sent["scenario"] == {"type": "tilt", "axis": "y", "direction": "ccw"}
     assert sent["sim"] == {"duration_s": 14}
-    assert sent["evidence"] == {"controls": False, "robustness": False, "band": False}
+    assert sent["evidence"] == {"band": False}
     jp = new_page()
     wait_done(server, jp, job_id)
     with server.client() as c:
@@ -151,8 +152,13 @@ def test_tipping_through_the_form(page, new_page, server, shots):
     assert jp.locator("#other-select").count() == 0
     jp.locator("#panel-margin").scroll_into_view_if_needed()
     jp.locator("#panel-margin").screenshot(path=shots / "tipping-margin-1280.png")
-    jp.screenshot(path=shots / "tipping-job-1280.png", full_page=True)
     assert replay_drawn(jp, shots, "tipping") > 0.05
+    # the verdict: stays upright (its list headline), beats the run without recovery
+    v = glance.check_verdict(jp, server, job_id)
+    assert next(c for c in v["controls"] if c["name"] == "no_recovery")["outcome"] in ("beat", "tied")
+    assert v["primary"]["label"] == "stays upright with recovery"
+    glance.check_list_row(jp, server, job_id)
+    glance.job_page_everywhere(new_page, server, job_id, "tipping", shots)
     DONE["tipping"] = job_id
 
 
@@ -165,8 +171,9 @@ def test_multigait_through_the_form(page, new_page, server, shots):
     open_group(page, "search")
     page.fill("#f-search-particles", "4")
     page.fill("#f-search-generations", "2")
-    for group in ("planner", "reuse", "verify"):
+    for group in ("planner", "reuse", "verify", "controls"):
         open_group(page, group)
+    page.fill("#f-controls-heldout-plans", "4")  # the held-out draws the verdict's interval is over
     page.fill("#f-planner-iterations", "30")
     page.fill("#f-reuse-plans", "2")
     page.fill("#f-reuse-iterations", "20")
@@ -212,8 +219,15 @@ def test_multigait_through_the_form(page, new_page, server, shots):
     assert jp.evaluate("document.getElementById('plot-map').layout.shapes.filter(s => s.fillcolor === '#374151').length") >= 1
     jp.locator("#panel-map").scroll_into_view_if_needed()
     jp.locator("#panel-map").screenshot(path=shots / "multigait-map-1280.png")
-    jp.screenshot(path=shots / "multigait-job-1280.png", full_page=True)
     assert replay_drawn(jp, shots, "multigait") > 0.05
+    # the verdict: no target of its own; held-out coverage against the random search, with
+    # the 95 % interval over the held-out draws
+    v = glance.check_verdict(jp, server, job_id)
+    rnd = next(c for c in v["controls"] if c["name"] == "random_search")
+    assert rnd["compared"] and rnd["unit"] == "%" and rnd["seeds"] == 4 and len(rnd["interval"]) == 2, rnd
+    assert v["primary"]["label"] == "coverage of the map"
+    glance.check_list_row(jp, server, job_id)
+    glance.job_page_everywhere(new_page, server, job_id, "multigait", shots)
     DONE["multigait"] = job_id
 
 
@@ -237,15 +251,20 @@ def test_compare_separates_kinds(page, server, shots, second_job):
         [...new Set(d.data.map(t => t.name.split(' · ')[0]))])""")
     assert sorted(k for ks in kinds for k in ks) == ["multigait", "recovery"] and all(len(ks) == 1 for ks in kinds), kinds
     page.screenshot(path=shots / "compare-kinds-1280.png", full_page=True)
+    glance.no_axe_faults(page, "compare page")
+    page.set_viewport_size(glance.PHONE)
+    page.screenshot(path=shots / "compare-kinds-390.png", full_page=True)
+    glance.no_axe_faults(page, "compare page")
+    glance.fits_width(page)
 
 
 # Kinds the dashboard's code never names: their fields come from their schema, their page
-# from what they supply (headline, tables, views, figures, files). Small budgets, evidence
-# runs off (the kinds' own tests cover them).
+# from what they supply (headline, tables, views, figures, files, verdict). Small budgets;
+# the evidence runs stay on (the verdict reads them). The list headline each shows.
 NEWER = {
-    "freegait": ({"route": ["distance-m"]}, {"#f-route-distance-m": "0.3"}, ("controls", "robustness")),
+    "freegait": ({"route": ["distance-m"]}, {"#f-route-distance-m": "0.3"}, (), "footholds in forbidden zones"),
     "energy": ({"search": [], "physics": []}, {"#f-search-population": "4", "#f-search-generations": "1",
-                                                "#f-physics-periods": "2"}, ("controls", "random-search", "robustness")),
+                                                "#f-physics-periods": "2"}, (), "CoT final (Eq. 11)"),
 }
 
 
@@ -254,7 +273,7 @@ def test_newer_kind_through_the_form(kind, page, new_page, server, shots):
     from app.jobs.registry import KINDS
 
     assert kind in KINDS, f"{kind} is not registered"  # both are; a skip would hide losing one
-    groups, fills, evidence = NEWER[kind]
+    groups, fills, evidence, listed = NEWER[kind]
     open_kind(page, server, kind)
     for g in list(groups) + ["evidence"]:
         open_group(page, g)
@@ -277,4 +296,11 @@ def test_newer_kind_through_the_form(kind, page, new_page, server, shots):
     expect(first).to_be_visible(timeout=30_000)
     expect(jp.locator("#files tbody tr")).to_have_count(len(v["files"]) + 1)
     expect(jp.locator("#figures img").first).to_be_attached()
-    jp.screenshot(path=shots / f"{kind}-job-1280.png", full_page=True)
+    v = glance.check_verdict(jp, server, job_id)
+    assert v["primary"]["label"] == listed, v["primary"]
+    # the replay frames the robot from the first step to the last
+    shares = glance.replay_frames(jp, shots, kind)
+    assert min(shares) > 0.02, shares
+    glance.check_list_row(jp, server, job_id)
+    glance.job_page_everywhere(new_page, server, job_id, kind, shots)
+    DONE[kind] = job_id

@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import time
 
+from playwright.sync_api import expect
+
+import glance
+
 TINY = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
         "search": {"population": 4, "generations": 1, "seed": 0}, "sim": {"duration_s": 0.5}}
 
@@ -24,12 +28,14 @@ def test_study_list_page_and_cancel(page, server):
     page.goto(f"{server.url}/studies")
     page.get_by_role("link", name="e2e seeds").click()
     page.wait_for_url(f"**/studies/{sid}")
-    page.locator("#aggregate tbody tr").first.wait_for()
-    assert page.locator("#aggregate tbody tr").count() == 1
-    assert page.locator("#aggregate thead").inner_text().count("best.fitness") == 1
-    assert page.locator("ul li a[href^='/jobs/']").count() == 3
+    page.locator("#panel-aggregate tbody tr").first.wait_for()
+    assert page.locator("#panel-aggregate tbody tr").count() == 1
+    # metric paths read as names (best.fitness: "best fitness"), groups as values (no JSON, no null)
+    assert page.locator("#panel-aggregate thead").inner_text().count("best fitness") == 1
+    assert "null" not in page.locator("main").inner_text()
+    assert page.locator("ul.points li a[href^='/jobs/']").count() == 3
     page.locator("#panel-metric-0 .plot[data-rendered='1'] .main-svg").first.wait_for()  # plotly drew it
-    assert page.locator("#panel-metric-0 h2").inner_text() == "best.fitness"
+    assert page.locator("#panel-metric-0 h2").inner_text() == "best fitness"
     if page.get_by_role("button", name="Cancel unfinished points").count():
         page.get_by_role("button", name="Cancel unfinished points").click()
     with server.client("alice") as c:
@@ -60,6 +66,69 @@ def test_builtin_select_lists_every_kinds_studies_and_submits_the_chosen_one(pag
     assert options.evaluate_all("os => os.map((o) => o.value)") == [i["name"] for i in items]
     assert options.evaluate_all("os => os.map((o) => o.title)") == [i["title"] for i in items]
     page.select_option("#builtin", chosen)
-    page.get_by_role("button", name="Submit").click()
+    page.get_by_role("button", name="Check and submit").click()
+    # nothing is queued before the size and the time are shown and confirmed
+    expect(page.locator("#st-confirm")).to_be_visible()
+    expect(page.locator("#st-estimate")).to_contain_text("evaluations in all")
+    assert posted == []
+    page.get_by_role("button", name="Submit the study").click()
     page.wait_for_url("**/studies/0123abcd")
     assert posted == [spec]
+
+
+def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_page, server, shots):
+    """The custom-study form: a base job from the kind's form, a grid of seeds, no metrics
+    named; its size and time are checked first, and the study reports the kind's headline
+    (recovery: the forward distance, in cm) with the verdict pooled over the seeds."""
+    page.goto(f"{server.url}/studies")
+    expect(page.locator("#st-kind option")).not_to_have_count(0)
+    page.screenshot(path=shots / "studies-1280.png", full_page=True)
+    glance.no_axe_faults(page, "studies list")
+    # a list draws no plot: plotly.min.js is never fetched
+    assert not page.evaluate("performance.getEntriesByType('resource').some(r => r.name.includes('plotly'))")
+    page.locator("#custom > summary").click()
+    page.fill("#st-name", "e2e headline")
+    page.select_option("#st-kind", "recovery")
+    for group in ("search", "sim"):
+        box = page.locator(f'#st-base details[data-path="{group}"]')
+        if not box.evaluate("d => d.open"):
+            box.locator("> summary").click()
+    page.fill("#st-base #f-search-population", "4")
+    page.fill("#st-base #f-search-generations", "1")
+    page.fill("#st-base #f-sim-duration-s", "0.5")
+    expect(page.locator("#grid-values-0")).to_have_value("0, 1, 2")
+    page.fill("#grid-values-0", "0, 1")
+    page.click("#custom-check")
+    expect(page.locator("#st-estimate")).to_contain_text("2 jobs")
+    glance.no_axe_faults(page, "studies list (custom form open)")
+    page.click("#custom-submit")
+    expect(page.locator("#st-confirm, #panel-aggregate").first).to_be_visible(timeout=30_000)
+    if page.locator("#st-confirm").is_visible():
+        page.click("#st-confirm-yes")
+    page.wait_for_url("**/studies/*")
+    sid = page.url.rstrip("/").rsplit("/", 1)[1]
+    with server.client("alice") as c:
+        st = c.get(f"/api/studies/{sid}").json()
+        assert st["spec"]["report"]["metrics"] == ["headline.primary"]
+        for _ in range(240):
+            if c.get(f"/api/studies/{sid}").json()["status"] not in ("queued", "running"):
+                break
+            time.sleep(0.5)
+        agg = c.get(f"/api/studies/{sid}").json()["aggregate"]
+    assert agg["rows"][0]["metrics"]["headline.primary"]["n"] == 2  # a number from every point
+    page.reload()
+    head = page.locator("#panel-aggregate thead")
+    expect(head).to_contain_text("forward distance (cm)")
+    expect(page.locator("#panel-verdict")).to_contain_text("uniform random search")
+    expect(page.locator("#panel-metric-0 .plot[data-rendered='1']")).to_be_attached(timeout=30_000)
+    assert "null" not in page.locator("main").inner_text()
+    page.screenshot(path=shots / "study-1280.png", full_page=True)
+    glance.no_axe_faults(page, "study page")
+    for path, name in ((f"/studies/{sid}", "study"), ("/studies", "studies")):
+        pg = new_page(viewport=glance.PHONE)
+        pg.goto(server.url + path)
+        expect(pg.locator("#panel-aggregate, #study-list").first).to_be_visible(timeout=30_000)
+        pg.wait_for_timeout(500)
+        pg.screenshot(path=shots / f"{name}-390.png", full_page=True)
+        glance.no_axe_faults(pg, f"{name} page")
+        glance.fits_width(pg)

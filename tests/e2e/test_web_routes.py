@@ -125,3 +125,37 @@ def test_kinds_and_check_for_the_form(server):
         assert c.post("/api/web/check", json={"kind": "nope"}).json()["errors"][0]["field"] == "kind"
         assert c.get("/api/jobs", params={"limit": 500}).json()["items"] == before
     assert httpx.post(server.url + "/api/web/check", json=SPEC).status_code == 401  # tokens on
+
+
+def test_plotly_goes_compressed_and_pages_are_cached(server):
+    """plotly.min.js over the wire gzipped (measured: the bytes of the body as sent), under a
+    versioned URL cached for a year; static files named with their content hash likewise;
+    a page's HTML and the API's JSON compressed by the middleware."""
+    import re as _re
+
+    page = httpx.get(server.url + "/jobs/whatever").text
+    url = _re.search(r'<meta name="gm-plotly" content="([^"]+)"', page).group(1)
+    assert "?v=" in url
+    with httpx.Client(base_url=server.url) as c:
+        with c.stream("GET", url, headers={"Accept-Encoding": "gzip"}) as r:
+            wire = sum(len(b) for b in r.iter_raw())
+            assert r.headers["content-encoding"] == "gzip" and "immutable" in r.headers["cache-control"]
+        plain = len(c.get(url, headers={"Accept-Encoding": "identity"}).content)
+    print(f"\nplotly.min.js: {wire} bytes over the wire gzipped, {plain} bytes uncompressed")
+    assert wire < plain / 2.5
+    js = _re.search(r'src="(/static/common\.js\?v=[0-9a-f]+)"', page).group(1)
+    r = httpx.get(server.url + js, headers={"Accept-Encoding": "gzip"})
+    assert "immutable" in r.headers["cache-control"] and r.headers.get("content-encoding") == "gzip"
+    assert httpx.get(server.url + "/static/common.js").headers["cache-control"] == "no-cache"
+    assert httpx.get(server.url + "/", headers={"Accept-Encoding": "gzip"}).headers.get("content-encoding") == "gzip"
+
+
+def test_a_cold_job_page_draws_within_two_seconds(new_page, server, second_job):
+    """A succeeded job's page in a fresh browser context (nothing cached), timed with the
+    browser's timing API: navigation start to the verdict, and to every plot drawn."""
+    import glance
+
+    glance.cold_draw_ms(new_page, server, second_job)  # the server computes the page's views once per bundle
+    t = glance.cold_draw_ms(new_page, server, second_job)
+    assert t["verdict"] < 2000 and t["drawn"] < 2000, t
+    assert t["plotly"] and t["plotly"] < 2_000_000, t  # gzipped on the wire

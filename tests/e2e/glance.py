@@ -1,0 +1,171 @@
+"""What every page of ours is checked for beside its own test (issue 25): the verdict block
+of a job page (target, the method against its controls, robustness k of n), the jobs
+list's row (the kind's list headline and the verdict in brief), axe-core over our own page
+(never viser's or Swagger's frames: 0 critical, 0 serious) at desktop and phone widths,
+screenshots at both, and the replay framing its robot at the start, middle and end.
+
+axe-core is vendored (tests/e2e/vendor/axe.min.js, MPL-2.0, the file's own header): the
+tests load nothing from a network."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+from playwright.sync_api import expect
+
+AXE = Path(__file__).parent / "vendor" / "axe.min.js"
+DESKTOP = {"width": 1280, "height": 800}
+PHONE = {"width": 390, "height": 844}
+AXE_RESULTS: dict[str, dict[str, int]] = {}  # "page @ width" -> counts by impact (printed at the end)
+
+
+def axe(page, name: str) -> list[dict]:
+    """Runs axe-core over the page (iframes left out: the replay is viser's client), records
+    the counts by impact under ``name`` and returns the critical and serious violations."""
+    if not page.evaluate("typeof window.axe !== 'undefined'"):
+        page.add_script_tag(content=AXE.read_text())
+    res = page.evaluate("""async () => {
+        const r = await axe.run({ exclude: [["iframe"]] }, { resultTypes: ["violations"] });
+        return r.violations.map(v => ({ id: v.id, impact: v.impact, help: v.help,
+                                         nodes: v.nodes.slice(0, 3).map(n => n.target.join(" ")) }));
+    }""")
+    counts = {k: sum(v["impact"] == k for v in res) for k in ("critical", "serious", "moderate", "minor")}
+    AXE_RESULTS[f"{name} @ {page.viewport_size['width']}"] = counts
+    print(f"\naxe {name} @ {page.viewport_size['width']} px: {json.dumps(counts)}"
+          + "".join(f"\n  {v['impact']}: {v['id']} ({v['help']}) at {v['nodes']}" for v in res))
+    return [v for v in res if v["impact"] in ("critical", "serious")]
+
+
+def no_axe_faults(page, name: str) -> None:
+    bad = axe(page, name)
+    assert not bad, f"axe on {name} at {page.viewport_size['width']} px: {bad}"
+
+
+def fits_width(page) -> None:
+    """Nothing wider than the screen (a phone never scrolls sideways)."""
+    assert page.evaluate("document.documentElement.scrollWidth") <= page.viewport_size["width"] + 1
+
+
+def check_verdict(jp, server, job_id: str) -> dict:
+    """The verdict block at the top of a succeeded job page: the target (met or not, or the
+    kind's word that it has none), every control the kind compares with its outcome and by
+    how much, robustness k of n by group, all as the API's verdict says."""
+    with server.client() as c:
+        v = c.get(f"/api/jobs/{job_id}/views").json()["verdict"]
+    box = jp.locator("#verdict")
+    expect(box).to_be_visible(timeout=30_000)
+    # at the top: above the headline table and every plot
+    assert jp.evaluate("document.getElementById('verdict').getBoundingClientRect().top") < \
+        jp.evaluate("document.getElementById('headline-card').getBoundingClientRect().top")
+    target = jp.locator("#verdict-target")
+    met = v["target"]["met"]
+    expect(target).to_contain_text("✓ target met" if met is True else "✗ target not met" if met is False
+                                   else "no target of its own")
+    if v["target"]["text"]:
+        expect(target).to_contain_text(v["target"]["text"][:40])
+    compared = [c for c in v["controls"] if c["compared"]]
+    assert compared, f"the verdict compares the method with no control: {v['controls']}"
+    for c in compared:
+        li = jp.locator(f'#verdict-controls li[data-control="{c["name"]}"]')
+        expect(li).to_have_attribute("data-outcome", c["outcome"])
+        expect(li).to_contain_text(c["outcome"])
+        if c["by"] is not None and c["outcome"] != "tied":
+            expect(li).to_contain_text(" by ")  # by how much, in the kind's unit
+    rob = v["robustness"]
+    assert rob, "the verdict has no robustness block"
+    expect(jp.locator("#verdict-robustness")).to_contain_text(f"{rob['met']} of {rob['total']}")
+    for g in rob["groups"]:
+        expect(jp.locator(f'#verdict-robustness li[data-group="{g["name"]}"]')).to_contain_text(f"{g['met']} of {g['total']}")
+    return v
+
+
+def check_list_row(page, server, job_id: str) -> None:
+    """The jobs list's row of a succeeded job shows the kind's list headline (label, value
+    and unit) and the verdict in brief, with seed and budget."""
+    with server.client() as c:
+        row = c.get("/api/web/rows", params={"ids": job_id}).json()[job_id]
+    page.goto(server.url + "/")
+    tr = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
+    expect(tr).to_be_visible(timeout=30_000)
+    head = row["headline"]
+    cell = tr.locator("td.result")
+    expect(cell).to_contain_text(f"{head['label']}: ")
+    if head["unit"]:
+        expect(cell).to_contain_text(head["unit"])
+    if row["verdict"]["robustness"]:
+        expect(cell).to_contain_text(f"robust {row['verdict']['robustness'][0]}/{row['verdict']['robustness'][1]}")
+    expect(tr.locator("td.run")).to_contain_text(f"{row['budget']} evals")
+    if row["seed"] is not None:
+        expect(tr.locator("td.run")).to_contain_text(f"seed {row['seed']}")
+
+
+def job_page_everywhere(new_page, server, job_id: str, name: str, shots: Path) -> None:
+    """The job page at 1280 and 390 px: screenshots, axe, nothing wider than a phone."""
+    for vp, tag in ((DESKTOP, "1280"), (PHONE, "390")):
+        pg = new_page(viewport=vp)
+        pg.goto(f"{server.url}/jobs/{job_id}")
+        expect(pg.locator("body[data-drawn='1']")).to_be_attached(timeout=60_000)
+        pg.screenshot(path=shots / f"{name}-job-{tag}.png", full_page=True)
+        no_axe_faults(pg, f"{name} job page")
+        if vp is PHONE:
+            fits_width(pg)
+
+
+def cold_draw_ms(new_page, server, job_id: str) -> dict[str, float]:
+    """A cold job page (new browser context: empty cache) until every plot is drawn, from
+    the browser's timing API: navigation start to the verdict and to the last plot."""
+    pg = new_page()
+    pg.goto(f"{server.url}/jobs/{job_id}")
+    expect(pg.locator("body[data-drawn='1']")).to_be_attached(timeout=60_000)
+    t = pg.evaluate("""() => ({ verdict: performance.getEntriesByName('gm-verdict')[0].startTime,
+        drawn: performance.getEntriesByName('gm-drawn')[0].startTime,
+        dom: performance.getEntriesByType('navigation')[0].domContentLoadedEventEnd,
+        plotly: (performance.getEntriesByType('resource').find(r => r.name.includes('plotly.min.js')) || {}).transferSize })""")
+    print(f"\ncold job page {job_id[:8]}: DOMContentLoaded {t['dom']:.0f} ms, verdict {t['verdict']:.0f} ms, "
+          f"every plot drawn {t['drawn']:.0f} ms; plotly.min.js over the wire {t['plotly']} bytes")
+    return t
+
+
+def non_background(png: bytes) -> float:
+    a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
+    colors, counts = np.unique(a, axis=0, return_counts=True)
+    return float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
+
+
+def replay_frames(jp, shots: Path, name: str) -> list[float]:
+    """The replay's canvas at the start, the middle and the end of the walk: viser's client
+    plays the recording in a loop and its timeline slider says where it is (aria-valuenow of
+    aria-valuemax seconds), so each screenshot is taken when the slider is in that part of
+    the walk. Returns the share of the canvas that is not background in each (the robot,
+    its path and the ground in view); prints the time each was taken at."""
+    jp.locator("#replay").scroll_into_view_if_needed()
+    canvas = jp.frame_locator("#replay").locator("canvas").first
+    expect(canvas).to_be_visible(timeout=60_000)
+    frame = next(f for f in jp.frames if "/viser/" in f.url)
+    where = "() => { const s = document.querySelector('[role=slider]'); return s ? [+s.getAttribute('aria-valuenow'), +s.getAttribute('aria-valuemax')] : null; }"
+    wanted = {"start": (0.0, 0.12), "middle": (0.4, 0.6), "end": (0.85, 1.0)}
+    shares, at = {}, {}
+    for _ in range(600):
+        pos = frame.evaluate(where)
+        if not pos or not pos[1]:
+            jp.wait_for_timeout(200)
+            continue
+        frac = pos[0] / pos[1]
+        tag = next((t for t, (lo, hi) in wanted.items() if t not in shares and lo <= frac <= hi), None)
+        if tag is None:
+            jp.wait_for_timeout(50)
+            continue
+        bb = canvas.bounding_box()
+        png = jp.screenshot(clip=bb, path=shots / f"{name}-replay-{tag}-1280.png")
+        if bb["width"] > 50 and non_background(png) > 0.02:  # drawn (not the first blank frames)
+            shares[tag], at[tag] = non_background(png), round(pos[0], 2)
+        if len(shares) == len(wanted):
+            break
+    print(f"\nreplay {name}: screenshots at {at} s of the walk; non-background share "
+          f"{ {t: round(v, 3) for t, v in shares.items()} }")
+    assert set(shares) == set(wanted), f"the replay of {name} was not caught at {set(wanted) - set(shares)}"
+    return [shares[t] for t in wanted]
