@@ -159,7 +159,7 @@ def _compare(crit: Mapping[str, Any], c: ControlRow) -> dict[str, Any] | None:
             return base | {"outcome": "tied", "text": f"tied on {label} (both {fmt(b)})"}
         win = bool(a) if better == "higher" else not bool(a)
         return base | {"outcome": "beat" if win else "lost",
-                       "text": f"{'beat' if win else 'lost'} on {label}: {fmt(bool(a))} against {fmt(b)}"}
+                       "text": f"{'beat' if win else 'lost'} on {label} (the method: {fmt(bool(a))}; the control: {fmt(b)})"}
     b = float(raw) * (crit.get("scale") or 1.0)
     gain = (a - b) if better == "higher" else (b - a)  # > 0: the method is better
     base |= {"control": b, "by": abs(a - b)}

@@ -43,8 +43,10 @@ def _rgb(rgba) -> tuple[int, int, int]:
     return tuple(int(255 * c) for c in rgba[:3])
 
 
-def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int, object]:
-    """One frame per body (world excluded) with its geoms; returns body id -> frame handle."""
+def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None, window=None) -> dict[int, object]:
+    """One frame per body (world excluded) with its geoms; returns body id -> frame handle.
+    ``window`` ((x0, y0), (x1, y1)): the world's own geoms are drawn only inside it (robots
+    side by side each stand on their own patch of the field, not on a neighbour's zones)."""
     frames = {}
     for b in range(1, model.nbody):
         frames[b] = scene.add_frame(f"{prefix}/body{b}", show_axes=False)
@@ -52,6 +54,9 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
         b = int(model.geom_bodyid[g])
         if b == 0 and int(model.geom_type[g]) == _G.mjGEOM_PLANE:
             continue  # the ground is drawn as a grid
+        if b == 0 and window is not None and int(model.geom_type[g]) != _G.mjGEOM_HFIELD and \
+                not all(window[0][i] <= model.geom_pos[g][i] <= window[1][i] for i in (0, 1)):
+            continue
         name = f"{prefix}/body{b}/geom{g}" if b else f"{prefix}/static/geom{g}"
         t = int(model.geom_type[g])
         size = model.geom_size[g]
@@ -60,7 +65,7 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
         # in the run's colour they read as part of the robot (zones looked like footholds)
         color = tint if tint is not None and t != _G.mjGEOM_SPHERE and b else _rgb(model.geom_rgba[g])
         if t == _G.mjGEOM_HFIELD:
-            _add_hfield(scene, name, model, g, color, pos, quat)
+            _add_hfield(scene, name, model, g, color, pos, quat, window)
         elif t == _G.mjGEOM_BOX:
             scene.add_box(name, color=color, dimensions=tuple(2 * size), position=pos, wxyz=quat)
         elif t == _G.mjGEOM_SPHERE:
@@ -84,16 +89,24 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None) -> dict[int,
     return frames
 
 
-def _add_hfield(scene, name: str, model: mujoco.MjModel, g: int, color, pos, quat, max_side: int = 160) -> None:
-    """A height field (rough ground) as a triangle mesh, thinned to at most max_side points a side."""
+def _add_hfield(scene, name: str, model: mujoco.MjModel, g: int, color, pos, quat, window=None,
+                max_side: int = 160) -> None:
+    """A height field (rough ground) as a triangle mesh, thinned to at most max_side points a
+    side, cut to ``window`` (world x, y) when given (an unrotated field: the worlds here)."""
     h = int(model.geom_dataid[g])
     nrow, ncol = int(model.hfield_nrow[h]), int(model.hfield_ncol[h])
     rx, ry, top, _bottom = model.hfield_size[h]
     z = model.hfield_data[model.hfield_adr[h]: model.hfield_adr[h] + nrow * ncol].reshape(nrow, ncol) * top
-    step = max(1, -(-max(nrow, ncol) // max_side))
-    z = z[::step, ::step]
+    xs, ys = np.linspace(-rx, rx, ncol), np.linspace(-ry, ry, nrow)
+    if window is not None:
+        cx = (xs + pos[0] >= window[0][0]) & (xs + pos[0] <= window[1][0])
+        cy = (ys + pos[1] >= window[0][1]) & (ys + pos[1] <= window[1][1])
+        if cx.sum() < 2 or cy.sum() < 2:
+            return
+        z, xs, ys = z[np.ix_(cy, cx)], xs[cx], ys[cy]
+    step = max(1, -(-max(z.shape) // max_side))
+    z, xs, ys = z[::step, ::step], xs[::step], ys[::step]
     ny, nx = z.shape
-    xs, ys = np.linspace(-rx, rx, nx), np.linspace(-ry, ry, ny)
     gx, gy = np.meshgrid(xs, ys)
     verts = np.stack([gx.ravel(), gy.ravel(), z.ravel()], axis=1).astype(np.float32)
     i = np.arange(ny * nx).reshape(ny, nx)
@@ -185,8 +198,13 @@ class _Scene:
     def _robot(self, scene, name: str, track: ReplayTrack, tr, idx, pose, root: int, size: float, offset) -> dict:
         color = rgb(track.color)
         node = scene.add_frame(f"/world/{name}", show_axes=False, position=tuple(offset))
-        frames = add_model(scene, f"/world/{name}", self.model, tint=color)
         xpos, xquat = pose
+        # this robot's own patch of the world: its path, a robot's size around it, and never
+        # more than half the spacing sideways (the next robot's patch begins there)
+        lo, hi = xpos[:, root, :2].min(axis=0), xpos[:, root, :2].max(axis=0)
+        half = 0.5 * 3.2 * size
+        window = ((lo[0] - half, lo[1] - 2.5 * size), (hi[0] + half, hi[1] + 2.5 * size))
+        frames = add_model(scene, f"/world/{name}", self.model, tint=color, window=window)
         path = xpos[:, root, :2]
         pts = np.concatenate([path[:-1, None], path[1:, None]], axis=1)
         pts = np.concatenate([pts, np.full(pts.shape[:2] + (1,), 0.01 * size)], axis=2)

@@ -116,7 +116,7 @@ def summary_tables(s: dict) -> list[Table]:
         notes.append(f"reuse {name}: distance {sc['distance_mu']['mean']:.2f} ({sc['distance_mu']['std']:.2f}) mu, "
                      f"coverage {sc['coverage_pct']['mean']:.1f} ({sc['coverage_pct']['std']:.1f}) %")
     title = f"{s['robot']}: {s['gaits']} gaits, cost {s['cost']} ({s['cost_units']}), stuck modules {stuck}"
-    out = [table(title, ["", "first generation best", "first generation mean", "final best", "final mean"],
+    out = [table(title, ["cost", "first generation best", "first generation mean", "final best", "final mean"],
                  [[s["cost"], g(r["initial_best"]), g(r["initial_mean"]), g(r["final_best"]), g(r["final_mean"])]],
                  notes)]
     ctl = controls_of(s)
