@@ -261,9 +261,11 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
 
 # -- the convergence rule on a set of recovered answers -----------------------------------------
 
-def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10.0) -> dict[str, np.ndarray]:
+def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10.0,
+                    edit: Callable | None = None) -> dict[str, np.ndarray]:
     """Re-simulates answers ({"lost_legs", "best_params"}) at ``timestep``; metrics (N,)
-    in the answers' order. Answers of one damage run as one batch."""
+    in the answers' order. Answers of one damage run as one batch. ``edit`` changes each
+    compiled model first (a physics setting under test)."""
     from app.jobs.recovery.sequences import plan_hexapod
     from app.jobs.recovery.run import sim_config, sim_model
     from app.robots.catalog import get_robot
@@ -278,6 +280,8 @@ def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10
         robot = get_robot(spec.robot)
         _, model = sim_model(spec, robot)
         seq = plan_hexapod(lost, robot.nominal_feet_xy(), robot.stance_com_xy(model, spec.gait.stance_height_m))
+        if edit is not None:
+            edit(model)
         ev = GaitEvaluator(robot, model, seq, sim_config(spec))
         x = np.array([list(answers[i]["best_params"].values()) for i in idx])
         m = ev.evaluate(x).metrics
@@ -569,6 +573,34 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
     return md
 
 
+class SpeedParams(BaseModel):
+    parts: str = Field("profile,variants,cap,check,fast,equal,paper,coarse",
+                       pattern=r"^(profile|variants|cap|check|fast|equal|paper|coarse)"
+                               r"(,(profile|variants|cap|check|fast|equal|paper|coarse))*$",
+                       description="what to measure: the step profile, physics settings tried (CPU time, documented "
+                                   "answers), the cut walks' speed cap on random walks, the cut walks on every "
+                                   "documented damage (same answers?), coarse-to-fine's coarse search judged at the "
+                                   "default step, the "
+                                   "fast preset's time to target, the equal-quality configuration, the paper DE with "
+                                   "cut walks (checked against Table II)")
+    seeds: int = Field(3, ge=1, le=20, description="seeds per damage")
+    damages: str = Field("table2", pattern=r"^(table2|1-6)$", description="table2: the four Table II damages; "
+                                                                           "1-6: legs 1 & 6 only")
+    out: Path = Field(Path("docs/recovery_speed.md"), description="markdown to write")
+    raw: Path = Field(Path("docs/recovery_speed.json"), description="every run; runs already there are not run again")
+
+
+def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
+    from app.jobs.recovery import speed
+
+    damages = SCENARIOS if p.damages == "table2" else [(1, 6)]
+    rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
+    md = speed.speed_markdown(rows)
+    p.out.parent.mkdir(parents=True, exist_ok=True)
+    p.out.write_text(md)
+    return md
+
+
 EXPERIMENTS = [
     Experiment("table2", "Paper 000's Table II scenarios (legs 1&6, 3&4, 1, 4 lost) over seeds, with the "
                          "random-search control and the robustness block; writes the table", Table2Params, _table2),
@@ -578,4 +610,6 @@ EXPERIMENTS = [
                             "already meets the target?", BaselinesParams, _baselines),
     Experiment("convergence", "search at a timestep, re-simulate the answers at half of it: the convergence rule",
                 ConvergenceParams, _convergence),
+    Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
+                        "the paper DE with cut walks checked against Table II", SpeedParams, _speed),
 ]

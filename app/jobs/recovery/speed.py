@@ -1,0 +1,466 @@
+"""Issue 22's measurements (`gaitmend reproduce recovery-speed`): where a step's time goes,
+what cutting short the walks that cannot win DE's selection saves and whether it leaves the
+answer alone, the fast preset's time to the target, and a configuration of equal quality
+for less. Every run is written to the JSON file as it finishes, so an interrupted
+measurement resumes where it stopped; docs/recovery_speed.md is made from that file."""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from app.jobs.base import MemoryContext
+from app.jobs.recovery.run import run
+from app.jobs.recovery.spec import RecoverySpec
+
+SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
+ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": ["dt_half"]}}
+PAPER = {"search": {"population": 30, "generations": 60}}
+# The equal-quality configuration: CMA-ES (the `cma` package behind the same ask/tell
+# interface), 12 per generation, 1 ms, full 10 s walks (docs/recovery_speed.md).
+EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 47}}
+STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER_POS_INERTIA",
+          "mjTIMER_POS_COLLISION", "mjTIMER_COL_BROAD", "mjTIMER_COL_NARROW", "mjTIMER_POS_MAKE", "mjTIMER_VELOCITY",
+          "mjTIMER_ACTUATION", "mjTIMER_CONSTRAINT", "mjTIMER_ADVANCE")
+
+
+# -- where a step's time goes ------------------------------------------------------------------
+
+def step_profile(model: mujoco.MjModel, d: mujoco.MjData | None = None, ctrl: np.ndarray | None = None,
+                 settle: int = 1000, n: int = 4000) -> dict:
+    """MuJoCo's own timers per stage (us per step, timers on) after ``settle`` steps from
+    ``d``'s state, and what a step holds (contacts, constraint rows, solver iterations)."""
+    d = d if d is not None else mujoco.MjData(model)
+    if ctrl is not None:
+        d.ctrl[:] = ctrl
+    for _ in range(settle):
+        mujoco.mj_step(model, d)
+    for t in d.timer:
+        t.duration, t.number = 0.0, 0
+    ncon = nefc = iters = 0
+    for _ in range(n):
+        mujoco.mj_step(model, d)
+        ncon, nefc, iters = ncon + d.ncon, nefc + d.nefc, iters + int(d.solver_niter[0])
+    stages = {name.removeprefix("mjTIMER_").lower(): 1e6 * d.timer[int(getattr(mujoco.mjtTimer, name))].duration / n
+              for name in STAGES}
+    return {"us_per_step": stages, "contacts": ncon / n, "constraint_rows": nefc / n, "solver_iterations": iters / n,
+            "ngeom": model.ngeom, "nv": model.nv, "timestep_s": model.opt.timestep}
+
+
+def _standing(lost: tuple[int, ...]) -> tuple[mujoco.MjModel, mujoco.MjData, np.ndarray]:
+    """The recovery robot with ``lost`` legs in its first pose (the nominal gait's), as a walk starts."""
+    from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
+    from app.jobs.recovery.run import functional_legs, nominal_params, sim_model
+    from app.jobs.recovery.sequences import nominal_tripod
+    from app.robots.catalog import get_robot
+
+    spec = RecoverySpec(damage={"lost_legs": list(lost)})
+    robot = get_robot(spec.robot)
+    _, model = sim_model(spec, robot)
+    legs = functional_legs(spec)
+    ev = GaitEvaluator(robot, model, nominal_tripod(legs), SimConfig(nthread=1))
+    period, state = ev.period_controls(nominal_params(robot, legs)[None])
+    ev.close()
+    d = mujoco.MjData(model)
+    mujoco.mj_setState(model, d, state[0], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    return model, d, period[0, 0]
+
+
+def profiles() -> list[dict]:
+    """The recovery robot intact and with the Table II damages, standing in its first pose;
+    then the other built-in robots as their kinds build them (no control: a first look)."""
+    from app.robots import heavy_hexapod, quadruped, silo6
+
+    rows = [{"robot": "jethexa", "damage": list(lost)} | step_profile(*_standing(lost)) for lost in [()] + SCENARIOS]
+    for name, model in (("heavy_hexapod", heavy_hexapod.base_spec().compile()),
+                        ("silo6", silo6.build_flat_spec().compile()), ("quadruped", quadruped.build_model())):
+        rows.append({"robot": name, "damage": []} | step_profile(model))
+    return rows
+
+
+# -- physics settings tried ------------------------------------------------------------------------
+
+def _disable(bit):
+    def edit(m):
+        m.opt.disableflags |= int(bit)
+    return edit
+
+
+def _set_opt(name, value):
+    def edit(m):
+        setattr(m.opt, name, value)
+    return edit
+
+
+def _no_fall_collisions(m):
+    """Only the feet collide (chassis, coxae and femurs no longer touch the floor)."""
+    for g in range(m.ngeom):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+        if name and name != "floor" and not name.endswith("_foot"):
+            m.geom_conaffinity[g] = 0
+
+
+VARIANTS: dict[str, Callable[[mujoco.MjModel], None]] = {
+    "solver tolerance 1e-6 (was 1e-8)": _set_opt("tolerance", 1e-6),
+    "line-search iterations 5 (was 50)": _set_opt("ls_iterations", 5),
+    "solver iterations 1 (was 100)": _set_opt("iterations", 1),
+    "PGS solver (was Newton)": _set_opt("solver", mujoco.mjtSolver.mjSOL_PGS),
+    "Euler integrator (was implicitfast)": _set_opt("integrator", mujoco.mjtIntegrator.mjINT_EULER),
+    "no island discovery": _disable(mujoco.mjtDisableBit.mjDSBL_ISLAND),
+    "no control clamping": _disable(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL),
+    "feet the only colliding geoms": _no_fall_collisions,
+    "unchanged (a second copy: the noise)": lambda m: None,
+}
+
+
+def _cpu_us_per_step(models: dict[str, mujoco.MjModel], state: np.ndarray, ctrl: np.ndarray, reps: int) -> dict:
+    """Single-thread CPU time per step (thread time, so other work on the machine counts
+    less), the runs interleaved in a new order each round; the 25th percentile of each."""
+    from mujoco import rollout
+
+    times: dict[str, list[float]] = {n: [] for n in models}
+    rng = np.random.default_rng(0)
+    for _ in range(reps):
+        for name in rng.permutation(list(models)):
+            d = mujoco.MjData(models[name])
+            t = time.thread_time()
+            rollout.rollout(models[name], d, state, ctrl)
+            times[name].append(1e6 * (time.thread_time() - t) / (ctrl.shape[0] * ctrl.shape[1]))
+    return {n: float(np.percentile(v, 25)) for n, v in times.items()}
+
+
+def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
+    """Each physics setting of VARIANTS on the default damaged model (legs 1 & 6): CPU time
+    per step against the model as it is, and what it does to the documented answers
+    (re-simulated at the default step: bit-identical, or the largest change)."""
+    from app.jobs.recovery.experiments import answers_metrics, documented_answers
+    from app.jobs.recovery.run import set_up
+
+    job = set_up(RecoverySpec(**ONLY_SEARCH))
+    x = job.lower + np.random.default_rng(0).random((8, job.lower.size)) * (job.upper - job.lower)
+    ctrl, state = job.ev.controls(x)
+    job.close()
+    models = {"as it is": job.model}
+    for name, edit in VARIANTS.items():
+        m = job.model.__copy__()
+        edit(m)
+        models[name] = m
+    us = _cpu_us_per_step(models, state, ctrl[:, :1500], reps)
+    dt = RecoverySpec().sim.timestep_s
+    answers = documented_answers(dt, docs)
+    base = answers_metrics(answers, dt)
+    rows = []
+    for name, edit in VARIANTS.items():
+        got = answers_metrics(answers, dt, edit=edit)
+        same = all(np.array_equal(base[k], got[k]) for k in base)
+        rows.append({"variant": name, "us_per_step": us[name], "speedup": us["as it is"] / us[name], "identical": same,
+                     "max_forward_cm": float(100 * np.max(np.abs(got["y_f_m"] - base["y_f_m"]))),
+                     "max_lateral_cm": float(100 * np.max(np.abs(got["x_f_m"] - base["x_f_m"]))),
+                     "max_yaw_deg": float(np.max(np.abs(got["yaw_f_deg"] - base["yaw_f_deg"])))})
+    return {"part": "variants", "reference_us_per_step": us["as it is"], "answers": len(answers), "rows": rows,
+            "load": os.getloadavg()[0]}
+
+
+# -- the cut walks' speed cap ----------------------------------------------------------------------
+
+def speed_ratios(lost, n: int = 60, seed: int = 1) -> dict:
+    """For ``n`` uniform random candidates that do not fall: the largest ratio of a walk's
+    mean forward speed over the rest of the walk (from each chunk's end) to its nominal speed
+    (step length per gait period), the quantity CUT_SPEED_FACTOR bounds."""
+    from app.jobs.recovery.run import set_up
+
+    job = set_up(RecoverySpec(damage={"lost_legs": list(lost)}, **ONLY_SEARCH))
+    try:
+        ev = job.ev
+        x = job.lower + np.random.default_rng(seed).random((n, job.lower.size)) * (job.upper - job.lower)
+        sens, end, _, steps = ev.simulate(x)
+    finally:
+        job.close()
+    y = ev._sensor(sens, "com_pos")[..., 1]
+    chunk = int(round(ev.cfg.chunk_s / ev.dt))
+    stops = np.arange(chunk, ev.nstep, chunk)
+    rest = (y[:, -1:] - y[:, stops - 1]) / ((ev.nstep - stops) * ev.dt)  # (n, chunks) m/s
+    ratio = rest / (x[:, -2:-1] / ev.cfg.period_s)
+    walkers = end == ev.nstep
+    return {"part": "cap", "lost_legs": list(lost), "seed": seed, "walkers": int(walkers.sum()), "candidates": n,
+            "max_ratio": float(ratio[walkers].max()), "p99_ratio": float(np.percentile(ratio[walkers].max(axis=1), 99)),
+            "sim_steps": int(steps), "load": os.getloadavg()[0]}
+
+
+# -- searches ------------------------------------------------------------------------------------
+
+def _documented(lost, seed: int, docs: Path) -> dict | None:
+    """docs/table2.json's paper-budget answer for this damage and seed at the default step."""
+    path = docs / "table2.json"
+    dt = RecoverySpec().sim.timestep_s
+    for r in json.loads(path.read_text()) if path.exists() else []:
+        if (tuple(r["lost_legs"]) == tuple(lost) and r["seed"] == seed and r.get("timestep_s") == dt
+                and r.get("generations") == 60 and r.get("population") == 30 and "best_params" in r):
+            return r
+    return None
+
+
+def _search_row(part: str, lost, seed: int, data: dict) -> dict:
+    d = json.loads(json.dumps({**ONLY_SEARCH, **data}))
+    d["damage"] = {"lost_legs": list(lost)}
+    d.setdefault("search", {})["seed"] = seed
+    t = time.perf_counter()
+    s = run(RecoverySpec(**d), MemoryContext()).summary
+    wall = time.perf_counter() - t
+    half = next((c for c in (s.get("robustness") or {}).get("cases", []) if c["name"] == "dt_half"), None)
+    return {"part": part, "lost_legs": list(lost), "seed": seed, "spec": d, "wall_s": wall,
+            "fitness": s["best"]["fitness"], "metrics": s["best"]["metrics"], "params": s["best"]["params"],
+            "target_met": s["best"]["target_met"], "half_step_met": None if half is None else half["target_met"],
+            "search": s["search"], "evaluations": s["timing"]["evaluations"], "sim_steps": s["timing"]["sim_steps"],
+            "cut_steps_saved": s["timing"].get("cut_steps_saved", 0),
+            "time_to_target_s": s["timing"].get("time_to_target_s"),
+            "curve": [[r["generation"], r["best"], r["evaluations"]] for r in s["history"]],
+            "walks_cut": sum(r.get("cut", 0) for r in s["history"]),
+            "load": os.getloadavg()[0], "cores": os.cpu_count()}
+
+
+def paper_row(lost, seed: int, docs: Path) -> dict:
+    """The paper's DE (30 x 60, 10 s walks) with its losing walks cut short; for a seed the
+    docs hold (Table II), whether the answer is the full-walk run's, bit for bit."""
+    r = _search_row("paper", lost, seed, PAPER | {"search": PAPER["search"] | {"cut_walks": True}})
+    doc = _documented(lost, seed, docs)
+    r["documented_params"] = None if doc is None else doc["best_params"]
+    r["identical_to_documented"] = None if doc is None else doc["best_params"] == r["params"]
+    return r
+
+
+def check_rows(docs: Path, log: Callable[[str], None] = print, done: set | None = None):
+    """Every nominal answer of docs/recovery_robust_w20.json at the default step (DE 12 x 12
+    on every feasible 1- and 2-leg loss) searched again with cut walks: same answer?"""
+    dt = RecoverySpec().sim.timestep_s
+    path = docs / "recovery_robust_w20.json"
+    for doc in json.loads(path.read_text()) if path.exists() else []:
+        if doc["mode"] != "nominal" or doc["timestep_s"] != dt or (done and tuple(doc["lost_legs"]) in done):
+            continue
+        data = {"search": {"population": doc["population"], "generations": doc["generations"], "cut_walks": True},
+                "objective": {"weights": doc["weights"]}, "robustness": {"cases": []}}
+        r = _search_row("check", tuple(doc["lost_legs"]), doc["seed"], data)
+        r["identical_to_documented"] = r["params"] == doc["best_params"]
+        log(f"check legs {doc['lost_legs']}: same answer as recovery_robust_w20.json: {r['identical_to_documented']}, "
+            f"{r['cut_steps_saved']} of {r['sim_steps'] + r['cut_steps_saved']} steps saved")
+        yield r
+
+
+def coarse_row(lost, seed: int, docs: Path) -> dict:
+    """Coarse-to-fine's first half: the equal-quality configuration searched at twice the
+    step (half the steps per walk), its answer then judged at the default step."""
+    from app.jobs.recovery.experiments import answers_metrics
+    from app.jobs.recovery.metrics import TARGET, fitness
+
+    dt = RecoverySpec().sim.timestep_s
+    cfg = EQUAL | {"search": EQUAL["search"] | {"generations": 2 * EQUAL["search"]["generations"]},
+                   "sim": {"timestep_s": 2 * dt}}
+    r = _search_row("coarse", lost, seed, cfg)
+    m = answers_metrics([{"lost_legs": list(lost), "best_params": r["params"]}], dt)
+    w = RecoverySpec().objective
+    r["at_default_step"] = {"fitness": float(fitness(m, w.weights, w.units)[0]),
+                            "metrics": {k: v[0].item() for k, v in m.items()},
+                            "target_met": TARGET.met({k: v[0] for k, v in m.items()})}
+    return r
+
+
+PARTS: dict[str, Callable[..., dict]] = {
+    "coarse": coarse_row,
+    "cap": lambda lost, seed, docs: speed_ratios(lost, seed=seed + 1),
+    "paper": paper_row,
+    "fast": lambda lost, seed, docs: _search_row("fast", lost, seed, {"preset": "fast"}),
+    "equal": lambda lost, seed, docs: _search_row("equal", lost, seed, EQUAL),
+}
+
+
+def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: Path, docs: Path,
+            log: Callable[[str], None] = print) -> list[dict]:
+    """Every (part, damage, seed) not yet in ``raw``, seed by seed, each written at once;
+    "profile" measures the step again."""
+    rows = json.loads(raw.read_text()) if raw.exists() else []
+    if "profile" in parts:
+        rows = [r for r in rows if r["part"] != "profile"] + [{"part": "profile", "rows": profiles(),
+                                                              "load": os.getloadavg()[0]}]
+        _save(rows, raw)
+        log("step profile measured")
+    if "check" in parts:
+        done = {tuple(r["lost_legs"]) for r in rows if r["part"] == "check"}
+        for r in check_rows(docs, log, done):
+            rows.append(r)
+            _save(rows, raw)
+    if "variants" in parts:
+        rows = [r for r in rows if r["part"] != "variants"] + [variants(docs=docs)]
+        _save(rows, raw)
+        log("physics variants measured")
+    done = {(r["part"], tuple(r["lost_legs"]), r["seed"]) for r in rows if r["part"] in PARTS}
+    seeds_of = {"cap": 1, "coarse": 1}  # the speed cap and the coarse search: once per damage
+    for seed in range(seeds):
+        for lost in damages:
+            for part in [p for p in parts if p in PARTS]:
+                if (part, tuple(lost), seed) in done or seed >= seeds_of.get(part, seeds):
+                    continue
+                rows.append(PARTS[part](lost, seed, docs))
+                _save(rows, raw)
+                r = rows[-1]
+                if part == "cap":
+                    log(f"cap legs {lost}: largest ratio {r['max_ratio']:.2f} over {r['walkers']} walks")
+                    continue
+                log(f"{part} legs {lost} seed {seed}: F {r['fitness']:.2f}, target {r['target_met']} (half step "
+                    f"{r['half_step_met']}), {r['search']['stop_reason']} after {r['search']['generations_run']} "
+                    f"generations, {r['sim_steps']} steps, {r['wall_s']:.0f} s at load {r['load']:.1f}")
+    return rows
+
+
+def _save(rows: list[dict], raw: Path) -> None:
+    raw.parent.mkdir(parents=True, exist_ok=True)
+    tmp = raw.with_suffix(".part")
+    tmp.write_text(json.dumps(rows, indent=1))
+    tmp.replace(raw)
+
+
+# -- the page ------------------------------------------------------------------------------------
+
+def _name(lost) -> str:
+    return ("legs " if len(lost) > 1 else "leg ") + " & ".join(str(l) for l in lost)
+
+
+def _spread(values: list[float], fmt: str = "{:.1f}") -> str:
+    if not values:
+        return "-"
+    return f"{fmt.format(statistics.median(values))} [{fmt.format(min(values))}, {fmt.format(max(values))}]"
+
+
+def profile_markdown(block: dict) -> list[str]:
+    cols = ["step", "position", "pos_kinematics", "pos_inertia", "col_broad", "col_narrow", "pos_make", "velocity",
+            "actuation", "constraint", "advance"]
+    out = [f"Step profile (MuJoCo's timers, us per step with the timers on, single thread; load {block['load']:.1f} on "
+           f"{os.cpu_count()} cores while measured, so compare the shares, not the absolute times):", "",
+           "| robot | damage | " + " | ".join(cols) + " | contacts | rows | solver iterations |",
+           "|---" * (len(cols) + 5) + "|"]
+    for r in block["rows"]:
+        t = r["us_per_step"]
+        out.append(f"| {r['robot']} | {_name(r['damage']) if r['damage'] else 'none'} | "
+                   + " | ".join(f"{t[c]:.1f}" for c in cols)
+                   + f" | {r['contacts']:.1f} | {r['constraint_rows']:.1f} | {r['solver_iterations']:.2f} |")
+    return out + [""]
+
+
+def variants_markdown(block: dict) -> list[str]:
+    out = [f"Physics settings tried on the default damaged model (legs 1 & 6): single-thread CPU time per step "
+           f"against the model as it is ({block['reference_us_per_step']:.1f} us; load {block['load']:.1f}), and the "
+           f"{block['answers']} documented answers re-simulated at the default step with the setting:", "",
+           "| setting | us per step | speed-up | documented answers | largest change forward / lateral (cm) / yaw (deg) |",
+           "|---|---|---|---|---|"]
+    for r in block["rows"]:
+        out.append(f"| {r['variant']} | {r['us_per_step']:.1f} | {r['speedup']:.2f} | "
+                   f"{'bit-identical' if r['identical'] else 'move'} | {r['max_forward_cm']:.1f} / "
+                   f"{r['max_lateral_cm']:.1f} / {r['max_yaw_deg']:.1f} |")
+    return out + [""]
+
+
+def coarse_markdown(rows: list[dict]) -> list[str]:
+    out = ["Coarse-to-fine, first half: the equal-quality configuration searched at twice the default step for "
+           "twice the generations (the same simulated seconds), its answer judged at the default step:", "",
+           "| damage | seed | F at the coarse step | F at the default step | target at the coarse step / default "
+           "step | yaw (deg) at the default step | steps |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        d = r["at_default_step"]
+        out.append(f"| {_name(r['lost_legs'])} | {r['seed']} | {r['fitness']:.2f} | {d['fitness']:.2f} | "
+                   f"{'yes' if r['target_met'] else 'no'} / {'yes' if d['target_met'] else 'no'} | "
+                   f"{d['metrics']['yaw_f_deg']:.1f} | {r['sim_steps']:,} |")
+    return out + [""]
+
+
+def check_markdown(rows: list[dict]) -> list[str]:
+    same = sum(bool(r["identical_to_documented"]) for r in rows)
+    saved = sum(r["cut_steps_saved"] for r in rows) / max(1, sum(r["sim_steps"] + r["cut_steps_saved"] for r in rows))
+    out = [f"Cut walks on every documented damage: the nominal answers of docs/recovery_robust_w20.json (DE 12 x 12, "
+           f"1 ms, weights [1, 20, 10, 100, 100], every feasible 1- and 2-leg loss) searched again with "
+           f"`search.cut_walks`: {same} of {len(rows)} answers are the documented ones bit for bit; the cut walks "
+           f"saved {100 * saved:.1f} % of the steps.", "",
+           "| damage | same answer | steps | steps saved | walks cut |", "|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {_name(r['lost_legs'])} | {'yes' if r['identical_to_documented'] else '**no**'} | "
+                   f"{r['sim_steps']:,} | {r['cut_steps_saved']:,} | {r.get('walks_cut', '-')} |")
+    return out + [""]
+
+
+def cap_markdown(rows: list[dict]) -> list[str]:
+    from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR
+
+    top = max(r["max_ratio"] for r in rows)
+    out = [f"Cut walks' speed cap: over {sum(r['walkers'] for r in rows)} uniform random walks that did not fall, the "
+           f"fastest mean forward speed over the rest of a walk (from any chunk's end) was {top:.2f} times the gait's "
+           f"nominal speed (step length per period); the rule caps it at {CUT_SPEED_FACTOR:g} times.", "",
+           "| damage | walks (of candidates) | largest ratio | 99th percentile |", "|---|---|---|---|"]
+    out += [f"| {_name(r['lost_legs'])} | {r['walkers']} ({r['candidates']}) | {r['max_ratio']:.2f} | "
+            f"{r['p99_ratio']:.2f} |" for r in rows]
+    return out + [""]
+
+
+def runs_markdown(rows: list[dict]) -> list[str]:
+    out = ["| part | damage | seed | F | target met (half step) | stop | generations | evaluations | steps | steps "
+           "saved by cut walks | time to target (s) | wall (s) | load |", "|---" * 13 + "|"]
+    for r in sorted(rows, key=lambda r: (r["part"], SCENARIOS.index(tuple(r["lost_legs"]))
+                                         if tuple(r["lost_legs"]) in SCENARIOS else 9, r["seed"])):
+        ttt = r.get("time_to_target_s")
+        same = r.get("identical_to_documented")
+        out.append(f"| {r['part']} | {_name(r['lost_legs'])} | {r['seed']} | {r['fitness']:.2f}"
+                   f"{'' if same is None else (' (= docs)' if same else ' (**differs from docs**)')} | "
+                   f"{'yes' if r['target_met'] else 'no'} ({'yes' if r['half_step_met'] else 'no'}) | "
+                   f"{r['search']['stop_reason']} | {r['search']['generations_run']} | {r['evaluations']} | "
+                   f"{r['sim_steps']:,} | {r['cut_steps_saved']:,} | {'-' if ttt is None else f'{ttt:.1f}'} | "
+                   f"{r['wall_s']:.0f} | {r['load']:.1f} |")
+    return out + [""]
+
+
+def summary_markdown(rows: list[dict]) -> list[str]:
+    """Per damage: the paper DE's F against the equal-quality configuration's, the fast preset's
+    time to the target, in steps (machine-independent) and seconds (this machine, this load)."""
+    out = ["| damage | paper DE F (seeds) | equal-quality F | equal-quality steps / paper DE steps | fast preset: "
+           "steps to target | fast preset: every answer meets the target at half the step |", "|---" * 6 + "|"]
+    for lost in SCENARIOS:
+        by = {p: [r for r in rows if r["part"] == p and tuple(r["lost_legs"]) == lost] for p in ("paper", "equal", "fast")}
+        if not any(by.values()):
+            continue
+        pf, ef = [r["fitness"] for r in by["paper"]], [r["fitness"] for r in by["equal"]]
+        ps, es = [r["sim_steps"] + r["cut_steps_saved"] for r in by["paper"]], [r["sim_steps"] for r in by["equal"]]
+        ratio = f"{statistics.median(es) / statistics.median(ps):.2f}" if ps and es else "-"
+        fast = by["fast"]
+        out.append(f"| {_name(lost)} | {_spread(pf, '{:.2f}')} ({len(pf)}) | {_spread(ef, '{:.2f}')} ({len(ef)}) | "
+                   f"{ratio} | {_spread([r['sim_steps'] for r in fast], '{:,.0f}')} | "
+                   f"{sum(bool(r['half_step_met']) for r in fast)}/{len(fast)} |")
+    return out + [""]
+
+
+def speed_markdown(rows: list[dict]) -> str:
+    out = ["Measured by `gaitmend reproduce recovery-speed` (this file and recovery_speed.json; every run is a run of "
+           "this code). Paper DE = DE 30 x 60, 10 s walks, 1 ms, with `search.cut_walks` (the rule below); for seed 0 "
+           "its answer is compared with docs/table2.json's full-walk answer. Equal quality = "
+           f"`{json.dumps(EQUAL)}`. Fast = `{{\"preset\": \"fast\"}}`. Every run re-simulates its answer at half the "
+           "step (the robustness case dt_half).", ""]
+    prof = next((r for r in rows if r["part"] == "profile"), None)
+    if prof is not None:
+        out += profile_markdown(prof)
+    var = next((r for r in rows if r["part"] == "variants"), None)
+    if var is not None:
+        out += variants_markdown(var)
+    checks = [r for r in rows if r["part"] == "check"]
+    if checks:
+        out += check_markdown(checks)
+    caps = [r for r in rows if r["part"] == "cap"]
+    if caps:
+        out += cap_markdown(caps)
+    coarse = [r for r in rows if r["part"] == "coarse"]
+    if coarse:
+        out += coarse_markdown(coarse)
+    runs = [r for r in rows if r["part"] in ("paper", "fast", "equal")]
+    out += summary_markdown(runs) + runs_markdown(runs)
+    return "\n".join(out)
