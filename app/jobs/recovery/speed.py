@@ -140,7 +140,7 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
     """Each physics setting of VARIANTS on the default damaged model (legs 1 & 6): CPU time
     per step against the model as it is, and what it does to the documented answers
     (re-simulated at the default step: bit-identical, or the largest change)."""
-    from app.jobs.recovery.experiments import answers_metrics, documented_answers
+    from app.jobs.recovery.answers import answers_metrics, documented_answers
     from app.jobs.recovery.run import set_up
 
     job = set_up(RecoverySpec(**ONLY_SEARCH))
@@ -256,7 +256,7 @@ def check_rows(docs: Path, log: Callable[[str], None] = print, done: set | None 
 def coarse_row(lost, seed: int, docs: Path) -> dict:
     """Coarse-to-fine's first half: the equal-quality configuration searched at twice the
     step (half the steps per walk), its answer then judged at the default step."""
-    from app.jobs.recovery.experiments import answers_metrics
+    from app.jobs.recovery.answers import answers_metrics
     from app.jobs.recovery.metrics import TARGET, fitness
 
     dt = RecoverySpec().sim.timestep_s
