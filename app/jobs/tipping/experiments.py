@@ -208,9 +208,17 @@ def render_controls(datas: list) -> str:
         reach = (f"{_foot(pr['foothold_body_m'])}: {yes(not pr['tipped'])}, {num(pr['margin_after_deg'], '{:.1f}')}"
                  if pr["leg"] is not None else f"no foothold outside the axis, no leg swung: {yes(not pr['tipped'])}")
         rows.append([name, up, ma, reach, band_ if b else "not run yet"])
-    return md_table(["case", "upright: recovery / no QP / position stance / fixed 1.5 s swing",
-                     "margin after landing (deg), same order", "paper's reach: foothold (m): upright, margin after (deg)",
-                     "survivable final tilt with / without recovery (deg)"], rows)
+    out = md_table(["case", "upright: recovery / no QP / position stance / fixed 1.5 s swing",
+                    "margin after landing (deg), same order", "paper's reach: foothold (m): upright, margin after (deg)",
+                    "survivable final tilt with / without recovery (deg)"], rows)
+    res = results_by_name(data)
+    cb = [[name] + [num(res.get(f"band:{c}:{name}", {}).get("with_recovery", {}).get("max_upright_deg"), "{:.1f}")
+                    for c in order] for _, name, _, _ in _cases_data(data)
+          if any(f"band:{c}:{name}" in res for c in order)]
+    if cb:
+        out += "\nSurvivable final tilt of each control's recovery (deg):\n\n" + md_table(
+            ["case", "no QP", "position stance", "fixed 1.5 s swing"], cb)
+    return out
 
 
 def render_band(datas: list) -> str:
