@@ -226,8 +226,9 @@ class CompareParams(BaseModel):
     heldout: int = Field(20, ge=1, le=500, description="held-out plans of each arm's best")
     gait_s: float = Field(30.0, gt=0.0, le=120.0, description="gait duration tau (paper: 30 s)")
     iterations: int = Field(150, ge=1, le=2000, description="RRT-MP iterations K (paper: 150)")
-    out: Path = Field(Path("docs/multigait_compare.md"), description="markdown to write")
-    json_out: Path = Field(Path("multigait_compare.json"), description="the runs (read first: runs there are kept)")
+    out: Path | None = Field(None, description="also write the markdown here (docs/multigait_compare.md is generated "
+                                               "from the JSON by `gaitmend docs`)")
+    json_out: Path = Field(Path("docs/multigait_compare.json"), description="the runs (read first: runs there are kept)")
     report_only: bool = Field(False, description="only write the markdown from json_out")
     robustness: bool = Field(False, description="also re-simulate every run's best under the job's robustness "
                                                 "cases (dt/2, dt/4, friction x0.7/x1.3, masses -/+10 %)")
@@ -258,8 +259,9 @@ def compare(p: CompareParams, log: Callable[[str], None] = print) -> str:
     if rob:
         md += ("\nEach run's best re-simulated (robustness cases of the job), coverage % planned on the search's "
                "draws:\n\n" + robustness_report(rob))
-    p.out.parent.mkdir(parents=True, exist_ok=True)
-    p.out.write_text(md)
+    if p.out is not None:
+        p.out.parent.mkdir(parents=True, exist_ok=True)
+        p.out.write_text(md)
     return md
 
 

@@ -20,7 +20,11 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, Field
 
+from app.jobs import stats
 from app.jobs.base import BenchEntry, Experiment, MemoryContext
+from app.jobs.multigait import paper_rows
+from app.jobs.multigait.compare import METRICS
+from app.jobs.reporting import Section, md_table, missing, num
 from app.jobs.multigait.run import run
 from app.jobs.multigait.spec import MultigaitSpec
 from app.robots.modular import SHAPES
@@ -133,6 +137,134 @@ def _write(p: TablesParams, rows: list[dict], write_json: bool = True) -> str:
     return md
 
 
+# -- issue 28: the sections rendered from committed JSON ----------------------------------------
+
+PAPER_JSON = ("docs/multigait_paper_s0.json", "docs/multigait_paper_s1.json")
+COMPARE_JSON = "docs/multigait_compare.json"
+PAPER_COMMAND = "gaitmend reproduce multigait --particles 20 --generations 150 --seed S --json-out docs/multigait_paper_sS.json"
+WINDOW = 10  # generations at each end of a run whose swarm means are compared
+
+
+def _paper_rows(datas: list) -> list[dict]:
+    return [r for d in datas if d for r in d]
+
+
+def render_paper_budget(datas: list) -> str:
+    """Table I at the paper's budget (20 x 150), two seeds (the committed runs)."""
+    rows = _paper_rows(datas)
+    if not rows:
+        return missing(PAPER_JSON[0], PAPER_COMMAND)
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["robot"], tuple(r["stuck"])), []).append(r)
+    seeds = sorted({r["seed"] for r in rows})
+    tab = []
+    for (robot, stuck), g in groups.items():
+        g = sorted(g, key=lambda r: r["seed"])
+        best = [r["result"]["final_best"] for r in g]
+        gen = [next(h["generation"] for h in r["history"] if h["best"] >= r["result"]["final_best"] - 1e-12) for r in g]
+        tab.append([robot.capitalize(), list(stuck) or "-", *[f"{b:.1f}" for b in best],
+                    f"**{np.mean(best):.1f} / {np.std(best):.1f}**",
+                    f"{np.mean([r['result']['initial_best'] for r in g]):.1f}",
+                    f"{np.mean([r['result']['initial_mean'] for r in g]):.1f}", ", ".join(map(str, gen)),
+                    f"{np.mean([r['wall_s'] for r in g]):.0f}"])
+    return md_table(["robot", "stuck modules", *[f"seed {s}" for s in seeds], "final best, mean / std",
+                     "first gen.: best", "first gen.: mean", "generation of the final best", "wall per run (s)"], tab)
+
+
+def render_mean_claim(datas: list) -> str:
+    """Does the swarm's generation mean rise? The mean of the last WINDOW generations
+    against the first WINDOW, run by run, paired."""
+    rows = _paper_rows(datas)
+    if not rows:
+        return missing(PAPER_JSON[0], PAPER_COMMAND)
+    first = [float(np.mean([h["mean"] for h in r["history"][:WINDOW]])) for r in rows]
+    last = [float(np.mean([h["mean"] for h in r["history"][-WINDOW:]])) for r in rows]
+    up = sum(b > a for a, b in zip(first, last))
+    res = stats.paired(last, first, names=(f"the last {WINDOW} generations", f"the first {WINDOW}"))
+    return (f"In the {len(rows)} committed paper-budget runs (20 x 150, seeds 0 and 1, six rows each) the swarm's mean "
+            f"coverage over the last {WINDOW} generations exceeds that over the first {WINDOW} in {up} of {len(rows)} "
+            f"runs ({np.mean(first):.2f} % -> {np.mean(last):.2f} % on average). Last minus first: "
+            + stats.paired_text(res, "points") + ". So the generation mean **does rise**, by about "
+            f"{res['mean_diff']:.1f} points on a first-generation mean of {np.mean(first):.1f} %: the swarm's population "
+            "drifts toward better gait sets, a small effect next to the best's 5x.\n")
+
+
+def render_composition(datas: list) -> str:
+    """The composition error of the paper-budget runs' best trees (seed 0)."""
+    rows = [r for r in (datas[0] or []) if r.get("composition")]
+    if not rows:
+        return missing(PAPER_JSON[0], PAPER_COMMAND)
+    tab = [[r["robot"].capitalize(), r["stuck"] or "-", r["cost"], f"{c['mean_edge_length_mu']:.2f}",
+            f"{c['depth1_position_error_mu']:.0e}", f"{c['position_error_mu']['mean']:.2f} / {c['position_error_mu']['max']:.2f}",
+            f"{c['relative_error_per_edge']:.2f}", f"{c['heading_error_deg']['mean']:.1f}"]
+           for r in rows for c in [r["composition"]]]
+    rel = [r["composition"]["relative_error_per_edge"] for r in rows]
+    return (md_table(["robot", "stuck", "cost", "mean edge (mu)", "depth-1 error (mu)", "position error mean / max (mu)",
+                      "error per edge / edge length", "heading error mean (deg)"], tab)
+            + f"\nA gait composed at the root is exact (depth-1 column: floating-point level); each further gait adds "
+              f"{100 * min(rel):.0f}-{100 * max(rel):.0f} % of its length.\n")
+
+
+def _arm_vals(rows: list[dict], arm: str, key: str) -> dict[int, float]:
+    return {r["seed"]: r[key] for r in rows if r["arm"] == arm}
+
+
+def render_compare_stats(datas: list) -> str:
+    """PSO against random search, paired by seed, with the power the five seeds buy."""
+    rows = datas[0]
+    if not rows:
+        return missing(COMPARE_JSON, "gaitmend reproduce multigait-compare --json-out docs/multigait_compare.json")
+    p0 = rows[0]
+    out = [f"Paired by seed (each seed's arms plan on the same draws), {p0['particles']} x {p0['generations']} = "
+           f"{p0['evaluations']} evaluations per arm and seed (the paper's budget: 3000):\n"]
+    tab = []
+    for arm in ("paper", "constriction"):
+        for key, label in METRICS:
+            a, b = _arm_vals(rows, arm, key), _arm_vals(rows, "random", key)
+            seeds = sorted(set(a) & set(b))
+            if len(seeds) < 2:
+                continue
+            res = stats.paired([a[s] for s in seeds], [b[s] for s in seeds], names=(arm, "random search"))
+            det = stats.detectable(res["sd_diff"], res["n"])
+            need = stats.pairs_needed(res["mean_diff"], res["sd_diff"], most=1000)
+            tab.append([f"{arm} vs random", label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2),
+                        num(det, "{:.1f}"), "more than 1000" if need is None else str(need)])
+    out.append(md_table(["comparison", "metric", "difference [95 % interval], effect size, test: verdict",
+                         "smallest true difference these seeds find with 80 % power (pts)",
+                         "seeds needed for the observed difference at 80 % power"], tab))
+    out += ["", stats.PAIRED_NOTE + " \"Does not beat\" is therefore not a finding: at this budget and seed count, "
+            "a true advantage of PSO smaller than the power column is not excluded."]
+    return "\n".join(out) + "\n"
+
+
+def render_compare(datas: list) -> str:
+    from app.jobs.multigait.compare import report, robustness_report
+
+    rows = datas[0]
+    if not rows:
+        return missing(COMPARE_JSON, "gaitmend reproduce multigait-compare --json-out docs/multigait_compare.json")
+    md = report(rows)
+    rob = [{"arm": r["arm"], "seed": r["seed"], "nominal": r["in_sample_best"], "cases": r["robustness"]}
+           for r in rows if "robustness" in r]
+    if rob:
+        md += ("\nEach run's best re-simulated (robustness cases of the job), coverage % planned on the search's "
+               "draws:\n\n" + robustness_report(rob))
+    return md
+
+
+def render_summary(datas: list) -> str:
+    rows = datas[0]
+    if not rows:
+        return ""
+    a, b = _arm_vals(rows, "paper", "heldout_mean"), _arm_vals(rows, "random", "heldout_mean")
+    s = sorted(set(a) & set(b))
+    res = stats.paired([a[k] for k in s], [b[k] for k in s], names=("PSO", "random search"))
+    return (f"- **multigait** (paper 001): PSO against random search at equal budget ({rows[0]['evaluations']} "
+            f"evaluations, {res['n']} seeds, held-out coverage): {res['mean_diff']:+.1f} points, {res['verdict']} "
+            f"([docs/multigait.md](docs/multigait.md)).\n")
+
+
 def _compare(p, log):
     from app.jobs.multigait.compare import compare
 
@@ -158,13 +290,28 @@ def _ruggedness_params():
 
 
 EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and distance gaits, stuck modules, reuse) "
-                                    "at a chosen PSO budget", TablesParams, tables),
+                                    "at a chosen PSO budget", TablesParams, tables,
+                          (Section("multigait-paper-budget", PAPER_JSON, render_paper_budget),
+                           Section("multigait-composition", PAPER_JSON[:1], render_composition),
+                           Section("multigait-mean", PAPER_JSON, render_mean_claim))),
                Experiment("compare", "PSO (paper and constriction coefficients) against random search at equal "
                                      "budget over seeds, with held-out re-scoring and a Mann-Whitney U test",
-                          _compare_params(), _compare),
+                          _compare_params(), _compare,
+                          (Section("multigait-compare", (COMPARE_JSON,), render_compare),
+                           Section("multigait-compare-stats", (COMPARE_JSON,), render_compare_stats),
+                           Section("multigait-summary", (COMPARE_JSON,), render_summary, readme=True))),
                Experiment("ruggedness", "How much of a random gait set's coverage a search could follow: re-plans "
                                         "on other planner draws, re-simulations of slightly perturbed gaits",
-                          _ruggedness_params(), _ruggedness)]
+                          _ruggedness_params(), _ruggedness),
+               Experiment("rows", "The rows of Tables I-IV the paper has (five robots; Empty, Column; coverage and "
+                                  "distance) at a stated fraction of its budget (resumable)", paper_rows.RowsParams,
+                          paper_rows.rows, (Section("multigait-rows", (paper_rows.ROWS_JSON,), paper_rows.render_rows),
+                                            Section("multigait-reuse", (paper_rows.ROWS_JSON,), paper_rows.render_reuse),
+                                            Section("multigait-not-attempted", (paper_rows.ROWS_JSON,),
+                                                    paper_rows.render_not_attempted))),
+               Experiment("cells", "The coverage scale: the committed PSO-vs-random bests re-planned and counted at "
+                                   "several cell sizes, against the node ceiling", paper_rows.CellsParams, paper_rows.cells,
+                          (Section("multigait-cells", (paper_rows.CELLS_JSON,), paper_rows.render_cells),))]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:
