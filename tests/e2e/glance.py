@@ -122,11 +122,14 @@ def cold_draw_ms(new_page, server, job_id: str) -> dict[str, float]:
     pg.goto(f"{server.url}/jobs/{job_id}")
     expect(pg.locator("body[data-drawn='1']")).to_be_attached(timeout=60_000)
     t = pg.evaluate("""() => ({ verdict: performance.getEntriesByName('gm-verdict')[0].startTime,
+        first: performance.getEntriesByName('gm-first-screen')[0].startTime,
+        plotly_ready: performance.getEntriesByName('gm-plotly')[0].startTime,
         drawn: performance.getEntriesByName('gm-drawn')[0].startTime,
         dom: performance.getEntriesByType('navigation')[0].domContentLoadedEventEnd,
         plotly: (performance.getEntriesByType('resource').find(r => r.name.includes('plotly.min.js')) || {}).transferSize })""")
     print(f"\ncold job page {job_id[:8]}: DOMContentLoaded {t['dom']:.0f} ms, verdict {t['verdict']:.0f} ms, "
-          f"every plot drawn {t['drawn']:.0f} ms; plotly.min.js over the wire {t['plotly']} bytes")
+          f"first screen drawn {t['first']:.0f} ms, plotly ready {t['plotly_ready']:.0f} ms, every plot drawn "
+          f"{t['drawn']:.0f} ms; plotly.min.js over the wire {t['plotly']} bytes")
     return t
 
 

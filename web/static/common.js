@@ -119,7 +119,7 @@ const GM = (() => {
         const meta = document.querySelector('meta[name="gm-plotly"]');
         const s = document.createElement("script");
         s.src = meta ? meta.content : "/vendor/plotly.min.js";
-        s.onload = () => resolve(window.Plotly);
+        s.onload = () => { performance.mark("gm-plotly"); resolve(window.Plotly); };
         s.onerror = () => { plotlyLoad = null; reject(new Error("plotly.min.js did not load")); };
         document.head.append(s);
       });

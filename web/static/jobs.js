@@ -204,9 +204,9 @@
     $("submit").disabled = true;
     $("confirm").hidden = true;
     try {
-      if (!confirmed) {
-        const b = await api("/api/web/check", { method: "POST", json: spec });
-        if (b.estimate && b.estimate.confirm) { askFirst(b.estimate); return; }
+      if (!confirmed) { // an invalid spec goes on to POST /api/jobs, whose own message the form shows
+        const b = await api("/api/web/check", { method: "POST", json: spec }).catch(() => null);
+        if (b && b.estimate && b.estimate.confirm) { askFirst(b.estimate); return; }
       }
       confirmed = false;
       const job = await api("/api/jobs", { method: "POST", json: spec });

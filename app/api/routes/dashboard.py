@@ -270,8 +270,8 @@ def render_page(path: Path, title: str, current: str | None) -> str:
     nav = "".join(f'<a href="{href}"{current_attr if href == current else ""}>{text}</a>' for href, text in NAV)
     header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
     header = header.replace("{colors}", json.dumps(colors.page_table()).replace("</", "<\\/"))
-    header = header.replace("{plotly}", f"/vendor/plotly.min.js?v={_plotly_version()}")
     page = path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
+    page = page.replace("{plotly}", f"/vendor/plotly.min.js?v={_plotly_version()}")  # head and any preload
     return re.sub(r'/static/([A-Za-z0-9_.-]+\.(?:js|css))(?=")', _versioned, page)
 
 
