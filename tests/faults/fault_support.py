@@ -39,13 +39,19 @@ _references: dict[str, dict] = {}
 
 
 def reference(spec: dict) -> dict:
-    """The undisturbed result of a spec (in this process, once per spec)."""
+    """The undisturbed result of a spec (in this process, once per spec). The test kind is
+    registered for the run only: other tests iterate over the registry."""
     from app.jobs import registry
 
-    registry._load_extra(EXTRA["GAITMEND_EXTRA_KINDS"])
     key = json.dumps(spec, sort_keys=True)
     if key not in _references:
-        _references[key] = comparable(reference_result(spec))
+        before = dict(registry.KINDS)
+        registry._load_extra(EXTRA["GAITMEND_EXTRA_KINDS"])
+        try:
+            _references[key] = comparable(reference_result(spec))
+        finally:
+            registry.KINDS.clear()
+            registry.KINDS.update(before)
     return _references[key]
 
 

@@ -26,7 +26,12 @@ SPEC = {"kind": "ballistic", "search": {"population": 8, "generations": 8, "seed
 
 @pytest.fixture(autouse=True)
 def ballistic():
+    """The test kind, registered for these tests only (other tests iterate over the registry)."""
+    before = dict(registry.KINDS)
     registry._load_extra("ballistic:KIND")
+    yield
+    registry.KINDS.clear()
+    registry.KINDS.update(before)
 
 
 @pytest.fixture(autouse=True)
