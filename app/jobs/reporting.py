@@ -44,7 +44,7 @@ class Section:
 
     def text(self, root: Path = ROOT) -> str:
         body = self.render(self.load(root)).strip("\n")
-        return body + "\n"
+        return body + "\n" if body else ""
 
 
 def sections_in(text: str) -> list[tuple[str, str, str]]:

@@ -124,12 +124,16 @@ def pairs_needed(effect: float, sd: float, alpha: float = 0.05, power: float = 0
     (None: more than ``most``, or no effect)."""
     if not effect or sd is None:
         return None
-    n = 2
-    while n <= most:
-        if detectable(sd, n, alpha, power) <= abs(effect):
-            return n
-        n = n + 1 if n < 100 else int(n * 1.1)
-    return None
+    ok = lambda n: detectable(sd, n, alpha, power) <= abs(effect)  # noqa: E731 (falls as n grows)
+    lo, hi = 1, 2
+    while not ok(hi):
+        lo, hi = hi, hi * 2
+        if hi > most:
+            return None
+    while hi - lo > 1:  # bisection: ok(hi), not ok(lo)
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi
 
 
 def success_rate(k: int, n: int, confidence: float = CONFIDENCE) -> dict[str, Any]:

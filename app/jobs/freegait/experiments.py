@@ -574,9 +574,10 @@ def render_noise_summary(datas: list) -> str:
         return ""
     rs = list(arms["dgps"].values())
     k = sum(r["footholds_in_zones"] > 0 for r in rs)
+    ci = stats.success_rate(k, len(rs))["ci"]
     return (f"- **freegait** (paper 004): with DGPS-sized position and zone errors the zone-aware walk stepped into a "
-            f"zone in {stats.rate_text(stats.success_rate(k, len(rs)))} of {len(rs)} runs at "
-            f"{data['params']['density_per_m2']:g} zones/m^2 ([docs/freegait.md](docs/freegait.md)).\n")
+            f"zone in {k} of {len(rs)} runs at {data['params']['density_per_m2']:g} zones/m^2 (rate {ci[0]:.2f}-{ci[1]:.2f}, "
+            f"Clopper-Pearson 95 %) ([docs/freegait.md](docs/freegait.md)).\n")
 
 
 EXPERIMENTS = [

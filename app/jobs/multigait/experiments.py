@@ -162,7 +162,8 @@ def render_paper_budget(datas: list) -> str:
     for (robot, stuck), g in groups.items():
         g = sorted(g, key=lambda r: r["seed"])
         best = [r["result"]["final_best"] for r in g]
-        gen = [next(h["generation"] for h in r["history"] if h["best"] >= r["result"]["final_best"] - 1e-12) for r in g]
+        gen = [next((h["generation"] for h in r["history"] if h["best"] >= r["result"]["final_best"] - 1e-12), "-")
+               for r in g]
         tab.append([robot.capitalize(), list(stuck) or "-", *[f"{b:.1f}" for b in best],
                     f"**{np.mean(best):.1f} / {np.std(best):.1f}**",
                     f"{np.mean([r['result']['initial_best'] for r in g]):.1f}",
