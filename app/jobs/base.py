@@ -8,6 +8,8 @@ from __future__ import annotations
 import abc
 import dataclasses
 import difflib
+import importlib
+import importlib.util
 import inspect
 import json
 import sys
@@ -486,12 +488,49 @@ class Kind(abc.ABC):
         return f"<kind {self.name}>"
 
 
+class Deferred:
+    """A member found in one of the kind package's own modules when first used, for modules
+    slow to import (run, experiments, bench): ``Deferred(".run", "run")`` calls the ``run``
+    function of the package's ``run`` module; with ``value=True`` the member returns the
+    attribute itself (``Deferred(".experiments", "EXPERIMENTS", value=True)``). Registration
+    checks that the module exists, without importing it, so a misspelt module fails there."""
+
+    def __init__(self, module: str, attr: str, value: bool = False):
+        self.module, self.attr, self.value = module, attr, value
+        self.package = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        # a relative module is relative to the package of the class that names it
+        module = sys.modules[owner.__module__]
+        self.package = module.__name__ if hasattr(module, "__path__") else module.__name__.rpartition(".")[0]
+
+    def __get__(self, kind: Any, owner: type) -> Any:
+        if kind is None:
+            return self
+        package = self.package
+
+        def member(*args: Any, **kw: Any) -> Any:
+            found = getattr(importlib.import_module(self.module, package), self.attr)
+            return found if self.value else found(*args, **kw)
+
+        member.__name__ = self.attr
+        return member
+
+    def error(self, where: str, name: str) -> str | None:
+        """Why this member cannot be found (None when its module exists)."""
+        try:
+            found = importlib.util.find_spec(self.module, self.package) is not None
+        except ModuleNotFoundError:
+            found = False
+        return None if found else f"{where}.{name}: no module {self.module!r} (from {self.package})"
+
+
 class PackageKind(Kind):
     """A kind laid out as ``app/jobs/<name>/`` (docs/architecture.md). Its ``__init__``
     subclasses this and supplies each member explicitly: values as class attributes, the
     functions of its modules as ``staticmethod(present.headline)`` (modules imported with
     the package: present, views), and members whose module is slow to import (run,
-    experiments, bench) as methods that import it when first called. A member it does not
+    experiments, bench) as ``Deferred`` members, imported when first called. A member it does not
     supply keeps the ``Kind`` default; one the contract does not declare is refused at
     registration.
 
@@ -579,7 +618,11 @@ def check_kind(kind: Kind) -> None:
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise TypeError(f"{where}.{name} is not a member of the kind contract (app/jobs/base.py Kind){hint}")
         declared = members[name]
-        if inspect.isfunction(declared):
+        if isinstance(value, Deferred):
+            err = value.error(where, name)
+            if err:
+                raise TypeError(err)
+        elif inspect.isfunction(declared):
             err = _signature_error(where, name, declared, value, bound=on_class)
             if err:
                 raise TypeError(err)

@@ -68,6 +68,25 @@ def test_a_method_given_something_that_cannot_be_called_like_it_is_refused():
         check_kind(Value())
 
 
+def test_a_deferred_member_in_a_module_that_does_not_exist_is_refused():
+    class WrongModule(RecoveryKind):
+        name = "wrong_module"
+        run = base.Deferred("app.jobs.recovery.rnu", "run")  # .run, misspelt: refused before anything runs
+
+    with pytest.raises(TypeError, match=r"WrongModule\.run: no module 'app\.jobs\.recovery\.rnu'"):
+        registry.register(WrongModule())
+    assert "wrong_module" not in registry.KINDS
+
+
+def test_deferred_members_import_their_module_when_first_used():
+    kind = registry.KINDS["recovery"]
+    from app.jobs.recovery.experiments import EXPERIMENTS
+    from app.jobs.recovery.run import run
+
+    assert kind.experiments() is EXPERIMENTS
+    assert isinstance(RecoveryKind.__dict__["run"], base.Deferred) and kind.run.__name__ == run.__name__
+
+
 def test_a_kind_without_a_required_member_is_refused():
     class NoPaper(Kind):
         name, title, Spec, robots = "nopaper", "no paper", RecoveryKind.Spec, {}

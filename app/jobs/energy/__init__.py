@@ -4,7 +4,7 @@ multibody equations, a forward check, and the answer played in full MuJoCo physi
 
 from __future__ import annotations
 
-from app.jobs.base import PackageKind
+from app.jobs.base import Deferred, PackageKind
 from app.jobs.energy import present
 from app.jobs.energy.spec import EnergySpec
 from app.robots.quadruped import QUADRUPED25, describe
@@ -41,20 +41,9 @@ class EnergyKind(PackageKind):
                 "physics": {"periods": 1}, "evidence": {"controls": False, "robustness": False}}
 
     # -- members whose modules are slow to import: imported when first called ---------
-    def run(self, spec, ctx):
-        from app.jobs.energy.run import run
-
-        return run(spec, ctx)
-
-    def experiments(self):
-        from app.jobs.energy.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.energy.experiments import BENCH
-
-        return BENCH
+    run = Deferred(".run", "run")
+    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".experiments", "BENCH", value=True)
 
 
 KIND = EnergyKind()

@@ -7,7 +7,7 @@ robustness re-simulations."""
 
 from __future__ import annotations
 
-from app.jobs.base import PackageKind
+from app.jobs.base import Deferred, PackageKind
 from app.jobs.freegait import present
 from app.jobs.freegait import views as kind_views
 from app.jobs.freegait.spec import FreegaitSpec
@@ -47,20 +47,9 @@ class FreegaitKind(PackageKind):
                 "forbidden": {"density_per_m2": 6.0}}
 
     # -- members whose modules are slow to import: imported when first called ---------
-    def run(self, spec, ctx):
-        from app.jobs.freegait.run import run
-
-        return run(spec, ctx)
-
-    def experiments(self):
-        from app.jobs.freegait.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.freegait.experiments import BENCH
-
-        return BENCH
+    run = Deferred(".run", "run")
+    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".experiments", "BENCH", value=True)
 
 
 KIND = FreegaitKind()

@@ -3,7 +3,7 @@ each gait set scored by what RRT-MP plans with it (coverage of the map or distan
 
 from __future__ import annotations
 
-from app.jobs.base import PackageKind
+from app.jobs.base import Deferred, PackageKind
 from app.jobs.multigait import present
 from app.jobs.multigait import views as kind_views
 from app.jobs.multigait.spec import MultigaitSpec
@@ -43,20 +43,9 @@ class MultigaitKind(PackageKind):
                 "verify": {"nodes": 3}}
 
     # -- members whose modules are slow to import: imported when first called ---------
-    def run(self, spec, ctx):
-        from app.jobs.multigait.run import run
-
-        return run(spec, ctx)
-
-    def experiments(self):
-        from app.jobs.multigait.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.multigait.experiments import BENCH
-
-        return BENCH
+    run = Deferred(".run", "run")
+    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".experiments", "BENCH", value=True)
 
 
 KIND = MultigaitKind()

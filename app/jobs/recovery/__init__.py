@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import itertools
 
-from app.jobs.base import PackageKind
+from app.jobs.base import Deferred, PackageKind
 from app.jobs.recovery import present
 from app.jobs.recovery import views as kind_views
 from app.jobs.recovery.spec import RecoverySpec
@@ -61,20 +61,9 @@ class RecoveryKind(PackageKind):
         return None
 
     # -- members whose modules are slow to import: imported when first called ---------
-    def run(self, spec, ctx):
-        from app.jobs.recovery.run import run
-
-        return run(spec, ctx)
-
-    def experiments(self):
-        from app.jobs.recovery.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.recovery.bench import BENCH
-
-        return BENCH
+    run = Deferred(".run", "run")
+    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".bench", "BENCH", value=True)
 
 
 KIND = RecoveryKind()

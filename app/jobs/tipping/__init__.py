@@ -5,7 +5,7 @@ and without recovery, optionally swept over tilt directions x both tripods."""
 
 from __future__ import annotations
 
-from app.jobs.base import PackageKind
+from app.jobs.base import Deferred, PackageKind
 from app.jobs.tipping import present
 from app.jobs.tipping import views as kind_views
 from app.jobs.tipping.spec import TippingSpec
@@ -48,20 +48,9 @@ class TippingKind(PackageKind):
         return describe(HEAVY)
 
     # -- members whose modules are slow to import: imported when first called ---------
-    def run(self, spec, ctx):
-        from app.jobs.tipping.run import run
-
-        return run(spec, ctx)
-
-    def experiments(self):
-        from app.jobs.tipping.experiments import EXPERIMENTS
-
-        return EXPERIMENTS
-
-    def bench(self):
-        from app.jobs.tipping.experiments import BENCH
-
-        return BENCH
+    run = Deferred(".run", "run")
+    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".experiments", "BENCH", value=True)
 
 
 KIND = TippingKind()
