@@ -131,14 +131,15 @@ def test_kill9_mid_study_every_point_once_and_local_run_gives_the_same_aggregate
     local = json.loads(p.stdout.strip().splitlines()[-1])["aggregate"]
     assert local == st["aggregate"]
     assert len(st["aggregate"]["rows"]) == 2 and all(r["metrics"]["best.fitness"]["n"] == 2 for r in st["aggregate"]["rows"])
-    # the study's plots: the damage atlas from the points, one chart per reported metric
+    # the study's page: the verdict over the seeds, the aggregate table, the damage atlas
+    # from the points, one chart per reported metric
     panels = client.get(st["links"]["views"]).json()["panels"]
-    assert [p["id"] for p in panels] == ["atlas", "metric-0", "metric-1", "metric-2"]
-    chart = panels[3]["figure"]["data"][0]  # best.fitness: median and range per damage
+    assert [p["id"] for p in panels] == ["verdict", "aggregate", "atlas", "metric-0", "metric-1", "metric-2"]
+    chart = panels[5]["figure"]["data"][0]  # best.fitness: median and range per damage
     fit = {tuple(r["group"][0]): r["metrics"]["best.fitness"] for r in st["aggregate"]["rows"]}
     assert chart["y"] == [fit[(1, 6)]["median"], fit[(4,)]["median"]]
     assert chart["error_y"]["array"][0] == pytest.approx(fit[(1, 6)]["max"] - fit[(1, 6)]["median"])
-    atlas = panels[0]["figure"]
+    atlas = panels[2]["figure"]
     assert sum(1 for t in atlas["data"] if t.get("fill") == "toself") == 2  # one hexapod per damage
     assert any("legs 1, 6 lost" in a["text"] for a in atlas["layout"]["annotations"])
     # the study bundle: aggregate, every summary, a manifest that reproduces the study
