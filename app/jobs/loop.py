@@ -9,7 +9,13 @@ History columns mean the same for every optimizer:
 - ``best``: the best objective so far (in the user's units and direction);
 - ``generation_best``, ``mean``, ``worst``: over the candidates evaluated in that generation
   (not over a population after selection, which only DE has);
-- ``evaluations``: candidates evaluated so far; then the kind's own columns.
+- ``evaluations``: candidates evaluated so far; then the kind's own columns;
+- ``target_met`` (a search with a goal): 1 once the best so far meets the kind's physical
+  target as the kind confirms it (a stop rule on the target, not on a value of F).
+
+A kind may cut a candidate's evaluation short once it cannot change the optimizer's next
+step (``Optimizer.selection_thresholds``) and tell a bound instead of its value; the row's
+statistics skip those (``Generation.exact``).
 
 The optimizer maximises ``fitness``; ``value = sign * fitness`` is what the user reads
 (sign -1 for a cost to minimise, e.g. a distance).

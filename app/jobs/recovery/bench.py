@@ -12,9 +12,10 @@ sized to finish in under 4 minutes on two idle cores (docs/recovery_speed.md):
     meets the target at the default step and at half of it;
 (f) peers on the same evaluator, budget and stop rule (legs 1 & 6, 3 seeds): scipy's
     differential_evolution and CMA-ES; their time to the target over ours (median, range);
-(g) ``equal_quality_wall_s``: the equal-quality configuration (``EQUAL_QUALITY``) on legs 1 & 6,
-    seed 0, stopped once its best reaches (d)'s F and meets the target: the time to an answer
-    at least as good as the exact paper DE's.
+(g) ``equal_quality_wall_s``: the equal-quality configuration (speed.EQUAL) on legs 1 & 6,
+    seed 0, stopped once its best reaches (d)'s F, its answer meeting the target at the
+    default step and at half of it: the time to an answer as good as the exact paper DE's
+    (None when its budget ends first).
 """
 
 from __future__ import annotations
@@ -28,14 +29,12 @@ import numpy as np
 from app.jobs.base import BenchEntry, MemoryContext
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
+from app.jobs.recovery.speed import EQUAL, throughput
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
 # The search alone (the paper's algorithm): the random-search control doubles a job's
 # simulations and the robustness block adds about 11 walks' worth; both are off here.
 ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": []}}
-# A configuration that reaches the exact paper DE's answer quality for less simulation
-# (docs/recovery_speed.md, "Equal quality"): stop.target is set to the paper run's F.
-EQUAL_QUALITY = {"search": {"optimizer": "cmaes", "population": 12, "generations": 100}}
 QUICK = {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 2.0}}
 
 
@@ -45,33 +44,6 @@ def _spec(quick: bool, **data) -> RecoverySpec:
         data["search"] = {**data.get("search", {}), **QUICK["search"]}
         data["sim"] = QUICK["sim"]
     return RecoverySpec(**data)
-
-
-def throughput(spec: RecoverySpec, repeats: int = 2) -> dict:
-    """(a-c) on the spec's population of uniform random candidates."""
-    from mujoco import rollout
-
-    from app.jobs.recovery.run import set_up
-
-    job = set_up(spec)
-    ev = job.ev
-    x = job.lower + np.random.default_rng(0).random((spec.search.population, job.lower.size)) * (job.upper - job.lower)
-    ctrl, state = ev.controls(x)
-    raw, evaluator = [], []
-    try:
-        with rollout.Rollout(nthread=ev.nthread) as runner:
-            runner.rollout(ev.model, ev._datas, state, ctrl[:, :10])  # warm the pool
-            for _ in range(repeats):  # interleaved, so a change of load hits both alike
-                t = time.perf_counter()
-                runner.rollout(ev.model, ev._datas, state, ctrl)
-                raw.append(ctrl.shape[0] * ctrl.shape[1] / (time.perf_counter() - t))
-                t = time.perf_counter()
-                r = ev.evaluate(x)
-                evaluator.append(r.sim_steps / (time.perf_counter() - t))
-    finally:
-        job.close()
-    a, b = float(np.median(raw)), float(np.median(evaluator))
-    return {"raw_steps_per_s": a, "evaluator_steps_per_s": b, "ratio": b / a, "threads": ev.nthread}
 
 
 def _walk(s: dict) -> dict:
@@ -210,7 +182,7 @@ def equal_quality(quick: bool, paper_f: float) -> dict:
     """(g) the equal-quality configuration on legs 1 & 6, seed 0, stopped once its best
     reaches the exact paper DE's F; it counts if that answer meets the target at the
     default step and at half of it."""
-    cfg = EQUAL_QUALITY if not quick else {"search": {"optimizer": "cmaes"}}
+    cfg = EQUAL if not quick else {"search": {"optimizer": "cmaes"}}
     spec = _spec(quick, damage={"lost_legs": [1, 6]}, stop={"target": paper_f}, **cfg)
     r = _timed(spec)
     ok = r["fitness"] >= paper_f and r["target_met"] and bool(r["half_step_met"])

@@ -527,15 +527,15 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 class SpeedParams(BaseModel):
-    parts: str = Field("profile,variants,cap,check,fast,equal,paper,coarse",
-                       pattern=r"^(profile|variants|cap|check|fast|equal|paper|coarse)"
-                               r"(,(profile|variants|cap|check|fast|equal|paper|coarse))*$",
-                       description="what to measure: the step profile, physics settings tried (CPU time, documented "
-                                   "answers), the cut walks' speed cap on random walks, the cut walks on every "
-                                   "documented damage (same answers?), coarse-to-fine's coarse search judged at the "
-                                   "default step, the "
-                                   "fast preset's time to target, the equal-quality configuration, the paper DE with "
-                                   "cut walks (checked against Table II)")
+    parts: str = Field("profile,variants,throughput,cap,check,fast,equal,paper,coarse",
+                       pattern=r"^(profile|variants|throughput|cap|check|fast|equal|paper|coarse)"
+                               r"(,(profile|variants|throughput|cap|check|fast|equal|paper|coarse))*$",
+                       description="what to measure: the step profile; physics settings tried (CPU time, what "
+                                   "they do to the documented answers); raw and evaluator steps/s; the cut walks' "
+                                   "speed cap on random walks; cut walks on every documented damage (same answers?); "
+                                   "coarse-to-fine's coarse search judged at the default step; the fast preset's time "
+                                   "to the target; the equal-quality configuration; the paper DE with cut walks "
+                                   "(checked against Table II)")
     seeds: int = Field(3, ge=1, le=20, description="seeds per damage")
     damages: str = Field("table2", pattern=r"^(table2|1-6)$", description="table2: the four Table II damages; "
                                                                            "1-6: legs 1 & 6 only")

@@ -79,7 +79,7 @@ class Search(StrictModel):
 class RecoveryStop(StopRules):
     at_target: bool = Field(False, description=(
         "stop once the best gait meets the recovery target (forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg, "
-        "no fall), confirmed at half the default step (and at the default step when the search ran at another)"))
+        "no fall), confirmed by a walk at half the step; the time it took is reported (summary timing.time_to_target_s)"))
 
 
 class Objective(StrictModel):

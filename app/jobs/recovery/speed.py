@@ -271,6 +271,39 @@ def coarse_row(lost, seed: int, docs: Path) -> dict:
     return r
 
 
+def throughput(spec: RecoverySpec, repeats: int = 2) -> dict:
+    """(a-c) on the spec's population of uniform random candidates."""
+    from mujoco import rollout
+
+    from app.jobs.recovery.run import set_up
+
+    job = set_up(spec)
+    ev = job.ev
+    x = job.lower + np.random.default_rng(0).random((spec.search.population, job.lower.size)) * (job.upper - job.lower)
+    ctrl, state = ev.controls(x)
+    raw, evaluator = [], []
+    try:
+        with rollout.Rollout(nthread=ev.nthread) as runner:
+            runner.rollout(ev.model, ev._datas, state, ctrl[:, :10])  # warm the pool
+            for _ in range(repeats):  # interleaved, so a change of load hits both alike
+                t = time.perf_counter()
+                runner.rollout(ev.model, ev._datas, state, ctrl)
+                raw.append(ctrl.shape[0] * ctrl.shape[1] / (time.perf_counter() - t))
+                t = time.perf_counter()
+                r = ev.evaluate(x)
+                evaluator.append(r.sim_steps / (time.perf_counter() - t))
+    finally:
+        job.close()
+    a, b = float(np.median(raw)), float(np.median(evaluator))
+    return {"raw_steps_per_s": a, "evaluator_steps_per_s": b, "ratio": b / a, "threads": ev.nthread}
+
+
+def throughput_row() -> dict:
+    """The bench's (a-c): raw rollout and evaluator steps/s on legs 1 & 6, interleaved."""
+    spec = RecoverySpec(damage={"lost_legs": [1, 6]}, sim={"duration_s": 5.0}, **ONLY_SEARCH)
+    return {"part": "throughput"} | throughput(spec, repeats=3) | {"load": os.getloadavg()[0]}
+
+
 PARTS: dict[str, Callable[..., dict]] = {
     "coarse": coarse_row,
     "cap": lambda lost, seed, docs: speed_ratios(lost, seed=seed + 1),
@@ -295,6 +328,9 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
         for r in check_rows(docs, log, done):
             rows.append(r)
             _save(rows, raw)
+    if "throughput" in parts:
+        rows = [r for r in rows if r["part"] != "throughput"] + [throughput_row()]
+        _save(rows, raw)
     if "variants" in parts:
         rows = [r for r in rows if r["part"] != "variants"] + [variants(docs=docs)]
         _save(rows, raw)
@@ -440,27 +476,93 @@ def summary_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
+def _frac(num: float, den: float) -> str:
+    return f"{100 * num / den:.1f} %" if den else "-"
+
+
+def gains_markdown(rows: list[dict]) -> list[str]:
+    """The table of changes: what each saves, from the runs on this page."""
+    by = {p: [r for r in rows if r["part"] == p] for p in ("throughput", "check", "paper", "fast", "equal")}
+    out = ["| change | default job | measured here | command |", "|---|---|---|---|"]
+    for r in by["throughput"][-1:]:
+        out.append(f"| evaluator: each chunk's controls from one gait period, the rollout's output buffers kept "
+                   f"(same numbers bit for bit) | yes | through the evaluator {r['evaluator_steps_per_s']:,.0f} "
+                   f"steps/s against {r['raw_steps_per_s']:,.0f} raw: ratio {r['ratio']:.2f} (load {r['load']:.1f}) | "
+                   f"`gaitmend bench --kind recovery --json` (ratio) |")
+    cut = by["paper"] + by["check"]
+    if cut:
+        same = sum(bool(r["identical_to_documented"]) for r in cut if r["identical_to_documented"] is not None)
+        known = sum(r["identical_to_documented"] is not None for r in cut)
+        saved = sum(r["cut_steps_saved"] for r in cut)
+        total = sum(r["sim_steps"] + r["cut_steps_saved"] for r in cut)
+        out.append(f"| `search.cut_walks`: a trial's walk ends once it cannot reach its parent's F | no (fast "
+                   f"preset) | {_frac(saved, total)} of the steps over {len(cut)} searches; {same} of {known} answers "
+                   f"the documented full-walk ones bit for bit | `gaitmend reproduce recovery-speed --parts "
+                   f"check,paper` |")
+    if by["fast"] and by["paper"]:
+        steps = statistics.median(r["sim_steps"] for r in by["fast"])
+        paper = statistics.median(r["sim_steps"] + r["cut_steps_saved"] for r in by["paper"])
+        out.append(f"| `stop.at_target` (fast preset): stop once the best meets the target, confirmed at half the "
+                   f"step | no (fast preset) | median {steps:,.0f} steps to the target over {len(by['fast'])} runs "
+                   f"against {paper:,.0f} for the paper's whole budget ({paper / steps:.0f}x fewer) | "
+                   f"`gaitmend reproduce recovery-speed --parts fast` |")
+    if by["equal"] and by["paper"]:
+        es = statistics.median(r["sim_steps"] for r in by["equal"])
+        ps = statistics.median(r["sim_steps"] + r["cut_steps_saved"] for r in by["paper"])
+        ef = statistics.median(r["fitness"] for r in by["equal"])
+        pf = statistics.median(r["fitness"] for r in by["paper"])
+        out.append(f"| equal-quality configuration `{json.dumps(EQUAL)}` | no (a spec) | median {es:,.0f} steps "
+                   f"against the paper DE's {ps:,.0f} ({ps / es:.1f}x fewer), median F {ef:.2f} against {pf:.2f} "
+                   f"(legs 1 & 6 and the other damages measured, seeds below) | `gaitmend reproduce recovery-speed "
+                   f"--parts equal,paper` |")
+    return out + [""]
+
+
+INTRO = """# Recovery speed (issue 22)
+
+Measured by `gaitmend reproduce recovery-speed` (this page and recovery_speed.json; every
+row is a run of this code, written as it finished). The machine was shared: wall times
+and steps/s carry the load (1-minute load average on its 2 cores) they were measured at;
+simulated steps do not depend on the machine, so the gains are stated in steps first.
+`gaitmend bench --kind recovery --json` measures the issue's figures on one machine in one
+go. Paper DE = DE 30 x 60, 10 s walks, 1 ms (here with `search.cut_walks`; for seeds the
+docs hold, its answer is compared with the full-walk answer in docs/table2.json). Fast =
+`{"preset": "fast"}`. Equal quality = the configuration below. Every search's answer is
+also re-run at half the step (the robustness case dt_half).
+"""
+
+RULE = """## Cut walks: the rule
+
+DE keeps a trial only if its F is at least its parent's (Eq. 10). After each 1 s chunk of a
+trial's walk, F is bounded from above: the roll and pitch amplitudes so far (they only grow
+as the walk goes on) in the denominator, the drift and yaw terms at their least (0), and
+the forward displacement so far plus the rest of the walk at `CUT_SPEED_FACTOR` times the
+gait's nominal speed (step length per period). Once that bound is below the parent's F,
+the walk stops and the bound is told to DE in place of F: the parent stays, as it would
+after the full walk. The answer is the full-walk DE's whenever the speed cap holds; the
+history's mean, worst and generation_best skip the bounds (column `cut` counts them). The
+drift and yaw cannot bound F this way (they can shrink again), so a walk that only drifts
+is never cut: the gain is largest on rocking two-leg walks and near zero where the body
+barely rocks (leg 4 lost).
+"""
+
+
 def speed_markdown(rows: list[dict]) -> str:
-    out = ["Measured by `gaitmend reproduce recovery-speed` (this file and recovery_speed.json; every run is a run of "
-           "this code). Paper DE = DE 30 x 60, 10 s walks, 1 ms, with `search.cut_walks` (the rule below); for seed 0 "
-           "its answer is compared with docs/table2.json's full-walk answer. Equal quality = "
-           f"`{json.dumps(EQUAL)}`. Fast = `{{\"preset\": \"fast\"}}`. Every run re-simulates its answer at half the "
-           "step (the robustness case dt_half).", ""]
-    prof = next((r for r in rows if r["part"] == "profile"), None)
-    if prof is not None:
-        out += profile_markdown(prof)
-    var = next((r for r in rows if r["part"] == "variants"), None)
-    if var is not None:
-        out += variants_markdown(var)
-    checks = [r for r in rows if r["part"] == "check"]
-    if checks:
-        out += check_markdown(checks)
-    caps = [r for r in rows if r["part"] == "cap"]
-    if caps:
-        out += cap_markdown(caps)
+    runs = [r for r in rows if r["part"] in ("paper", "fast", "equal")]
+    out = [INTRO, "## Changes and their gains", ""] + gains_markdown(rows)
+    out += ["## Equal quality and time to the target", ""] + summary_markdown(runs)
+    out += [RULE]
+    for part, render in (("cap", cap_markdown), ("check", check_markdown)):
+        got = [r for r in rows if r["part"] == part]
+        if got:
+            out += render(got)
+    out += ["## Tried and rejected", ""]
+    for part, render in (("profile", profile_markdown), ("variants", variants_markdown)):
+        got = next((r for r in rows if r["part"] == part), None)
+        if got is not None:
+            out += render(got)
     coarse = [r for r in rows if r["part"] == "coarse"]
     if coarse:
         out += coarse_markdown(coarse)
-    runs = [r for r in rows if r["part"] in ("paper", "fast", "equal")]
-    out += summary_markdown(runs) + runs_markdown(runs)
+    out += ["## Every search run", ""] + runs_markdown(runs)
     return "\n".join(out)

@@ -153,3 +153,32 @@ def test_a_search_stopped_at_the_target_met_it_at_half_the_step(tmp_path):
     half = s["robustness"]["cases"][0]
     assert half["name"] == "dt_half" and half["target_met"]
     assert s["timing"]["evaluations"] <= spec.evaluations_budget
+
+
+@pytest.mark.slow
+def test_the_quick_bench_names_every_figure_of_the_issue():
+    from app.jobs.recovery.bench import bench_recovery
+
+    f = bench_recovery(quick=True, log=lambda _: None)
+    for key in ("raw_steps_per_s", "evaluator_steps_per_s", "ratio", "paper_recovery_wall_s",
+                "time_to_target_median_s", "equal_quality_wall_s", "bench_wall_s"):
+        assert key in f
+    assert len(f["fast"]["runs"]) == 4 and set(f["peers"]) == {"scipy_de", "cmaes"}
+    assert f["paper"]["evaluations"] > 0 and f["equal_quality"]["paper_fitness"] == f["paper"]["fitness"]
+    json.dumps(f)
+
+
+def test_the_speed_page_renders_from_its_rows():
+    from app.jobs.recovery import speed
+
+    run_row = {"lost_legs": [1, 6], "seed": 0, "fitness": 12.0, "target_met": True, "half_step_met": True,
+               "search": {"stop_reason": "generations", "generations_run": 61}, "evaluations": 1830,
+               "sim_steps": 18_000_000, "cut_steps_saved": 1_000_000, "time_to_target_s": None, "wall_s": 170.0,
+               "load": 1.0, "identical_to_documented": True}
+    rows = [run_row | {"part": "paper"}, run_row | {"part": "equal", "fitness": 12.5, "sim_steps": 6_000_000,
+                                                    "cut_steps_saved": 0, "identical_to_documented": None},
+            run_row | {"part": "fast", "sim_steps": 400_000, "time_to_target_s": 4.0,
+                       "search": {"stop_reason": "target_met", "generations_run": 2}}]
+    md = speed.speed_markdown(rows)
+    assert "| legs 1 & 6 | 12.00 [12.00, 12.00] (1) | 12.50 [12.50, 12.50] (1) | 0.32 |" in md
+    assert "(= docs)" in md and "48x fewer" in md
