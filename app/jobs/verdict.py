@@ -71,16 +71,18 @@ def fmt(x: Any, unit: str = "") -> str:
 
 def score(key: str, label: str, value: Any, unit: str = "", better: str = "higher", scale: float = 1.0,
           controls: Sequence[str] | None = None, std: float | None = None, std_key: str | None = None,
-          n: int | None = None, ddof0: bool = False) -> dict[str, Any]:
+          n: int | None = None, ddof0: bool = False, only_if: str | None = None) -> dict[str, Any]:
     """One criterion the method is compared on: ``key`` in each control's metrics (times
     ``scale`` gives ``unit``), the method's ``value`` in that unit, ``better`` "higher" or
     "lower"; ``controls``: the control names it applies to (None: every control carrying
     the key); ``std``/``std_key``/``n``: the spread of the method's value and the key of a
     control's spread over the same ``n`` draws, for an interval (``ddof0``: both are
-    population deviations, NumPy's default)."""
+    population deviations, NumPy's default); ``only_if``: a key of the control's metrics
+    that must be true for its value to count (e.g. "feasible": an infeasible answer's
+    number is a penalty, not a result)."""
     return {"key": key, "label": label, "value": _value(value), "unit": unit, "better": better, "scale": scale,
             "controls": list(controls) if controls is not None else None, "std": std, "std_key": std_key, "n": n,
-            "ddof0": ddof0}
+            "ddof0": ddof0, "only_if": only_if}
 
 
 def generic_scores(summary: Mapping[str, Any], headline: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -148,7 +150,7 @@ def _compare(crit: Mapping[str, Any], c: ControlRow) -> dict[str, Any] | None:
     if crit.get("controls") is not None and c.name not in crit["controls"]:
         return None
     a, raw = crit.get("value"), c.metrics.get(crit["key"])
-    if a is None or _value(raw) is None:
+    if a is None or _value(raw) is None or (crit.get("only_if") and c.metrics.get(crit["only_if"]) is not True):
         return None
     unit, better, label = crit.get("unit") or "", crit.get("better") or "higher", crit["label"]
     base = {"on": label, "unit": unit, "better": better, "method": a, "interval": None, "seeds": None}

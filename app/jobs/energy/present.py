@@ -115,8 +115,10 @@ def metric_names(s: dict) -> dict[str, tuple[str, str, float]]:
 def verdict_scores(s: dict) -> list[dict]:
     """J = CoT + w x jerk (Eq. 11, lower is better), the number the GA minimises, against
     the controls that computed the same J (the random search, the paper's Table 1 gait,
-    the single NLP pass); the other controls are ablations judged on their own terms."""
-    return [score("J", "J (Eq. 11)", s.get("J") if s.get("feasible") else None, "", "lower", controls=J_CONTROLS)]
+    the single NLP pass) and found a feasible gait; the other controls are ablations
+    judged on their own terms."""
+    return [score("J", "J (Eq. 11)", s.get("J") if s.get("feasible") else None, "", "lower", controls=J_CONTROLS,
+                  only_if="feasible")]  # an infeasible control's J is a penalty (>= 1e4), not a cost
 
 
 def summary_tables(s: dict) -> list[Table]:
