@@ -270,6 +270,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     v = glance.check_verdict(jp, server, job_id)
     assert {c["name"] for c in v["controls"] if c["compared"]} >= {"baseline", "random_search"}
     assert [g["name"] for g in v["robustness"]["groups"]][:1] == ["numerics"]
+    glance.no_axe_faults(jp, "recovery job page")
     jp.reload()
     shares = glance.replay_frames(jp, shots, "recovery")
     assert min(shares) > 0.02, shares
