@@ -33,6 +33,7 @@ from app.api import glance
 from app.api.auth import LOCAL_OWNER, Principal, principal
 from app.api.deps import Db, db_of, get_db, settings_of
 from app.api.errors import ApiError
+from app.api.routes.studies import _study_schema
 from app.api.schemas import ERROR_RESPONSES, MEMBER_PATTERN
 from app.core import colors
 from app.core.assets import asset_dir
@@ -475,7 +476,9 @@ async def rows(ids: Annotated[str, Query(max_length=3400, pattern=r"^[0-9a-f]{1,
     return _jsonable(await db.read(lambda s: glance.rows(s, wanted, who.owner_filter)))
 
 
-@router.post("/api/web/study-check", tags=["dashboard"], responses=ERROR_RESPONSES)
+@router.post("/api/web/study-check", tags=["dashboard"], responses=ERROR_RESPONSES,
+             openapi_extra={"requestBody": {"required": True, "content": {
+                 "application/json": {"schema": _study_schema()}}}})
 async def study_check(request: Request, who: Principal = Depends(principal), db: Db = Depends(get_db)):
     """Validate a study without queueing it: its points, their evaluations and the wall
     time they will take at this server's measured rates, or the field errors."""
