@@ -548,7 +548,7 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
 
     damages = SCENARIOS if p.damages == "table2" else [(1, 6)]
     rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
-    md = speed.speed_markdown(rows)
+    md = speed.speed_markdown(rows, Path("docs"))
     p.out.parent.mkdir(parents=True, exist_ok=True)
     p.out.write_text(md)
     return md

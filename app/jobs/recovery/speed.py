@@ -34,24 +34,29 @@ STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER
 # -- where a step's time goes ------------------------------------------------------------------
 
 def step_profile(model: mujoco.MjModel, d: mujoco.MjData | None = None, ctrl: np.ndarray | None = None,
-                 settle: int = 1000, n: int = 4000) -> dict:
+                 settle: int = 1000, n: int = 1000, reps: int = 7) -> dict:
     """MuJoCo's own timers per stage (us per step, timers on) after ``settle`` steps from
-    ``d``'s state, and what a step holds (contacts, constraint rows, solver iterations)."""
+    ``d``'s state: ``reps`` rounds of ``n`` steps, each stage's fastest round (another
+    process taking the core inflates a round, never deflates it); and what a step holds
+    (contacts, constraint rows, solver iterations)."""
     d = d if d is not None else mujoco.MjData(model)
     if ctrl is not None:
         d.ctrl[:] = ctrl
     for _ in range(settle):
         mujoco.mj_step(model, d)
-    for t in d.timer:
-        t.duration, t.number = 0.0, 0
-    ncon = nefc = iters = 0
-    for _ in range(n):
-        mujoco.mj_step(model, d)
-        ncon, nefc, iters = ncon + d.ncon, nefc + d.nefc, iters + int(d.solver_niter[0])
-    stages = {name.removeprefix("mjTIMER_").lower(): 1e6 * d.timer[int(getattr(mujoco.mjtTimer, name))].duration / n
-              for name in STAGES}
-    return {"us_per_step": stages, "contacts": ncon / n, "constraint_rows": nefc / n, "solver_iterations": iters / n,
-            "ngeom": model.ngeom, "nv": model.nv, "timestep_s": model.opt.timestep}
+    rounds, ncon, nefc, iters = [], 0, 0, 0
+    for _ in range(reps):
+        for t in d.timer:
+            t.duration, t.number = 0.0, 0
+        for _ in range(n):
+            mujoco.mj_step(model, d)
+            ncon, nefc, iters = ncon + d.ncon, nefc + d.nefc, iters + int(d.solver_niter[0])
+        rounds.append({name.removeprefix("mjTIMER_").lower(): 1e6 * d.timer[int(getattr(mujoco.mjtTimer, name))].duration / n
+                       for name in STAGES})
+    stages = {k: min(r[k] for r in rounds) for k in rounds[0]}
+    steps = n * reps
+    return {"us_per_step": stages, "contacts": ncon / steps, "constraint_rows": nefc / steps,
+            "solver_iterations": iters / steps, "ngeom": model.ngeom, "nv": model.nv, "timestep_s": model.opt.timestep}
 
 
 def _standing(lost: tuple[int, ...]) -> tuple[mujoco.MjModel, mujoco.MjData, np.ndarray]:
@@ -79,7 +84,7 @@ def profiles() -> list[dict]:
     from app.robots import heavy_hexapod, quadruped, silo6
 
     rows = [{"robot": "jethexa", "damage": list(lost)} | step_profile(*_standing(lost)) for lost in [()] + SCENARIOS]
-    for name, model in (("heavy_hexapod", heavy_hexapod.base_spec().compile()),
+    for name, model in (("heavy_hexapod", heavy_hexapod.build_tilt_spec().compile()),
                         ("silo6", silo6.build_flat_spec().compile()), ("quadruped", quadruped.build_model())):
         rows.append({"robot": name, "damage": []} | step_profile(model))
     return rows
@@ -376,8 +381,10 @@ def _spread(values: list[float], fmt: str = "{:.1f}") -> str:
 def profile_markdown(block: dict) -> list[str]:
     cols = ["step", "position", "pos_kinematics", "pos_inertia", "col_broad", "col_narrow", "pos_make", "velocity",
             "actuation", "constraint", "advance"]
-    out = [f"Step profile (MuJoCo's timers, us per step with the timers on, single thread; load {block['load']:.1f} on "
-           f"{os.cpu_count()} cores while measured, so compare the shares, not the absolute times):", "",
+    out = [f"Step profile (MuJoCo's timers, us per step with the timers on, single thread, each stage's fastest of "
+           f"7 rounds of 1000 steps; load {block['load']:.1f} on {os.cpu_count()} cores while measured, so compare "
+           "the shares more than the absolute times). The recovery robot stands in its first pose; the other "
+           "built-in robots as their kinds build them, without control (a first look only):", "",
            "| robot | damage | " + " | ".join(cols) + " | contacts | rows | solver iterations |",
            "|---" * (len(cols) + 5) + "|"]
     for r in block["rows"]:
@@ -403,7 +410,9 @@ def variants_markdown(block: dict) -> list[str]:
 
 def coarse_markdown(rows: list[dict]) -> list[str]:
     out = ["Coarse-to-fine, first half: the equal-quality configuration searched at twice the default step for "
-           "twice the generations (the same simulated seconds), its answer judged at the default step:", "",
+           "twice the generations (about as many steps), its answer judged at the default step. The refinement at "
+           "the default step would have to recover more F than searching at the default step from the start gives "
+           "for the same steps, so coarse-to-fine was not built:", "",
            "| damage | seed | F at the coarse step | F at the default step | target at the coarse step / default "
            "step | yaw (deg) at the default step | steps |", "|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -457,22 +466,55 @@ def runs_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
-def summary_markdown(rows: list[dict]) -> list[str]:
-    """Per damage: the paper DE's F against the equal-quality configuration's, the fast preset's
-    time to the target, in steps (machine-independent) and seconds (this machine, this load)."""
-    out = ["| damage | paper DE F (seeds) | equal-quality F | equal-quality steps / paper DE steps | fast preset: "
-           "steps to target | fast preset: every answer meets the target at half the step |", "|---" * 6 + "|"]
+def _paper_fitness(rows: list[dict], lost, docs: Path) -> dict[int, float]:
+    """The paper DE's final F per seed: this page's runs, else docs/table2.json's (full walks)."""
+    out = {r["seed"]: r["fitness"] for r in rows if r["part"] == "paper" and tuple(r["lost_legs"]) == lost}
+    for seed in {r["seed"] for r in rows if tuple(r["lost_legs"]) == lost} - set(out):
+        doc = _documented(lost, seed, docs)
+        if doc is not None:
+            out[seed] = doc["best_fitness"]
+    return out
+
+
+def _at_budget(rows: list[dict], lost, eq: list[dict]) -> list[float]:
+    """The paper DE's best F (its runs' history) once it had evaluated as many walks as the
+    equal-quality search of the same seed."""
+    out = []
+    for r in eq:
+        paper = next((p for p in rows if p["part"] == "paper" and tuple(p["lost_legs"]) == lost
+                      and p["seed"] == r["seed"]), None)
+        if paper is not None:
+            out.append(max((b for _, b, n in paper["curve"] if n <= r["evaluations"]), default=float("nan")))
+    return out
+
+
+def summary_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[str]:
+    """Per damage: the paper DE's F against the equal-quality configuration's on the same
+    seeds, and the fast preset's time to the target, in steps (machine-independent) and
+    seconds (this machine, at its load)."""
+    out = ["| damage | paper DE F, median [range] (seeds) | equal-quality F | equal >= paper, same seed | "
+           "paper DE F after as many walks as the equal-quality search | "
+           "equal-quality answers meeting the target (also at half the step) | equal-quality steps / paper DE steps | "
+           "fast preset: steps to the target | fast preset: time to the target (s) | fast preset: met at half the "
+           "step |", "|---" * 10 + "|"]
     for lost in SCENARIOS:
-        by = {p: [r for r in rows if r["part"] == p and tuple(r["lost_legs"]) == lost] for p in ("paper", "equal", "fast")}
-        if not any(by.values()):
+        eq = [r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == lost]
+        fast = [r for r in rows if r["part"] == "fast" and tuple(r["lost_legs"]) == lost]
+        paper = _paper_fitness(rows, lost, docs)
+        if not (eq or fast):
             continue
-        pf, ef = [r["fitness"] for r in by["paper"]], [r["fitness"] for r in by["equal"]]
-        ps, es = [r["sim_steps"] + r["cut_steps_saved"] for r in by["paper"]], [r["sim_steps"] for r in by["equal"]]
-        ratio = f"{statistics.median(es) / statistics.median(ps):.2f}" if ps and es else "-"
-        fast = by["fast"]
-        out.append(f"| {_name(lost)} | {_spread(pf, '{:.2f}')} ({len(pf)}) | {_spread(ef, '{:.2f}')} ({len(ef)}) | "
-                   f"{ratio} | {_spread([r['sim_steps'] for r in fast], '{:,.0f}')} | "
-                   f"{sum(bool(r['half_step_met']) for r in fast)}/{len(fast)} |")
+        wins = sum(r["fitness"] >= paper[r["seed"]] for r in eq if r["seed"] in paper)
+        pairs = sum(r["seed"] in paper for r in eq)
+        ps = [r["sim_steps"] + r["cut_steps_saved"] for r in rows if r["part"] == "paper" and tuple(r["lost_legs"]) == lost]
+        ratio = f"{statistics.median(r['sim_steps'] for r in eq) / statistics.median(ps):.2f}" if ps and eq else "-"
+        met = f"{sum(r['target_met'] for r in eq)} ({sum(bool(r['half_step_met']) for r in eq)}) of {len(eq)}"
+        ttt = [r["time_to_target_s"] for r in fast if r["time_to_target_s"] is not None]
+        early = _at_budget(rows, lost, eq)
+        out.append(f"| {_name(lost)} | {_spread(list(paper.values()), '{:.2f}')} ({len(paper)}) | "
+                   f"{_spread([r['fitness'] for r in eq], '{:.2f}')} ({len(eq)}) | {wins} of {pairs} | "
+                   f"{_spread(early, '{:.2f}')} ({len(early)}) | {met} | {ratio} | "
+                   f"{_spread([r['sim_steps'] for r in fast], '{:,.0f}')} | {_spread(ttt)} | "
+                   f"{sum(bool(r['half_step_met']) for r in fast)} of {len(fast)} |")
     return out + [""]
 
 
@@ -547,10 +589,13 @@ barely rocks (leg 4 lost).
 """
 
 
-def speed_markdown(rows: list[dict]) -> str:
+def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
     runs = [r for r in rows if r["part"] in ("paper", "fast", "equal")]
     out = [INTRO, "## Changes and their gains", ""] + gains_markdown(rows)
-    out += ["## Equal quality and time to the target", ""] + summary_markdown(runs)
+    out += ["## Equal quality and time to the target", "",
+            "Paper DE F: the runs below, else docs/table2.json's full-walk run for that seed. Steps count every walk "
+            "the search simulated (a cut walk's steps up to its cut); the paper DE's include the steps its cut walks "
+            "saved, so they are the full-walk search's.", ""] + summary_markdown(runs, docs)
     out += [RULE]
     for part, render in (("cap", cap_markdown), ("check", check_markdown)):
         got = [r for r in rows if r["part"] == part]

@@ -3,6 +3,7 @@ recovery target (confirmed at half the step), and the fast preset."""
 
 import copy
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -174,11 +175,13 @@ def test_the_speed_page_renders_from_its_rows():
     run_row = {"lost_legs": [1, 6], "seed": 0, "fitness": 12.0, "target_met": True, "half_step_met": True,
                "search": {"stop_reason": "generations", "generations_run": 61}, "evaluations": 1830,
                "sim_steps": 18_000_000, "cut_steps_saved": 1_000_000, "time_to_target_s": None, "wall_s": 170.0,
-               "load": 1.0, "identical_to_documented": True}
+               "load": 1.0, "identical_to_documented": True, "curve": [[0, 1.0, 30], [20, 8.0, 630], [60, 12.0, 1830]]}
     rows = [run_row | {"part": "paper"}, run_row | {"part": "equal", "fitness": 12.5, "sim_steps": 6_000_000,
+                                                    "evaluations": 700,
                                                     "cut_steps_saved": 0, "identical_to_documented": None},
             run_row | {"part": "fast", "sim_steps": 400_000, "time_to_target_s": 4.0,
                        "search": {"stop_reason": "target_met", "generations_run": 2}}]
-    md = speed.speed_markdown(rows)
-    assert "| legs 1 & 6 | 12.00 [12.00, 12.00] (1) | 12.50 [12.50, 12.50] (1) | 0.32 |" in md
+    md = speed.speed_markdown(rows, Path("/nonexistent"))
+    assert "| legs 1 & 6 | 12.00 [12.00, 12.00] (1) | 12.50 [12.50, 12.50] (1) | 1 of 1 | 8.00 [8.00, 8.00] (1) | " \
+           "1 (1) of 1 | 0.32 |" in md
     assert "(= docs)" in md and "48x fewer" in md
