@@ -119,11 +119,12 @@ class _Scorer:
         models = [model] + case_models(mspec, model, self.cases)
         self.ev = MultiModelEvaluator(robot, models, seq, cfg)
         self.period_s = cfg.period_s
+        self.cut_walks = spec.search.cut_walks and spec.robust is None  # its history then has a "cut" column
         self.last: tuple[np.ndarray, dict[str, np.ndarray]] | None = None
 
     def cutoff(self, x: np.ndarray, thresholds: np.ndarray | None) -> Cutoff | None:
         """Early termination against ``thresholds`` (DE's parents), on the nominal model only."""
-        if thresholds is None or self.robust is not None:
+        if thresholds is None or not self.cut_walks:
             return None
         cap = CUT_SPEED_FACTOR * np.atleast_2d(x)[:, -2] / self.period_s  # step length per gait period
         return Cutoff(np.asarray(thresholds, dtype=float), cap, tuple(self.weights), self.units)
@@ -143,9 +144,9 @@ class _Scorer:
         """One generation of a search: fitness, falls, simulated steps (and walks cut short)."""
         f, m, steps, cut = self(x, thresholds)
         cols, totals = {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps}  # a walk cut short has not fallen
-        if cut is not None:
-            cols["cut"] = int(np.sum(cut.cut))
-            totals["cut_steps_saved"] = cut.saved_steps
+        if self.cut_walks:  # every row (generation 0 has no parents: nothing cut), so the history is one table
+            cols["cut"] = 0 if cut is None else int(np.sum(cut.cut))
+            totals["cut_steps_saved"] = 0 if cut is None else cut.saved_steps
         return Generation(f, cols, totals, evaluations=len(f) * self.models_per_candidate,
                           exact=None if cut is None else ~cut.cut)
 
@@ -322,7 +323,7 @@ def controls(job: _Job, phases: Phases) -> None:
     beats = "beats" if rs["fitness"] > job.best["fitness"] else "does not beat"
     job.controls.append(ControlRow(
         "random_search", "uniform random search over the same bounds", rs["metrics"], TARGET.met(rs["metrics"]),
-        (s.search.generations + 1) * s.search.population * s.models_per_candidate,
+        job.searches["random_search"].evaluations,  # the search's own count, fewer when a stop rule ended it
         "same budget, same scoring" + (" (robust)" if s.robust else "") + f"; {beats} the search's best F",
         extra={"fitness": rs["fitness"], "params": _params(job.names, rx)}).to_json())
     _done(ph)
