@@ -291,12 +291,17 @@ def _enter(job: _Job, phases: Phases, name: str) -> PhaseContext:
     """A post-search phase begins: stop here on cancel (the searches' results are in the
     checkpoint, so a resume starts here) and say which one runs."""
     ph = phases.context(name)
-    ph.tick(0, {"best": float(job.searches["search"].best_fitness), "evaluations": int(job.evaluations)})
+    ph.tick(0, _search_info(job))
     return ph
 
 
-def _done(ph: PhaseContext) -> None:
-    ph.progress(1, 1, {})  # the next phase's _enter checks for a cancel
+def _search_info(job: _Job) -> dict:
+    """What the progress line keeps showing after the search: its best F and evaluations."""
+    return {"best": float(job.searches["search"].best_fitness), "evaluations": int(job.evaluations)}
+
+
+def _done(job: _Job, ph: PhaseContext) -> None:
+    ph.progress(1, 1, _search_info(job))  # the next phase's _enter checks for a cancel
 
 
 def controls(job: _Job, phases: Phases) -> None:
@@ -312,7 +317,7 @@ def controls(job: _Job, phases: Phases) -> None:
     job.controls = [ControlRow("baseline", "nominal tripod with nominal parameters (no recovery)",
                                job.baseline["metrics"], met, 1, note,
                                extra={"fitness": job.baseline["fitness"]}).to_json()]
-    _done(ph)
+    _done(job, ph)
     if "random_search" not in job.searches:
         return
     ph = _enter(job, phases, "random_search_scoring")
@@ -326,7 +331,7 @@ def controls(job: _Job, phases: Phases) -> None:
         job.searches["random_search"].evaluations,  # the search's own count, fewer when a stop rule ended it
         "same budget, same scoring" + (" (robust)" if s.robust else "") + f"; {beats} the search's best F",
         extra={"fitness": rs["fitness"], "params": _params(job.names, rx)}).to_json())
-    _done(ph)
+    _done(job, ph)
 
 
 def robustness(job: _Job, phases: Phases) -> None:
@@ -345,7 +350,7 @@ def robustness(job: _Job, phases: Phases) -> None:
             f = float(fitness({key: v[:, k] for key, v in r.metrics.items()}, w, u)[0])
             rows.append({"name": c.name, "label": c.label, "metrics": m, "target_met": TARGET.met(m), "fitness": f})
         job.robustness = Robustness.build(TARGET.text, job.best["metrics"], rows).to_json()
-        _done(ph)
+        _done(job, ph)
     if job.spec.robust is not None:
         job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
 
@@ -353,7 +358,7 @@ def robustness(job: _Job, phases: Phases) -> None:
 def record_traces(job: _Job, phases: Phases) -> None:
     ph = _enter(job, phases, "traces")
     job.traces = {"best": job.ev.trace(job.searches["search"].best_x), "baseline": job.base_ev.trace(job.nominal_x)}
-    _done(ph)
+    _done(job, ph)
 
 
 def _target_reached(out: SearchOutcome) -> dict:
