@@ -11,6 +11,8 @@ from __future__ import annotations
 import datetime as dt
 import time
 
+import httpx
+
 import pytest
 from fault_support import PrivateRedis, Watcher, ballistic, check_answers, sigterm_main
 from service_support import wait_for
@@ -44,7 +46,11 @@ def test_redis_killed_and_restarted_five_times_the_queue_moves_and_nothing_is_lo
                 t_down = time.monotonic()
                 during = st.submit(SHORT)  # accepted while the broker is away
                 st.wait_final(busy, 60)  # finished during the outage: acknowledging them fails
-                time.sleep(1.0)
+                time.sleep(max(1.0, t_down + 1.5 - time.monotonic()))
+                # one sample of health inside every outage, whatever the poller's pace on a busy machine
+                got = httpx.get(f"{st.base}/api/health", timeout=30)
+                if got.status_code == 200:
+                    watch.health.append((time.monotonic(), got.json()["status"], got.json().get("reasons") or []))
                 redis.start(persist=r % 2 == 1)  # without persistence the waiting messages are gone
                 t_back, back_at = time.monotonic(), utcnow()
                 after = st.submit(SHORT)
