@@ -527,10 +527,11 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 class SpeedParams(BaseModel):
-    parts: str = Field("profile,variants,throughput,cap,check,fast,equal,paper,coarse",
-                       pattern=r"^(profile|variants|throughput|cap|check|fast|equal|paper|coarse)"
-                               r"(,(profile|variants|throughput|cap|check|fast|equal|paper|coarse))*$",
-                       description="what to measure: the step profile; physics settings tried (CPU time, what "
+    parts: str = Field("bench,profile,variants,throughput,cap,check,fast,equal,paper,coarse",
+                       pattern=r"^(bench|profile|variants|throughput|cap|check|fast|equal|paper|coarse)"
+                               r"(,(bench|profile|variants|throughput|cap|check|fast|equal|paper|coarse))*$",
+                       description="what to measure: the recovery bench (the issue's targets); the step profile; "
+                                   "physics settings tried (CPU time, what "
                                    "they do to the documented answers); raw and evaluator steps/s; the cut walks' "
                                    "speed cap on random walks; cut walks on every documented damage (same answers?); "
                                    "coarse-to-fine's coarse search judged at the default step; the fast preset's time "
@@ -547,6 +548,13 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
     from app.jobs.recovery import speed
 
     damages = SCENARIOS if p.damages == "table2" else [(1, 6)]
+    if "bench" in p.parts.split(","):
+        from app.jobs.recovery.bench import bench_recovery
+
+        before = os.getloadavg()[0]
+        figures = bench_recovery(log=log)
+        speed.replace_part(p.raw, {"part": "bench", "figures": figures, "load_before": before,
+                                   "load_after": os.getloadavg()[0], "cores": os.cpu_count()})
     rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
     md = speed.speed_markdown(rows, Path("docs"))
     p.out.parent.mkdir(parents=True, exist_ok=True)
