@@ -278,3 +278,60 @@ def new_name(prefix: str) -> str:
 
 def can_mount_tmpfs() -> bool:
     return os.geteuid() == 0 and shutil.which("mount") is not None
+
+
+class TcpGate:
+    """A TCP relay in front of a server (here PostgreSQL) that can be cut: cut() closes
+    every relayed connection and refuses new ones until open(). What a client sees is a
+    real dropped connection and then a refused one, at a moment the test chooses."""
+
+    def __init__(self, host: str, port: int):
+        import socket
+
+        self.target, self.conns, self.is_open, self.lock = (host, port), [], True, threading.Lock()
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.port = self.server.getsockname()[1]
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self) -> None:
+        import socket
+
+        while True:
+            try:
+                client, _ = self.server.accept()
+            except OSError:
+                return
+            with self.lock:
+                if not self.is_open:
+                    client.close()
+                    continue
+                upstream = socket.create_connection(self.target)
+                self.conns += [client, upstream]
+            for a, b in ((client, upstream), (upstream, client)):
+                threading.Thread(target=self._pipe, args=(a, b), daemon=True).start()
+
+    @staticmethod
+    def _pipe(src, dst) -> None:
+        with contextlib.suppress(OSError):
+            while data := src.recv(65536):
+                dst.sendall(data)
+        for s in (src, dst):
+            with contextlib.suppress(OSError):
+                s.shutdown(2)
+
+    def cut(self) -> None:
+        with self.lock:
+            self.is_open = False
+            for s in self.conns:
+                with contextlib.suppress(OSError):
+                    s.shutdown(2)
+                s.close()
+            self.conns = []
+
+    def open(self) -> None:
+        with self.lock:
+            self.is_open = True
+
+    def close(self) -> None:
+        self.cut()
+        self.server.close()
