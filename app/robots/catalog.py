@@ -29,7 +29,7 @@ class RobotEntry:
     nominal_step_length: float
     nominal_step_height: float
     stance_height: float  # H0: hip plane above the foot centres
-    period_s: float  # T_g; the paper does not give it (see README)
+    period_s: float  # T_g; the paper does not give it (docs/recovery.md, "Choices where the paper is silent")
 
     def nominal_y0(self, leg: int) -> float:
         lo, hi = self.y0_bounds[leg]

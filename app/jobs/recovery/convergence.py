@@ -10,7 +10,7 @@ reports, not only the nominal tripod):
 Why the drift and yaw bounds are that loose and hold for 80 % rather than every answer:
 they are near-zero sums of small per-cycle biases that DE cancels against each other on
 the model it searched on, and they converge slowly with the step (measured in the
-README, "Timestep": one answer's yaw went 2.1 -> -7.9 -> -14.9 deg at 2, 1, 0.5 ms). No
+docs/recovery.md, "Timestep: the convergence rule": one answer's yaw went 2.1 -> -7.9 -> -14.9 deg at 2, 1, 0.5 ms). No
 affordable step makes every answer's drift converge; the robustness block (which re-runs
 each answer at half and a quarter of the step) and the robust search are what hold an
 answer to the target across steps.

@@ -86,14 +86,14 @@ class Objective(StrictModel):
     weights: list[Annotated[float, Field(ge=0.0, le=1e6)]] = Field(default_factory=lambda: [1.0, 1.0, 10.0, 100.0, 100.0],
                                                            min_length=5, max_length=5)
     # Eq. 5 gives no units; Table II reports cm and degrees, and in those units the
-    # weights do what the paper says they are for (see README, "Choices").
+    # weights do what the paper says they are for (docs/recovery.md, "Choices where the paper is silent").
     units: Literal["m_rad", "cm_deg"] = "cm_deg"
 
 
 class Sim(StrictModel):
     duration_s: float = Field(10.0, ge=0.5, le=120.0)  # shorter than a few steps measures nothing
     settle_s: float = Field(0.5, ge=0.0, le=5.0)
-    # The default passes the convergence rule (README, "Timestep"); coarser steps are allowed
+    # The default passes the convergence rule (docs/recovery.md, "Timestep: the convergence rule"); coarser steps are allowed
     # for quick looks, and the robustness block shows what they cost.
     timestep_s: float = Field(DEFAULT_TIMESTEP, ge=0.0005, le=0.008)
 
