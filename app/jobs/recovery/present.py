@@ -7,7 +7,7 @@ from pathlib import Path
 
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 from app.jobs.evidence import controls_of, robustness_of
-from app.jobs.recovery.metrics import LIMITS, TARGET, target_checks
+from app.jobs.recovery.metrics import basis_text, judged, limits, target_checks, target_for, target_met, walk_of
 
 HISTORY_COLUMNS = {
     "generation": "0 = the initial population",
@@ -41,16 +41,24 @@ def damage_text(spec) -> str:
     return "; ".join(parts) or "none"
 
 
+def met_word(met: bool | None) -> str:
+    return "met" if met else "not met" if met is False else "not judged (walk too short)"
+
+
 def headline(s: dict) -> list[HeadlineRow]:
     m, b = s["best"]["metrics"], s["baseline"]["metrics"]
-    ok = target_checks(m)
+    walk = walk_of(s)  # the target scales with the walk's length (metrics.target_for)
+    lim, met, tgt = limits(walk), target_met(m, walk), target_for(walk)
+    ok: dict = target_checks(m, walk) if judged(walk) else {"forward": None, "lateral": None, "yaw": None,
+                                                            "upright": False if m["fell"] else None}
     return [
-        headline_row("recovery target", "met" if TARGET.met(m) else "not met", "", None, TARGET.text, TARGET.met(m)),
-        headline_row("forward distance", 100 * m["y_f_m"], "cm", "higher", f">= {100 * LIMITS['y_min_m']:.0f} cm",
+        headline_row("recovery target", met_word(met), "", None, tgt.text, met),
+        headline_row("target basis", basis_text(walk), "", None),
+        headline_row("forward distance", 100 * m["y_f_m"], "cm", "higher", f">= {100 * lim['y_min_m']:.3g} cm",
                      ok["forward"]),
-        headline_row("lateral drift", 100 * m["x_f_m"], "cm", "lower", f"|x| <= {100 * LIMITS['x_abs_max_m']:.0f} cm",
+        headline_row("lateral drift", 100 * m["x_f_m"], "cm", "lower", f"|x| <= {100 * lim['x_abs_max_m']:.3g} cm",
                      ok["lateral"]),
-        headline_row("final yaw", m["yaw_f_deg"], "deg", "lower", f"|yaw| <= {LIMITS['yaw_abs_max_deg']:.0f} deg",
+        headline_row("final yaw", m["yaw_f_deg"], "deg", "lower", f"|yaw| <= {lim['yaw_abs_max_deg']:.3g} deg",
                      ok["yaw"]),
         headline_row("fitness F (Eq. 5)", s["best"]["fitness"], "", "higher"),
         headline_row("nominal tripod F", s["baseline"]["fitness"], "", "higher"),
@@ -71,12 +79,12 @@ def _speed_rows(s: dict) -> list[HeadlineRow]:
 def _evidence_rows(s: dict) -> list[HeadlineRow]:
     rows = []
     if "baseline" in s:
-        rows.append(headline_row("nominal tripod already meets the target", TARGET.met(s["baseline"]["metrics"]), "",
-                                 None))
+        rows.append(headline_row("nominal tripod already meets the target",
+                                 target_met(s["baseline"]["metrics"], walk_of(s)), "", None))
     rnd = next((c for c in controls_of(s) if c.name == "random_search"), None)
     if rnd is not None:
         rows.append(headline_row("random search (same budget) forward", 100 * rnd.metrics["y_f_m"], "cm", "higher",
-                                 TARGET.text, rnd.target_met))
+                                 target_for(walk_of(s)).text, rnd.target_met))
     rob = robustness_of(s)
     if rob is not None:
         rows.append(headline_row("perturbed re-runs meeting the target", f"{rob.met}/{rob.total}", "", "higher"))
@@ -93,11 +101,11 @@ def summary_tables(s: dict) -> list[Table]:
         m = s[name]["metrics"]
         rows.append(["before (nominal tripod)" if name == "baseline" else "after recovery", *_walk_cells(m),
                      f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}",
-                     str(TARGET.met(m))])
+                     met_word(target_met(m, walk_of(s)))])
     title = (f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} "
              f"(sigma={s['gait']['sigma']})")
     out = [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F",
-                         "target met"], rows, [f"target: {TARGET.text}"])]
+                         "target"], rows, [f"target: {target_for(walk_of(s)).text} ({basis_text(walk_of(s))})"])]
     controls = controls_of(s)
     if controls:
         out.append(table("controls (same budget)", ["control", "evaluations", "x (cm)", "y (cm)", "yaw (deg)", "fell",
@@ -110,7 +118,7 @@ def summary_tables(s: dict) -> list[Table]:
                                                                         "target met"],
                          [[c.label, *_walk_cells(c.metrics), str(c.metrics["fell"]), str(c.target_met)]
                           for c in rob.cases],
-                         [f"target: {TARGET.text}; met in {rob.met} of {rob.total} cases"]))
+                         [f"target: {rob.target}; met in {rob.met} of {rob.total} cases"]))
     return out
 
 

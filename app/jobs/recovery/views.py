@@ -9,8 +9,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from app.jobs import viewkit as kit
-from app.jobs.recovery.metrics import TARGET, target_checks
-from app.jobs.recovery.present import HISTORY_COLUMNS, replay_style
+from app.jobs.recovery.metrics import basis_text, judged, target_checks, target_for, target_met, walk_of
+from app.jobs.recovery.present import HISTORY_COLUMNS, met_word, replay_style
 
 # labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
 RUNS = {t.name: (t.label, t.color) for t in replay_style(["best", "baseline"])}
@@ -41,27 +41,31 @@ def table_two(summary: dict) -> dict | None:
             return b < a
         return abs(b) < abs(a)
 
+    walk = walk_of(summary)  # the target scales with the walk's length (metrics.target_for)
+    tgt = target_for(walk)
     rows = []
     for name, r in (("baseline", base), ("best", best)):
         m = r["metrics"]
-        checks = target_checks(m)
+        checks: dict = target_checks(m, walk) if judged(walk) else {"forward": None, "lateral": None, "yaw": None,
+                                                                    "upright": False if m["fell"] else None}
         row: list = [RUNS[name][0]]
         for _, f, kind, tkey in cols:
             v = f(m)
             b = None if name == "baseline" or f(base["metrics"]) == v else better(kind, f(base["metrics"]), v)
             row.append(kit.cell(round(v, 2), met=checks[tkey] if tkey else None, better=b))
-        row.append(kit.cell("no" if checks["upright"] else "yes", met=checks["upright"]))
+        row.append(kit.cell("yes" if m["fell"] else "no", met=checks["upright"]))
         fb = None if name == "baseline" or r["fitness"] == base["fitness"] else r["fitness"] > base["fitness"]
         row.append(kit.cell(r["fitness"], better=fb))
-        ok = TARGET.met(m)
-        row.append(kit.cell("met" if ok else "not met", met=ok))
+        ok = target_met(m, walk)
+        row.append(kit.cell(met_word(ok), met=ok))
         rows.append(row)
     cap = (f"As in the paper's Table II: final position (x sideways drift, y forward, the walking direction), final yaw, "
-           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {TARGET.text} — each "
+           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {tgt.text}; scaled to the walk: "
+           f"{basis_text(walk)} — each "
            "target column says met or not met. Recovered values say better or worse than the baseline."
            + _search_note(summary))
     return kit.panel("table2", "Before and after", cap,
-                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({TARGET.text})"],
+                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({tgt.text})"],
                                      rows))
 
 
@@ -180,6 +184,23 @@ def history_axis(spec: dict) -> dict:
             "better": "higher", "series": {"best": "best so far", "mean": "mean of population", "worst": "worst of population"}}
 
 
+# The shared controls and robustness tables (app/jobs/viewkit.py) in Table II's units and words
+METRIC_NAMES = {"x_f_m": ("lateral x", "cm", 100.0), "y_f_m": ("forward y", "cm", 100.0),
+                "yaw_f_deg": ("final yaw", "°", 1.0), "roll_amp_deg": ("roll amplitude", "°", 1.0),
+                "pitch_amp_deg": ("pitch amplitude", "°", 1.0), "tilt_max_deg": ("largest tilt", "°", 1.0),
+                "under_3_feet_frac": ("time on fewer than 3 feet", "%", 100.0), "fell": ("fell", "", 1.0)}
+
+
+def metric_names(summary: dict) -> dict[str, tuple[str, str, float]]:
+    return dict(METRIC_NAMES)
+
+
+def page_tables(summary: dict) -> list:
+    """None: the page shows the CLI's before/after table as Table II (``table_two``) and the
+    controls and robustness once, as the shared evidence tables in cm and degrees."""
+    return []
+
+
 # form groups the dashboard opens first (the damage is drawn on the robot)
 FORM_OPEN = ["damage", "search", "sim"]
 
@@ -223,10 +244,11 @@ def study_views(study: dict, points: list[dict]) -> list[dict]:
         if d.get("locked_joints") or d.get("weak_joints"):
             continue  # the atlas is of leg losses
         robot = p["spec"]["robot"]
-        m = s["best"]["metrics"]
+        m, walk = s["best"]["metrics"], p["spec"]["sim"]["duration_s"]
         groups.setdefault(tuple(sorted(d["lost_legs"])), []).append(
             {"speed": 100 * m["y_f_m"] / p["spec"]["sim"]["duration_s"], "x": 100 * m["x_f_m"], "y": 100 * m["y_f_m"],
-             "yaw": m["yaw_f_deg"], "met": TARGET.met(m), "baseline_met": TARGET.met(s["baseline"]["metrics"])})
+             "yaw": m["yaw_f_deg"], "met": target_met(m, walk) is True,
+             "baseline_met": target_met(s["baseline"]["metrics"], walk) is True})
     if len(groups) < 2 or robot not in ROBOTS:
         return []
     info = ROBOTS[robot].describe()

@@ -3,7 +3,8 @@ tables, the dashboard, the atlas and the experiments' tables all judge a gait by
 gait that fell can never read "met" anywhere, however far and straight it walked."""
 
 from app.jobs.recovery import atlas, experiments, present, views
-from app.jobs.recovery.metrics import TARGET, meets_target, target_checks
+from app.jobs.recovery.metrics import (LIMITS, TARGET, basis_text, limits, meets_target, target_checks,
+                                      target_for, target_met)
 
 # walked 90 cm, 1 cm sideways, 1 deg of yaw: every distance condition holds, but it fell
 FELL_FAR = {"x_f_m": 0.01, "y_f_m": 0.9, "yaw_f_deg": 1.0, "roll_amp_deg": 2.0, "pitch_amp_deg": 2.0,
@@ -40,7 +41,7 @@ def test_headline_and_cli_tables_say_not_met_for_a_gait_that_fell():
     assert rows["fell"]["met"] is False
     assert rows["forward distance"]["met"] is True  # the condition itself holds; the target does not
     after = present.summary_tables(s)[0]["rows"][1]
-    assert after[0] == "after recovery" and after[-1] == "False"
+    assert after[0] == "after recovery" and after[-1] == "not met"
     assert TARGET.text in present.summary_tables(s)[0]["notes"][0]
 
 
@@ -70,3 +71,40 @@ def test_the_atlas_and_the_experiments_count_a_fall_as_not_met():
     per_case = next(ln for ln in md.splitlines() if ln.startswith("| Legs 1 & 6 lost |") and ln != line)
     assert per_case.split("|")[2].strip().endswith("; 0/1")  # the nominal column, judged by TARGET
     assert TARGET.text in md
+
+
+# 8 cm/s forward, 0.25 cm/s sideways, 0.5 deg/s of yaw over 4 s: the paper's pace (5 cm/s over 10 s)
+PACED_4S = {"x_f_m": 0.01, "y_f_m": 0.32, "yaw_f_deg": 2.0, "roll_amp_deg": 2.0, "pitch_amp_deg": 2.0,
+            "tilt_max_deg": 5.0, "under_3_feet_frac": 0.1, "fell": False}
+
+
+def scaled(summary: dict, walk_s: float) -> dict:
+    return summary | {"target": summary["target"] | {"walk_s": walk_s}}
+
+
+def test_the_target_scales_with_the_walk_and_the_10_s_walk_keeps_the_papers_numbers():
+    assert limits(10.0) == LIMITS and target_for(10.0).text == TARGET.text  # the docs' verdicts stand
+    assert LIMITS == {"y_min_m": 0.5, "x_abs_max_m": 0.05, "yaw_abs_max_deg": 10.0}
+    # 32 cm in 4 s is 8 cm/s: met over 4 s, though short of the 10 s walk's 50 cm
+    assert target_met(PACED_4S, 4.0) is True and target_met(PACED_4S, 10.0) is False
+    assert target_for(4.0).text.startswith("forward >= 20 cm, |lateral| <= 2 cm, |yaw| <= 4 deg")
+    assert target_met(PACED_4S | {"x_f_m": 0.03}, 4.0) is False  # 0.75 cm/s of drift
+    assert target_met(PACED_4S | {"yaw_f_deg": -5.0}, 4.0) is False  # 1.25 deg/s of turning
+    assert target_met(PACED_4S, 20.0) is False  # a 20 s walk needs 100 cm
+    # too short to judge: not "not met", unless it fell
+    assert target_met(PACED_4S, 2.0) is None and target_met(PACED_4S | {"fell": True}, 2.0) is False
+    assert "too short" in basis_text(2.0) and "5 cm/s" in basis_text(4.0)
+
+
+def test_pages_and_tables_judge_by_the_walk_they_ran():
+    s = scaled(summary_of(PACED_4S), 4.0)
+    rows = {r["label"]: r for r in present.headline(s)}
+    assert rows["recovery target"]["value"] == "met" and rows["recovery target"]["target"] == target_for(4.0).text
+    assert rows["forward distance"]["target"] == ">= 20 cm" and "4 s walk" in rows["target basis"]["value"]
+    assert "5 cm/s" in views.table_two(s)["caption"]
+    short = scaled(summary_of(PACED_4S), 2.0)
+    rows = {r["label"]: r for r in present.headline(short)}
+    assert rows["recovery target"]["met"] is None and "too short" in rows["recovery target"]["value"]
+    assert all(r.get("met") is None for r in rows.values() if r["label"] != "random search (same budget) forward")
+    cell = views.table_two(short)["table"]["rows"][1][-1]
+    assert cell.get("met") is None and "too short" in cell["value"]
