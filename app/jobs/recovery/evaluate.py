@@ -10,6 +10,11 @@ With ``variants`` (models of the same size signature and timestep, e.g. perturbe
 friction or masses), every candidate runs on each of them in the same rollout call, one
 model per batch element: ``evaluate_all`` returns metrics of shape (P, K).
 
+With ``SimConfig.law`` (the spec's ``control.mode: closed_loop``), the set-points are not
+one period tiled: the chunks end at the correction's update ticks, and before each chunk
+``closedloop.ChunkController`` reads the chassis' orientation (and position) of every walk
+still going and computes its set-points for the chunk (app/jobs/recovery/gait_controller.py).
+
 Fall test: the robot has fallen when its chassis, a coxa or a femur touches the ground
 (MuJoCo contact sensors ``*_ground``, see ``app.robots.hexapod.add_fall_sensors``), or
 when the body tilts past ``max_tilt_deg`` or sags below half its standing height.
@@ -25,8 +30,9 @@ import numpy as np
 from mujoco import rollout
 
 from app.robots.ik import leg_ik
+from app.jobs.recovery.closedloop import ChunkController, Law
 from app.jobs.recovery.sequences import GaitSequence
-from app.jobs.recovery.trajectory import tip_positions
+from app.jobs.recovery.trajectory import tip_positions, tip_shapes
 from app.robots.catalog import RobotEntry
 from app.robots.hexapod import JOINT_NAMES
 from app.jobs.recovery.metrics import body_metrics, euler_zyx, fallen, fitness_bound
@@ -46,6 +52,7 @@ class SimConfig:
     step_depth_m: float = 0.0
     max_tilt_deg: float = 60.0
     nthread: int | None = None
+    law: Law | None = None  # the closed-loop correction; None: open loop (the paper)
 
 
 @dataclasses.dataclass
@@ -161,11 +168,20 @@ class GaitEvaluator:
                               dtype=int)
 
     # -- controls ---------------------------------------------------------------------
+    def period_tips(self, params: np.ndarray) -> np.ndarray:
+        """Tip targets (P, n_period, nlegs, 3) over one gait period, in the hip frames."""
+        t = np.arange(self.n_period) * self.dt
+        return tip_positions(params, self.legs, self.seq, t, self.n_period * self.dt,
+                             self.cfg.stance_height_m, self.cfg.step_depth_m)
+
+    def stride_shape(self) -> np.ndarray:
+        """Eq. 3's stride shape y_rel (n_period, nlegs) in [-1, 1] (closed loop scales it)."""
+        t = np.arange(self.n_period) * self.dt
+        return tip_shapes(t, self.n_period * self.dt, self.seq, self.legs)[0]
+
     def joint_targets(self, params: np.ndarray) -> np.ndarray:
         """Joint setpoints (P, n_period, nlegs, 3) over one gait period."""
-        t = np.arange(self.n_period) * self.dt
-        tips = tip_positions(params, self.legs, self.seq, t, self.n_period * self.dt,
-                             self.cfg.stance_height_m, self.cfg.step_depth_m)
+        tips = self.period_tips(params)
         tips[..., 1] *= self.sides  # hip frame (y forward) -> leg frame (left legs turned 180 deg)
         return leg_ik(tips, self.robot.geometry.link_lengths)
 
@@ -218,7 +234,10 @@ class GaitEvaluator:
         variant b % K); returns (sensordata (B, T, ns), alive-until step (B,), states
         (B, T, nstate) if record else None, steps simulated). With ``cutoff`` (one model),
         a walk also ends at the chunk after which its fitness can no longer reach its
-        threshold: ``cutoff.cut`` and ``cutoff.bound`` then say which and the bound."""
+        threshold: ``cutoff.cut`` and ``cutoff.bound`` then say which and the bound.
+        With ``record``, ``self.recorded`` holds the set-points applied (B, T, nu) and, in
+        closed loop, the last command of each walk."""
+        params = np.atleast_2d(params)
         period, state = self.period_controls(params)
         K = len(self.variants)
         if K > 1:
@@ -228,19 +247,26 @@ class GaitEvaluator:
         models[:] = self.variants * (P // K)
         sens = np.zeros((P, self.nstep, self.model.nsensordata))
         states = np.zeros((P, self.nstep, self._nstate)) if record else None
+        ctrls = np.zeros((P, self.nstep, self.model.nu)) if record else None
         end = np.full(P, self.nstep)
         alive = np.arange(P)
+        loop = None if self.cfg.law is None else ChunkController(self, np.repeat(params, K, axis=0), self.cfg.law,
+                                                                 period)
         chunk = max(1, int(round(self.cfg.chunk_s / self.dt)))
+        stops = loop.boundaries() if loop is not None else list(range(chunk, self.nstep, chunk)) + [self.nstep]
         steps = 0
-        for start in range(0, self.nstep, chunk):
+        for start, stop in zip([0] + stops[:-1], stops):
             if alive.size == 0:
                 break
-            stop = min(start + chunk, self.nstep)
-            ctrl = period[alive][:, self.control_steps(start, stop)]
+            if loop is None:
+                ctrl = period[alive][:, self.control_steps(start, stop)]
+            else:
+                ctrl = loop.ctrl(alive, start, stop, state)
             st, sd = self._rollout(list(models[alive]), state[alive], ctrl)
             sens[alive, start:stop] = sd
             if record:
                 states[alive, start:stop] = st
+                ctrls[alive, start:stop] = ctrl
             steps += alive.size * (stop - start)
             state[alive] = st[:, -1]
             done = self._fell(sd)
@@ -248,6 +274,8 @@ class GaitEvaluator:
                 done |= cutoff.update(self, alive, sens, start, stop) & ~done
             end[alive[done]] = stop
             alive = alive[~done]
+        if record:
+            self.recorded = {"ctrl": ctrls, "commands": None if loop is None else loop.commands()}
         return sens, end, states, steps
 
     def _sensor(self, sens: np.ndarray, name: str) -> np.ndarray:
@@ -315,6 +343,7 @@ class GaitEvaluator:
             "roll_deg": ang[:, 1],
             "pitch_deg": ang[:, 2],
             "qpos": qpos,
+            "ctrl": self.recorded["ctrl"][0, :n],  # the servo set-points applied (rad), in actuator order
             "feet_m": feet,
             "foot_contact": contact,
             "legs": np.array(self.legs),

@@ -20,6 +20,7 @@ from app.jobs.base import JobResult, RunContext
 from app.jobs.evidence import ControlRow, PhaseContext, Phases, Robustness, control_seed
 from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
 from app.jobs.recovery.cases import walking_cases
+from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
 from app.jobs.recovery.metrics import TARGET, fitness, objective_terms
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
@@ -82,9 +83,13 @@ def sim_model(spec: RecoverySpec, robot: RobotEntry):
     return mspec, mspec.compile()
 
 
-def sim_config(spec: RecoverySpec) -> SimConfig:
+def sim_config(spec: RecoverySpec, open_loop: bool = False) -> SimConfig:
+    """The simulation settings of ``spec``; with ``open_loop``, without the closed-loop
+    correction even if the spec asks for it (the answer's open-loop re-runs)."""
+    law = None if open_loop else law_of(spec.control, spec.bounds.step_length_m
+                                        or get_robot(spec.robot).step_length_bounds)
     return SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
-                     stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m)
+                     stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m, law=law)
 
 
 def _scalars(metrics: Mapping[str, np.ndarray], k: int | None = None) -> dict:

@@ -140,6 +140,35 @@ class Gait(StrictModel):
     step_depth_m: float = Field(0.0, ge=0.0, le=0.02)
 
 
+class Control(StrictModel):
+    """How the gait is driven. open_loop: the searched gait's set-points, repeated (paper 000,
+    what Table II reproduces). closed_loop: the same gait with a heading and drift correction
+    on top, as a robot would run it (app/jobs/recovery/gait_controller.py, the module the
+    bundle ships): from the IMU's heading (and, with odometry, the lateral position) read
+    once per gait period or phase, a stride difference between the left and right legs
+    turns the robot back to its start heading and a sideways stride carries it back to its
+    line. The search, the answer's scoring and the robustness re-runs all use the mode; the
+    summary reports the answer both ways."""
+
+    mode: Literal["open_loop", "closed_loop"] = "open_loop"
+    update: Literal["period", "phase"] = Field("period", description=(
+        "when the correction reads its sensors and sets a new command (ramped in over the next interval): once "
+        "per gait period, or once per phase (the period over the sequence's sigma phases)"))
+    odometry: bool = Field(True, description=(
+        "use the chassis' lateral position (odometry) for the drift correction; false: IMU heading only"))
+    yaw_gain: float = Field(0.1, ge=0.0, le=1.0, description="stride difference (m) per radian of heading error")
+    yaw_integral_gain: float = Field(0.02, ge=0.0, le=1.0, description=(
+        "stride difference (m) per radian of heading error summed over the updates"))
+    lateral_gain: float = Field(0.5, ge=0.0, le=5.0, description="sideways stride (m) per metre of lateral offset")
+    lateral_integral_gain: float = Field(0.1, ge=0.0, le=5.0, description=(
+        "sideways stride (m) per metre of lateral offset summed over the updates"))
+    # The limits keep every tip inside the leg's workspace (tests/jobs/recovery/test_closedloop.py):
+    # each leg's stride also stays inside the search's step-length bounds.
+    stride_limit_m: float = Field(0.015, ge=0.0, le=0.03, description=(
+        "largest stride difference (m); each leg's stride also stays inside the step-length bounds"))
+    lateral_limit_m: float = Field(0.015, ge=0.0, le=0.03, description="largest sideways stride (m) per period")
+
+
 class Bounds(StrictModel):
     """Overrides of the paper's X_min / X_max (Sec. IV-B); omitted entries keep the paper's."""
 
@@ -186,6 +215,7 @@ class RecoverySpec(SpecBase):
     objective: Objective = Field(default_factory=Objective)
     sim: Sim = Field(default_factory=Sim)
     gait: Gait = Field(default_factory=Gait)
+    control: Control = Field(default_factory=Control)
     bounds: Bounds = Field(default_factory=Bounds)
     robust: Robust | None = None
     controls: Controls = Field(default_factory=Controls)

@@ -31,6 +31,21 @@ def leg_phase(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int]) 
     return np.mod(t[:, None] / period - offsets[None, :], 1.0)
 
 
+def tip_shapes(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int]) -> tuple[np.ndarray, ...]:
+    """Eq. 3's shapes (T, nlegs) each: the stride y_rel in [-1, 1] (the tip is at y0 +
+    L_sl/2 y_rel: back at -1 when its swing starts, forward at +1 when its support starts),
+    the swing lift z_rel and the support dip z_sup, both in [0, 2]."""
+    sigma = seq.sigma
+    phi = leg_phase(t, period, seq, legs)
+    swing = phi < 1.0 / sigma
+    u = phi * sigma
+    v = (phi - 1.0 / sigma) / (1.0 - 1.0 / sigma)
+    y_rel = np.where(swing, -np.cos(np.pi * u), np.cos(np.pi * v))
+    z_rel = np.where(swing, 1.0 - np.cos(2 * np.pi * u), 0.0)
+    z_sup = np.where(swing, 0.0, 1.0 - np.cos(2 * np.pi * v))
+    return y_rel, z_rel, z_sup
+
+
 def tip_positions(
     params: np.ndarray,
     legs: list[int],
@@ -51,14 +66,7 @@ def tip_positions(
     step_len = params[:, None, None, 2 * n]  # (P, 1, 1)
     step_h = params[:, None, None, 2 * n + 1]
 
-    sigma = seq.sigma
-    phi = leg_phase(t, period, seq, legs)[None]  # (1, T, n)
-    swing = phi < 1.0 / sigma
-    u = phi * sigma
-    v = (phi - 1.0 / sigma) / (1.0 - 1.0 / sigma)
-    y_rel = np.where(swing, -np.cos(np.pi * u), np.cos(np.pi * v))  # in [-1, 1]
-    z_rel = np.where(swing, 1.0 - np.cos(2 * np.pi * u), 0.0)
-    z_sup = np.where(swing, 0.0, 1.0 - np.cos(2 * np.pi * v))
+    y_rel, z_rel, z_sup = (a[None] for a in tip_shapes(t, period, seq, legs))  # (1, T, n) each
 
     out = np.empty((params.shape[0], t.shape[0], n, 3))
     out[..., 0] = x0

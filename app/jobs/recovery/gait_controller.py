@@ -1,0 +1,203 @@
+"""The set-points of a recovered gait, with its closed-loop heading and drift correction.
+
+This file is the controller a gaitmend recovery bundle ships (``controller/gait_controller.py``)
+and the very module gaitmend's simulation runs (app/jobs/recovery/closedloop.py): it imports
+numpy and nothing else, so it runs on a robot without gaitmend. ``gait.json`` beside it in
+the bundle holds the gait (``GaitController.from_json``).
+
+What it computes, per servo tick ``j`` of the walk (``j = 0`` when the walk starts, after the
+robot stood ``settle_steps`` ticks on the gait's first pose):
+
+- the open-loop tip targets of the gait (paper 000, Eq. 3), one period of them stored in
+  ``base_tips`` (hip frame: x outward, y forward, z up) and repeated;
+- the correction, updated every ``update_steps`` ticks (once per gait period or per phase)
+  from the IMU's body orientation and, with ``odometry``, the body's position:
+  * heading: yaw error e (rad) from the yaw at the walk's start -> stride difference
+    d = clip(yaw_gain e + yaw_integral_gain sum(e), +-stride_limit_m); each leg's stride is
+    clip(L - side d, stride_bounds widened to hold L) (side -1 left, +1 right), so a robot turned left
+    (e > 0) takes longer strides on its left and turns back right;
+  * drift: lateral offset s (m) from the start, across the start heading -> a crab stride
+    c = -clip(lateral_gain s + lateral_integral_gain sum(s), +-lateral_limit_m): every foot
+    moves c/2 -> -c/2 sideways over its support (as the stride moves it forward to back),
+    which carries the body c per period back toward its line;
+  * the integrals stop growing where their term alone reaches the limit (anti-windup);
+  * a new command is ramped in linearly over the next ``update_steps`` ticks, so the
+    set-points never jump;
+- each tip through the closed-form leg IK (Eq. 11; the same arithmetic as
+  app/robots/ik.py ``leg_ik``, checked bit for bit by gaitmend's tests) -> coxa, femur,
+  tibia angles in radians, from the model's zero pose.
+
+Everything is batched over ``batch`` robots (the simulation runs a whole population at
+once); on a robot, ``batch`` is 1.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+GAINS = ("yaw_gain", "yaw_integral_gain", "lateral_gain", "lateral_integral_gain")
+LIMITS = ("stride_limit_m", "lateral_limit_m")
+
+
+def leg_ik(p: np.ndarray, lengths) -> np.ndarray:
+    """Joint angles (..., 3) for tip positions p (..., 3) in the leg frame (origin at the
+    coxa axis, x outward, z up); points out of reach are clamped to the boundary."""
+    L1, L2, L3 = lengths
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    q1 = np.arctan2(y, x)
+    r = np.cos(q1) * x + np.sin(q1) * y - L1
+    D = (r * r + z * z - L2 * L2 - L3 * L3) / (2.0 * L2 * L3)
+    D = np.clip(D, -1.0, 1.0)
+    q3 = -np.arccos(D)
+    s3, c3 = np.sin(q3), np.cos(q3)
+    q2 = np.arctan2(z, r) - np.arctan2(L3 * s3, L3 * c3 + L2)
+    return np.stack([q1, q2, q3], axis=-1)
+
+
+def yaw_of(quat: np.ndarray) -> np.ndarray:
+    """Heading (rad) about the world's vertical of body orientations (..., 4) w, x, y, z."""
+    w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
+    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+class GaitController:
+    """One gait, its correction law and the correction's state for ``batch`` robots.
+
+    ``base_tips`` (batch or 1, n_period, nlegs, 3) and ``step_length`` (batch or 1,) are
+    the gait's; ``y_rel`` (n_period, nlegs) its stride shape; ``sides`` (nlegs,) -1/+1.
+    ``law`` None is the open-loop gait (the correction stays 0)."""
+
+    def __init__(self, base_tips, y_rel, step_length, sides, link_lengths, stride_bounds, update_steps: int,
+                 law: dict | None = None, batch: int = 1):
+        base = np.asarray(base_tips, dtype=float)
+        self.base_tips = np.broadcast_to(base if base.ndim == 4 else base[None], (batch,) + base.shape[-3:])
+        self.y_rel = np.asarray(y_rel, dtype=float)
+        self.step_length = np.broadcast_to(np.asarray(step_length, dtype=float).reshape(-1), (batch,))
+        self.sides = np.asarray(sides, dtype=float)
+        self.link_lengths = tuple(float(v) for v in link_lengths)
+        self.stride_bounds = (float(stride_bounds[0]), float(stride_bounds[1]))
+        self.n_period = self.y_rel.shape[0]
+        self.update_steps = int(update_steps)
+        self.law = None if law is None else {k: float(law[k]) for k in GAINS + LIMITS} | {
+            "odometry": bool(law.get("odometry", True))}
+        self.batch = batch
+        z = np.zeros(batch)
+        # per robot: heading and position at the walk's start; the integrals; the command
+        # in force before the last update and the one the last update set ([stride, crab])
+        self.yaw0, self.pos0 = z.copy(), np.zeros((batch, 2))
+        self.sum_yaw, self.sum_lat = z.copy(), z.copy()
+        self.cmd_prev, self.cmd = np.zeros((batch, 2)), np.zeros((batch, 2))
+
+    @classmethod
+    def from_json(cls, path, batch: int = 1) -> "GaitController":
+        g = json.loads(Path(path).read_text())
+        return cls(g["base_tips_m"], g["y_rel"], g["step_length_m"], g["sides"], g["link_lengths_m"],
+                   g["stride_bounds_m"], g["update_steps"], g["law"], batch)
+
+    # -- the correction ----------------------------------------------------------------
+    def start(self, quat, pos=None, rows=None) -> None:
+        """The walk starts (tick 0): the heading and position to hold are the current ones."""
+        rows = slice(None) if rows is None else rows
+        self.yaw0[rows] = yaw_of(quat)
+        if pos is not None:
+            self.pos0[rows] = np.asarray(pos, dtype=float)[..., :2]
+        self.sum_yaw[rows] = self.sum_lat[rows] = 0.0
+        self.cmd_prev[rows] = self.cmd[rows] = 0.0
+
+    def update(self, quat, pos=None, rows=None) -> np.ndarray:
+        """A new command ([stride difference m, crab stride m] per robot) from the latest
+        IMU orientation (w, x, y, z) and, with odometry, position (x, y[, z]) in the frame
+        the walk started in; it is ramped in over the next ``update_steps`` ticks."""
+        rows = np.arange(self.batch) if rows is None else np.asarray(rows)
+        self.cmd_prev[rows] = self.cmd[rows]
+        if self.law is None:
+            return self.cmd[rows]
+        L = self.law
+        e = _wrap(yaw_of(quat) - self.yaw0[rows])
+        self.sum_yaw[rows] = _accumulate(self.sum_yaw[rows], e, L["yaw_integral_gain"], L["stride_limit_m"])
+        d = np.clip(L["yaw_gain"] * e + L["yaw_integral_gain"] * self.sum_yaw[rows],
+                    -L["stride_limit_m"], L["stride_limit_m"])
+        c = np.zeros_like(d)
+        if L["odometry"] and pos is not None:
+            dp = np.asarray(pos, dtype=float)[..., :2] - self.pos0[rows]
+            psi0 = self.yaw0[rows]
+            s = np.cos(psi0) * dp[..., 0] + np.sin(psi0) * dp[..., 1]  # across the start heading, + to the right
+            self.sum_lat[rows] = _accumulate(self.sum_lat[rows], s, L["lateral_integral_gain"], L["lateral_limit_m"])
+            c = -np.clip(L["lateral_gain"] * s + L["lateral_integral_gain"] * self.sum_lat[rows],
+                         -L["lateral_limit_m"], L["lateral_limit_m"])
+        self.cmd[rows] = np.stack([d, c], axis=-1)
+        return self.cmd[rows]
+
+    # -- set-points --------------------------------------------------------------------
+    def commands(self, j0: int, j1: int, rows=None) -> np.ndarray:
+        """The command in force at ticks [j0, j1) (robots, T, 2): the ramp from the previous
+        command to the last one over the ``update_steps`` ticks after the last update."""
+        rows = slice(None) if rows is None else rows
+        j = np.arange(j0, j1)
+        w = np.minimum((j % self.update_steps + 1) / self.update_steps, 1.0)[None, :, None]
+        return self.cmd_prev[rows][:, None] + w * (self.cmd[rows] - self.cmd_prev[rows])[:, None]
+
+    def tips(self, j0: int, j1: int, rows=None) -> np.ndarray:
+        """Corrected tip targets (robots, T, nlegs, 3) in the hip frames at ticks [j0, j1)."""
+        rows_ = slice(None) if rows is None else rows
+        k = np.arange(j0, j1) % self.n_period
+        base = self.base_tips[rows_][:, k]
+        if self.law is None:
+            return base
+        cmd = self.commands(j0, j1, rows)
+        L = self.step_length[rows_][:, None, None]
+        y_rel = self.y_rel[k][None]
+        # the gait's bounds, widened to hold its own stride (a zero command leaves it as it is)
+        lo, hi = np.minimum(self.stride_bounds[0], L), np.maximum(self.stride_bounds[1], L)
+        stride = np.clip(L - self.sides * cmd[..., 0:1], lo, hi)
+        out = np.array(base)
+        out[..., 1] += 0.5 * (stride - L) * y_rel
+        out[..., 0] += self.sides * 0.5 * cmd[..., 1:2] * y_rel
+        return out
+
+    def joint_angles(self, j0: int, j1: int, rows=None) -> np.ndarray:
+        """Coxa, femur, tibia set-points (robots, T, nlegs, 3) in radians at ticks [j0, j1)."""
+        return self.angles_of(self.tips(j0, j1, rows))
+
+    def settle_pose(self) -> np.ndarray:
+        """The set-points (robots, nlegs, 3) the robot stands on before the walk (tick 0's
+        open-loop pose)."""
+        return self.angles_of(self.base_tips[:, 0])
+
+    def angles_of(self, tips: np.ndarray) -> np.ndarray:
+        leg = np.array(tips)
+        leg[..., 1] *= self.sides  # hip frame -> leg frame (left legs are turned 180 deg about z)
+        return leg_ik(leg, self.link_lengths)
+
+
+def _accumulate(total: np.ndarray, e: np.ndarray, gain: float, limit: float) -> np.ndarray:
+    """The integral plus ``e``, held where its term alone would pass the limit."""
+    if gain <= 0.0:
+        return total
+    cap = limit / gain
+    return np.clip(total + e, -cap, cap)
+
+
+def walk(ctl: GaitController, readings, n_walk: int) -> np.ndarray:
+    """Every set-point of a walk of ``n_walk`` ticks (robots, n_walk, nlegs, 3), given the
+    readings ``readings(j) -> (quat, pos)`` at each update tick j (the last reading before
+    tick j); tick 0's reading starts the correction. A robot's control loop does the same,
+    one tick at a time: at each update tick read the IMU, call ``update``, then send
+    ``joint_angles(j, j + 1)`` every servo tick."""
+    out = np.empty((ctl.batch, n_walk, ctl.y_rel.shape[1], 3))
+    for j0 in range(0, n_walk, ctl.update_steps):
+        quat, pos = readings(j0)
+        if j0 == 0:
+            ctl.start(quat, pos)
+        else:
+            ctl.update(quat, pos)
+        j1 = min(j0 + ctl.update_steps, n_walk)
+        out[:, j0:j1] = ctl.joint_angles(j0, j1)
+    return out
