@@ -27,7 +27,9 @@ class LocalContext(MemoryContext):
     checkpoints kept in memory."""
 
     def __init__(self, artifact_dir: Path, progress: Progress | None, task=None, kind=None):
-        super().__init__(artifact_dir)
+        from app.cli.robot import load_local_robot
+
+        super().__init__(artifact_dir, robots=load_local_robot)  # robots uploaded with `gaitmend robot add`
         self._progress, self._task, self._kind = progress, task, kind
 
     def progress(self, done: int, total: int, info: dict[str, Any]) -> None:

@@ -36,6 +36,28 @@ def _legs_text(legs: dict) -> str:
     return f"trunk {legs['trunk']}, forward {legs['forward']}\n" + "\n".join(rows)
 
 
+def load_local_robot(robot_id: str):
+    """A robot stored here (owner "local"), as a job runs it: `gaitmend run` / `verify`."""
+    from app.jobs.base import SpecError
+    from app.store import repo, robots as store
+    from app.store.db import session_scope
+
+    settings = settings_or_exit()
+    _database(settings)
+    try:
+        with session_scope(settings.db_url, readonly=True) as s:
+            return store.load_robot(s, settings.data_dir, robot_id, OWNER)
+    except repo.NotFound:
+        raise SpecError([{"field": "robot", "message": f"no robot {robot_id!r} stored here "
+                                                       "(gaitmend robot list)"}]) from None
+
+
+def _kinds() -> list[str]:
+    from app.jobs.registry import user_robot_kinds
+
+    return user_robot_kinds()
+
+
 @robot_app.command("add")
 def robot_add(model: Path = typer.Argument(..., help="the MJCF file (or a .zip holding it and its assets)"),
               assets: Optional[Path] = typer.Option(None, "--assets", help="folder of the files the model references "
@@ -73,7 +95,7 @@ def robot_add(model: Path = typer.Argument(..., help="the MJCF file (or a .zip h
         row, created = store.add_robot(s, settings.data_dir, owner=OWNER, name=prepared.name,
                                        content_hash=prepared.content_hash, legs=prepared.legs.to_json(), info=info,
                                        xml=prepared.xml, assets=prepared.assets)
-        out = store.as_dict(row)
+        out = store.as_dict(row, _kinds())
     out["created"] = created
     seconds = time.perf_counter() - t0
     if as_json:
@@ -93,7 +115,7 @@ def robot_list(as_json: bool = typer.Option(False, "--json")):
     settings = settings_or_exit()
     _database(settings)
     with session_scope(settings.db_url, readonly=True) as s:
-        rows = [store.as_dict(r) for r in store.list_robots(s, OWNER)]
+        rows = [store.as_dict(r, _kinds()) for r in store.list_robots(s, OWNER)]
     if as_json:
         print(json.dumps(rows))
         return
@@ -112,7 +134,7 @@ def robot_show(robot_id: str, as_json: bool = typer.Option(False, "--json")):
     _database(settings)
     try:
         with session_scope(settings.db_url, readonly=True) as s:
-            out = store.as_dict(store.get_robot(s, robot_id, OWNER))
+            out = store.as_dict(store.get_robot(s, robot_id, OWNER), _kinds())
     except repo.NotFound:
         fail(f"no robot {robot_id!r}")
     print(json.dumps(out) if as_json else f"{out['id']}  {out['name']}\n" + _legs_text(out["legs"]))

@@ -78,6 +78,11 @@ class RunContext(Protocol):
 
     def is_cancelled(self) -> bool: ...
 
+    def load_robot(self, robot_id: str) -> Any:
+        """An uploaded robot by its id (app/robots/legmap.py ``Robot``: the stored, sanitised
+        model, its assets and leg map), for a kind with ``user_robots``; SpecError (field
+        robot) when there is none of that id."""
+
 
 @dataclasses.dataclass
 class JobResult:
@@ -318,6 +323,16 @@ class Kind(abc.ABC):
     def damage_text(self, spec: SpecBase) -> str:
         """The damage (or scenario) in words, e.g. 'lost 1,6; locked 2.femur'."""
         return "none"
+
+    user_robots: ClassVar[bool] = False
+    """Whether the kind runs on an uploaded robot (its spec's ``robot`` is the robot's id;
+    the run reads it with ``RunContext.load_robot``): /api/robots lists the kind for them."""
+
+    def user_robot_error(self, spec: SpecBase, legs: dict[str, Any]) -> str | None:
+        """Why ``spec`` cannot run on the uploaded robot of leg map ``legs`` (JSON): a leg or
+        joint it names that the map lacks, a robot that cannot stand ...; None when it can.
+        The API asks before it queues the job."""
+        return None
 
     damage_label: ClassVar[str] = "Damage"
     """What ``damage_text`` words, as the job page labels it ("Damage", "Scenario", "Task")."""
@@ -678,9 +693,10 @@ class MemoryContext:
     """A run context with no outside world: checkpoints kept in memory, no progress shown,
     never cancelled (experiments, benchmarks, `gaitmend run` wraps it with a progress bar)."""
 
-    def __init__(self, artifact_dir: Path | None = None):
+    def __init__(self, artifact_dir: Path | None = None, robots: Callable[[str], Any] | None = None):
         self.artifact_dir = Path(artifact_dir) if artifact_dir is not None else Path(".")
         self._ckpt: dict[str, Any] | None = None
+        self._robots = robots  # robot id -> the uploaded robot (the CLI reads this machine's store)
 
     def progress(self, done: int, total: int, info: dict[str, Any]) -> None:
         pass
@@ -693,3 +709,8 @@ class MemoryContext:
 
     def is_cancelled(self) -> bool:
         return False
+
+    def load_robot(self, robot_id: str) -> Any:
+        if self._robots is None:
+            raise SpecError([{"field": "robot", "message": f"no uploaded robot {robot_id!r}: this run has no robots"}])
+        return self._robots(robot_id)

@@ -67,6 +67,11 @@ def parse_spec(data: Any):
     return get_kind(data["kind"]).Spec.parse(data)
 
 
+def user_robot_kinds() -> list[str]:
+    """The kinds that run on an uploaded robot (``Kind.user_robots``)."""
+    return [k.name for k in KINDS.values() if k.user_robots]
+
+
 def robots() -> dict[str, dict[str, Any]]:
     """Every robot any kind serves: {name: {"description", "kinds": [kind names]}}."""
     out: dict[str, dict[str, Any]] = {}

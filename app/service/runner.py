@@ -271,6 +271,23 @@ class DbRunContext:
             raise Handoff()
         return cancel
 
+    def load_robot(self, robot_id: str):
+        """The uploaded robot the job names, as stored (sanitised) under the data folder; the
+        API checked that it is the job owner's when it queued the job, and a robot a queued
+        or running job names cannot be deleted."""
+        from app.store import robots as robot_store
+
+        def load(s):
+            try:
+                return robot_store.load_robot(s, self.settings.data_dir, robot_id)
+            except repo.NotFound:
+                return None
+
+        robot = self._tx("load robot", load, readonly=True)
+        if robot is None:
+            raise SpecError([{"field": "robot", "message": f"no uploaded robot {robot_id!r}"}])
+        return robot
+
     # -- the end ------------------------------------------------------------------------------
     def finishing(self) -> None:
         """The kind returned: from now on the stop deadline lets the job finish."""

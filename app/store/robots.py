@@ -114,13 +114,25 @@ def read_files(data_dir: Path, robot_id: str, names: list[str]) -> tuple[str, di
     return xml, {n: (folder / "assets" / n).read_bytes() for n in names}
 
 
-def as_dict(row: RobotRow) -> dict:
+def load_robot(s: Session, data_dir: Path, robot_id: str, owner: str | None = None):
+    """The stored robot as a job runs it (app/robots/legmap.py ``Robot``): the sanitised
+    model, its assets and its leg map. NotFound for a missing one (or another owner's)."""
+    from app.robots.legmap import LegMap, Robot
+
+    row = get_robot(s, robot_id, owner)
+    xml, assets = read_files(data_dir, row.id, list(row.info.get("files", [])))
+    return Robot(name=row.name, mjcf=xml, assets=assets, legs=LegMap.parse(row.legs))
+
+
+def as_dict(row: RobotRow, kinds: list[str] | tuple[str, ...] = ()) -> dict:
+    """The robot as the API and the CLI show it; ``kinds``: the job kinds that run on an
+    uploaded robot (the registry's, which the store does not import)."""
     return {"id": row.id, "name": row.name, "owner": row.owner, "content_hash": row.content_hash,
             "created_at": row.created_at.isoformat(), "legs": row.legs,
             "detected": bool(row.info.get("detected")), "stats": row.info.get("stats", {}),
             "points": row.info.get("points", {}), "files": row.info.get("files", []),
-            "kinds": [], "kinds_coming": ["recovery"]}
+            "kinds": list(kinds)}
 
 
-def dumps(row: RobotRow) -> str:
-    return json.dumps(as_dict(row))
+def dumps(row: RobotRow, kinds: list[str] | tuple[str, ...] = ()) -> str:
+    return json.dumps(as_dict(row, kinds))

@@ -78,6 +78,31 @@ async def read_spec(request: Request, settings: Settings):
     return spec
 
 
+async def check_robot(spec, who: Principal, db: Db) -> None:
+    """A spec naming an uploaded robot: it must be one of the caller's (422 naming `robot`,
+    the same for another owner's robot as for a missing one) and the spec must fit its leg
+    map (422 naming the damage)."""
+    from app.jobs.registry import get_kind, robots as builtin_robots
+    from app.store import robots as robot_store
+
+    name = getattr(spec, "robot", None)
+    if name is None or name in builtin_robots():
+        return
+
+    def legs(s):
+        try:
+            return robot_store.get_robot(s, name, who.owner_filter).legs
+        except repo.NotFound:
+            return None
+
+    found = await db.read(legs)
+    if found is None:
+        raise ApiError(422, f"robot: no robot {name!r} of yours (GET /api/robots lists them)", field="robot")
+    why = get_kind(spec.kind).user_robot_error(spec, found)
+    if why is not None:
+        raise ApiError(422, why, field=why.split(":", 1)[0])
+
+
 @router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,
              "description": "a retry with the same Idempotency-Key: the job created the first time"}},
              openapi_extra={"requestBody": {"required": True, "content": {
@@ -89,6 +114,7 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     checked before anything is written."""
     settings = settings_of(request)
     spec = await read_spec(request, settings)
+    await check_robot(spec, who, db)
     full = spec.model_dump(mode="json")
 
     def existing():

@@ -16,7 +16,7 @@ from app.api.auth import Principal, principal
 from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
 from app.api.schemas import ERROR_RESPONSES, ErrorOut
-from app.jobs.registry import KINDS, robots as builtin_robots
+from app.jobs.registry import KINDS, robots as builtin_robots, user_robot_kinds
 from app.robots.upload import LIMITS, RefusedUpload, from_parts, from_zip, prepare
 from app.store import robots as store
 
@@ -59,12 +59,13 @@ async def _who(request: Request) -> Principal | None:
 
 @router.get("", responses=ERRORS)
 async def list_robots(request: Request, db: Db = Depends(get_db)) -> list[dict]:
-    """Every built-in robot with the kinds that simulate it, then your own robots. An uploaded
-    robot runs no kind yet: `kinds` is empty and `kinds_coming` says recovery is coming."""
+    """Every built-in robot with the kinds that simulate it, then your own robots with the
+    kinds that run on an uploaded robot (a job names it by its `id`)."""
     who = await _who(request)
     own = []
+    kinds = user_robot_kinds()
     if who is not None:
-        rows = await db.read(lambda s: [store.as_dict(r) for r in store.list_robots(s, who.owner_filter)])
+        rows = await db.read(lambda s: [store.as_dict(r, kinds) for r in store.list_robots(s, who.owner_filter)])
         own = [r | {"builtin": False, "description": f"uploaded MJCF robot, {len(r['legs']['legs'])} legs"}
                for r in rows]
     return _builtins() + own
@@ -76,7 +77,9 @@ async def get_robot(robot_id: RobotId, who: Principal = Depends(principal), db: 
     for r in _builtins():
         if r["name"] == robot_id:
             return r
-    return await db.read(lambda s: store.as_dict(store.get_robot(s, robot_id, who.owner_filter)), missing="robot")
+    kinds = user_robot_kinds()
+    return await db.read(lambda s: store.as_dict(store.get_robot(s, robot_id, who.owner_filter), kinds),
+                         missing="robot")
 
 
 @router.delete("/{robot_id}", status_code=204, responses=ERRORS)
@@ -162,7 +165,7 @@ async def add_robot(request: Request, response: Response, who: Principal = Depen
         row, created = store.add_robot(s, data_dir, owner=owner, name=prepared.name, content_hash=prepared.content_hash,
                                        legs=prepared.legs.to_json(), info=info, xml=prepared.xml,
                                        assets=prepared.assets)
-        return store.as_dict(row), created
+        return store.as_dict(row, user_robot_kinds()), created
 
     out, created = await db.write(write, missing="robot")
     if not created:

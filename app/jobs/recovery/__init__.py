@@ -35,9 +35,18 @@ class RecoveryKind(PackageKind):
     views = staticmethod(kind_views.views)
     history_axis = staticmethod(kind_views.history_axis)
     study_views = staticmethod(kind_views.study_views)
+    metric_names = staticmethod(kind_views.metric_names)  # controls and robustness in cm and deg
+    page_tables = staticmethod(kind_views.page_tables)
+
+    user_robots = True  # an uploaded robot by its id (app/jobs/recovery/userrobot.py)
 
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
+
+    def user_robot_error(self, spec, legs):
+        from app.jobs.recovery.userrobot import spec_error
+
+        return spec_error(spec, legs)
 
     def smoke_spec(self):
         return {"kind": "recovery", "damage": {"lost_legs": [3, 4]},

@@ -136,6 +136,34 @@ class GaitEvaluator:
         self._runner = rollout.Rollout(nthread=self.nthread) if self.nthread > 1 else None
         self._buffers: dict[str, np.ndarray] = {}
 
+        self.root_quat = (1.0, 0.0, 0.0, 0.0)  # the trunk's orientation in every walk's first state
+        self._leg_layout(robot, model, cfg)
+        # qpos address of each actuated joint, to start every candidate in its first pose.
+        self.qpos_adr = np.array([model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
+        d = mujoco.MjData(model)
+        self._nstate = mujoco.mj_stateSize(model, _STATE)
+        self._state0 = np.empty(self._nstate)
+        mujoco.mj_getState(model, d, self._state0, _STATE)
+        self._qpos_off = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)
+        self._sens = {n: (model.sensor_adr[i], model.sensor_dim[i])
+                      for i in range(model.nsensor)
+                      for n in [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)]}
+        self._ground = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                                 if model.sensor_type[i] == mujoco.mjtSensor.mjSENS_CONTACT
+                                 and mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_ground")],
+                                dtype=int)
+        self._feet = np.array([model.sensor_adr[i] for i in range(model.nsensor)
+                               if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_foot_touch")],
+                              dtype=int)
+
+    def _leg_layout(self, robot: RobotEntry, model: mujoco.MjModel, cfg: SimConfig) -> None:
+        """The legs' side signs, the ctrl column of each (leg, joint), the standing and the
+        fall heights. An uploaded robot (``robot.gait_layout``, app/jobs/recovery/userrobot.py)
+        sets these, its first orientation and its own ``joint_targets`` (numerical IK)."""
+        custom = getattr(robot, "gait_layout", None)
+        if custom is not None:
+            custom(self, model, cfg)
+            return
         geom = robot.geometry
         self.sides = np.array([geom.leg(l).side for l in self.legs])
         # ctrl column of each (leg, joint), or -1 for a joint without an actuator (locked).
@@ -147,25 +175,8 @@ class GaitEvaluator:
             if leg in self.legs:
                 cols[self.legs.index(leg), JOINT_NAMES.index(joint_s)] = a
         self.ctrl_cols = cols
-        # qpos address of each actuated joint, to start every candidate in its first pose.
-        self.qpos_adr = np.array([model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
-        d = mujoco.MjData(model)
-        self._nstate = mujoco.mj_stateSize(model, _STATE)
-        self._state0 = np.empty(self._nstate)
-        mujoco.mj_getState(model, d, self._state0, _STATE)
-        self._qpos_off = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)
         self.torso_height0 = cfg.stance_height_m + geom.foot_radius + 0.002
         self.min_height = 0.5 * (cfg.stance_height_m + geom.foot_radius)
-        self._sens = {n: (model.sensor_adr[i], model.sensor_dim[i])
-                      for i in range(model.nsensor)
-                      for n in [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)]}
-        self._ground = np.array([model.sensor_adr[i] for i in range(model.nsensor)
-                                 if model.sensor_type[i] == mujoco.mjtSensor.mjSENS_CONTACT
-                                 and mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_ground")],
-                                dtype=int)
-        self._feet = np.array([model.sensor_adr[i] for i in range(model.nsensor)
-                               if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_foot_touch")],
-                              dtype=int)
 
     # -- controls ---------------------------------------------------------------------
     def period_tips(self, params: np.ndarray) -> np.ndarray:
@@ -195,7 +206,7 @@ class GaitEvaluator:
         state = np.repeat(self._state0[None], P, axis=0)
         qpos = state[:, self._qpos_off : self._qpos_off + self.model.nq]
         qpos[:, 0:3] = (0.0, 0.0, self.torso_height0)
-        qpos[:, 3:7] = (1.0, 0.0, 0.0, 0.0)
+        qpos[:, 3:7] = self.root_quat
         qpos[:, self.qpos_adr] = period[:, 0]
         return period, state
 

@@ -28,7 +28,7 @@ from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nomina
 from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.recovery.trajectory import param_names
 from app.optim.registry import make_optimizer
-from app.robots.catalog import RobotEntry, get_robot
+from app.robots.catalog import ROBOTS, RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
 from app.sim.perturb import Perturbation, edit_model
 
@@ -263,7 +263,7 @@ def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
 
 def _half_step_evaluator(job: _Job) -> GaitEvaluator:
     return GaitEvaluator(job.robot, edit_model(job.model, Perturbation("half", "half step", timestep_scale=0.5)),
-                         job.seq, sim_config(job.spec))
+                         job.seq, job.ev.cfg)
 
 
 def search(job: _Job, phases: Phases) -> None:
@@ -380,7 +380,7 @@ def _target_reached(out: SearchOutcome) -> dict:
 def summary(job: _Job) -> dict:
     search_out = job.searches["search"]
     best = job.best | {"params": _params(job.names, search_out.best_x), "target_met": TARGET.met(job.best["metrics"])}
-    baseline = job.baseline | {"params": _params(job.names, job.nominal_x), "gait": nominal_tripod(job.legs).as_dict(),
+    baseline = job.baseline | {"params": _params(job.names, job.nominal_x), "gait": job.base_ev.seq.as_dict(),
                                "target_met": TARGET.met(job.baseline["metrics"])}
     return {
         "kind": "recovery",
@@ -411,7 +411,12 @@ def summary(job: _Job) -> dict:
 
 def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     t0 = time.perf_counter()
-    job = set_up(spec)
+    if spec.robot in ROBOTS:
+        job = set_up(spec)
+    else:  # an uploaded robot, as the service or the CLI stored it
+        from app.jobs.recovery import userrobot
+
+        job = userrobot.set_up(spec, ctx.load_robot(spec.robot), _Job, _Scorer)
     try:
         phases = Phases(ctx, phase_sizes(spec))
         job.setup_s = time.perf_counter() - t0
@@ -423,5 +428,6 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     finally:
         job.close()
     job.wall_s += time.perf_counter() - post_start  # the searches (across resumes) + the post-search steps
-    return JobResult(summary=summary(job), history=job.searches["search"].history, traces=job.traces,
+    extra = {"uploaded_robot": job.robot.summary()} if spec.robot not in ROBOTS else {}
+    return JobResult(summary=summary(job) | extra, history=job.searches["search"].history, traces=job.traces,
                      model_xml=job.mspec.to_xml(), evaluations=job.evaluations, sim_steps=job.sim_steps)

@@ -3,6 +3,7 @@ gait and search-space bounds; every default is the paper's."""
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -60,6 +61,50 @@ class Damage(StrictModel):
                     raise ValueError(f"{name}: leg {j.leg} is listed as lost")
                 if (j.leg, j.joint) in seen:
                     raise ValueError(f"{name}: joint {j.joint} of leg {j.leg} is damaged twice")
+                seen.add((j.leg, j.joint))
+        return self
+
+
+# An uploaded robot's damage names its leg map's legs and joints (app/robots/legmap.py).
+MapName = Annotated[str, Field(min_length=1, max_length=128, pattern=r"^[^\x00-\x1f\x7f]+$")]
+ROBOT_ID = r"^[0-9a-f]{32}$"  # an uploaded robot's id (app/store/robots.py)
+
+
+class NamedJointIn(StrictModel):
+    leg: MapName
+    joint: MapName
+
+
+class NamedLockedJointIn(NamedJointIn):
+    angle_deg: float = Field(0.0, ge=-180.0, le=180.0, description="the joint's value it is held at (a slide "
+                                                                     "joint: 0, held at its reference)")
+
+
+class NamedWeakJointIn(NamedJointIn):
+    torque_scale: float = Field(0.5, gt=0.0, le=1.0)
+
+
+class RobotDamage(StrictModel):
+    """An uploaded robot's damage by its leg map's names: lost legs, locked joints, weak
+    joints (servo force limit scaled) and passive joints (no servo: the joint swings freely
+    with its damping)."""
+
+    lost_legs: list[MapName] = Field(default_factory=list, max_length=16)
+    locked_joints: list[NamedLockedJointIn] = Field(default_factory=list, max_length=128)
+    weak_joints: list[NamedWeakJointIn] = Field(default_factory=list, max_length=128)
+    passive_joints: list[NamedJointIn] = Field(default_factory=list, max_length=128)
+
+    @model_validator(mode="after")
+    def _once(self):
+        if len(set(self.lost_legs)) != len(self.lost_legs):
+            raise ValueError("lost_legs: each leg may be listed once")
+        seen = set()
+        for name in ("locked_joints", "weak_joints", "passive_joints"):
+            for j in getattr(self, name):
+                if j.leg in self.lost_legs:
+                    raise ValueError(f"{name}: leg {j.leg!r} is listed as lost")
+                if (j.leg, j.joint) in seen:
+                    raise ValueError(f"{name}: joint {j.joint!r} of leg {j.leg!r} is damaged twice")
                 seen.add((j.leg, j.joint))
         return self
 
@@ -210,6 +255,8 @@ class RecoverySpec(SpecBase):
     # One default for the API, the CLI and the dashboard: the paper's first case (Table II,
     # legs 1 and 6 lost). `"damage": {}` is the intact robot.
     damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
+    robot_damage: RobotDamage | None = Field(None, description=(
+        "an uploaded robot's damage, by its leg map's leg and joint names (`damage` is the built-in robots')"))
     search: Search = Field(default_factory=Search)
     stop: RecoveryStop = Field(default_factory=RecoveryStop)
     objective: Objective = Field(default_factory=Objective)
@@ -233,9 +280,28 @@ class RecoverySpec(SpecBase):
     @field_validator("robot")
     @classmethod
     def _known_robot(cls, v: str) -> str:
-        if v not in ROBOTS:
-            raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)}")
+        if v not in ROBOTS and not re.fullmatch(ROBOT_ID, v):
+            raise ValueError(f"unknown robot {v!r}; allowed: {sorted(ROBOTS)} or the id of one of your uploaded "
+                             "robots (32 hex digits, GET /api/robots)")
         return v
+
+    @model_validator(mode="after")
+    def _damage_of_the_robot(self):
+        """An uploaded robot's damage is robot_damage (its ``damage`` defaults to none)."""
+        uploaded = self.robot not in ROBOTS
+        if uploaded and "damage" not in self.model_fields_set:
+            self.damage = Damage()
+        if uploaded and getattr(getattr(self, "control", None), "mode", "open_loop") != "open_loop":
+            raise ValueError("control.mode: an uploaded robot walks open loop (the closed-loop correction is the "
+                             "built-in robots')")
+        if not uploaded and self.robot_damage is not None:
+            raise ValueError("robot_damage: only for an uploaded robot; a built-in robot's damage is `damage`")
+        if uploaded and self.damage != Damage():
+            raise ValueError("damage: an uploaded robot's damage is `robot_damage`, by its leg map's names")
+        if uploaded and "stance_height_m" in self.gait.model_fields_set:
+            raise ValueError("gait.stance_height_m: an uploaded robot walks at its own stance height (its leg map's "
+                             "stance); leave it out")
+        return self
 
     budget_field: ClassVar[str] = "search.generations"
     budget_formula: ClassVar[str] = (

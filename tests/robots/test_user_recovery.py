@@ -1,0 +1,139 @@
+"""The recovery job on uploaded robots nobody here wrote (issue 23, phase 2): a hexapod built
+with MjSpec with other joint axes, link lengths and a fourth joint per leg, and the dm_control
+quadruped from its wheel; damage by the leg map's names; short searches (small populations,
+short walks)."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import legged_models as lm_  # noqa: E402
+
+from app.jobs.base import MemoryContext, SpecError  # noqa: E402
+from app.jobs.recovery.run import run  # noqa: E402
+from app.jobs.recovery.spec import RecoverySpec  # noqa: E402
+from app.jobs.recovery.userrobot import UserRobot, neighbours_of, spec_error  # noqa: E402
+from app.robots.detect import detect_legs  # noqa: E402
+from app.robots.legmap import LegMapError, Robot  # noqa: E402
+from app.robots.upload import from_dir, prepare  # noqa: E402
+from app.robots.walkable import NamedDamage, make_walkable  # noqa: E402
+
+RID = "ab" * 16  # an uploaded robot's id, as the store makes them
+
+
+def _hexapod() -> Robot:
+    spec = lm_.build(lm_.HEXAPOD_OTHER)  # yaw, roll, pitch, knee: 4 joints a leg, forward +x
+    return Robot("hexapod_other", spec.to_xml(), {}, detect_legs(spec.compile()))
+
+
+@pytest.fixture(scope="module")
+def quadruped(tmp_path_factory) -> Robot:
+    path = lm_.dm_control_quadruped()
+    if path is None:
+        pytest.skip("dm_control is not installed (the test extra brings it)")
+    folder = tmp_path_factory.mktemp("q")
+    shutil.copytree(path.parent / "common", folder / "common")
+    p = prepare(from_dir(path, folder))  # the upload's own defence, as the API and the CLI store it
+    return Robot("quadruped", p.xml, p.assets, p.legs)
+
+
+def _spec(damage: dict, population: int = 8, generations: int = 2, duration_s: float = 3.0) -> RecoverySpec:
+    return RecoverySpec.parse({"kind": "recovery", "robot": RID, "robot_damage": damage,
+                               "search": {"population": population, "generations": generations, "seed": 2},
+                               "sim": {"duration_s": duration_s}, "controls": {"random_search": False},
+                               "robustness": {"cases": ["friction_0.7"]}})
+
+
+def _run(spec: RecoverySpec, robot: Robot) -> dict:
+    return run(spec, MemoryContext(robots=lambda rid: robot)).summary
+
+
+def test_a_hexapod_with_other_axes_recovers_from_a_lost_leg_and_a_passive_joint():
+    robot = _hexapod()
+    first, second = robot.legs.legs[0], robot.legs.legs[3]
+    s = _run(_spec({"lost_legs": [first.name], "passive_joints": [{"leg": second.name, "joint": second.joints[1]}]}),
+             robot)
+    user = s["uploaded_robot"]
+    assert len(user["legs"]) == 5 and first.name not in user["legs"]
+    assert user["actuation"]["upload_had"] == {"none": 0}  # the MjSpec model has no actuators: servos added
+    assert all(g["source"] == "default" and g["kp"] > 0 for g in user["actuation"]["gains"].values())
+    assert user["actuation"]["passive_joints"] == {second.name: [second.joints[1]]}
+    # every foot target of every population, checked by forward kinematics of the IK's answer (the passive
+    # roll joint held at its stance leaves that leg three joints: still enough)
+    assert user["ik"]["max_error_m"] < 1e-6 and user["ik"]["beyond_1mm"] == 0
+    assert s["gait"]["sigma"] >= 2 and sorted(int(k) for k in s["gait"]["swing_phases"]) == sorted(user["legs"].values())
+    assert s["best"]["fitness"] > s["baseline"]["fitness"]  # the search beats the intact gait under the damage
+    assert s["robustness"]["cases"][0]["name"] == "friction_0.7" and s["robustness"]["total"] == 1
+
+
+def test_the_dm_control_quadruped_with_a_locked_knee_walks_further_after_a_short_search(quadruped):
+    s = _run(_spec({"locked_joints": [{"leg": "front_left", "joint": "knee_front_left", "angle_deg": 0.0}]}), quadruped)
+    assert "knee_front_left" not in s["uploaded_robot"]["actuation"]["gains"]  # locked: welded, no servo
+    assert s["gait"]["sigma"] == 4  # one leg at a time: three always stand
+    assert s["uploaded_robot"]["actuation"]["upload_had"]  # its own actuators were replaced by servos
+    assert not s["best"]["metrics"]["fell"]
+    assert s["best"]["metrics"]["y_f_m"] > s["baseline"]["metrics"]["y_f_m"] > 0.3
+
+
+def test_damage_types_edit_the_model_as_stated():
+    robot = _hexapod()
+    legs = robot.legs.legs
+    w = make_walkable(robot, NamedDamage(lost_legs=(legs[0].name,), locked=((legs[1].name, legs[1].joints[2], 0.4),),
+                                         weak=((legs[2].name, legs[2].joints[1], 0.5),),
+                                         passive=((legs[3].name, legs[3].joints[0]),)))
+    m = w.spec.compile()
+    names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in range(m.nu)}
+    assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, legs[0].joints[0]) < 0  # the lost leg is gone
+    assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, legs[1].joints[2]) < 0  # welded
+    assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, legs[3].joints[0]) >= 0  # passive: still a joint ...
+    assert f"{legs[3].joints[0]}_servo" not in names and m.nu == 5 * 4 - 2  # ... without a servo
+    weak = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{legs[2].joints[1]}_servo")
+    full = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{legs[4].joints[1]}_servo")
+    assert m.actuator_forcerange[weak, 1] == pytest.approx(0.5 * m.actuator_forcerange[full, 1])
+    # the weld holds the body where the joint at 0.4 rad put it
+    intact = robot.model()
+    d = mujoco.MjData(intact)
+    d.qpos[intact.jnt_qposadr[mujoco.mj_name2id(intact, mujoco.mjtObj.mjOBJ_JOINT, legs[1].joints[2])]] = 0.4
+    mujoco.mj_kinematics(intact, d)
+    dm = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, dm)
+    for name in (f"{legs[1].name}_link3",):
+        a, b = (mujoco.mj_name2id(x, mujoco.mjtObj.mjOBJ_BODY, name) for x in (intact, m))
+        base_a, base_b = (mujoco.mj_name2id(x, mujoco.mjtObj.mjOBJ_BODY, "base" if x is intact else "torso")
+                          for x in (intact, m))
+        rel_a = d.xmat[base_a].reshape(3, 3).T @ (d.xpos[a] - d.xpos[base_a])
+        rel_b = dm.xmat[base_b].reshape(3, 3).T @ (dm.xpos[b] - dm.xpos[base_b])
+        np.testing.assert_allclose(rel_a, rel_b, atol=1e-9)
+
+
+def test_what_cannot_walk_or_does_not_fit_is_refused_naming_it(quadruped):
+    legs = quadruped.legs.to_json()
+    assert "three-legged" in spec_error(_spec({"lost_legs": ["front_left"]}), legs)
+    assert "no leg 'tail'" in spec_error(_spec({"lost_legs": ["tail"]}), legs)
+    assert "has no joint" in spec_error(_spec({"locked_joints": [{"leg": "front_left", "joint": "knee_back_left"}]}),
+                                        legs)
+    assert spec_error(_spec({"locked_joints": [{"leg": "front_left", "joint": "knee_front_left"}]}), legs) is None
+    with pytest.raises(LegMapError, match="shares its body"):  # yaw and pitch share the hip body
+        UserRobot(RID, quadruped, NamedDamage(locked=(("front_left", "yaw_front_left", 0.0),)))
+    for bad, field in (({"kind": "recovery", "robot_damage": {}}, "robot_damage"),
+                       ({"kind": "recovery", "robot": RID, "damage": {"lost_legs": [1]}}, "damage"),
+                       ({"kind": "recovery", "robot": RID, "gait": {"stance_height_m": 0.1}}, "gait.stance_height_m"),
+                       ({"kind": "recovery", "robot": "not-a-robot"}, "robot")):
+        with pytest.raises(SpecError) as e:
+            RecoverySpec.parse(bad)
+        assert field in str(e.value)
+    with pytest.raises(SpecError, match="no uploaded robot"):
+        run(_spec({}), MemoryContext())
+
+
+def test_neighbours_follow_the_leg_map():
+    robot = _hexapod()
+    near = neighbours_of(robot.legs)
+    assert near[1] == {2, 3} and near[3] == {1, 4, 5} and near[6] == {4, 5}  # 1..6: front to back, left first
