@@ -5,16 +5,18 @@ signature and timestep (friction, masses, payload edits) go into one native roll
 one model per batch element; a model with another timestep or structure (finer step, rough
 floor) gets its own call. Used twice by the recovery job: the robust search (each
 candidate's fitness is the mean or the worst over the models) and the robustness block
-(the final answer re-simulated under every standard perturbation).
+(the final answer re-simulated under every standard perturbation), and the held-out set
+(the answer on random models drawn from the stated ranges, ``held_out``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import mujoco
 import numpy as np
 
+from app.jobs.recovery.cases import HELD_OUT_STREAM, RANDOM_RANGES, RANGE_TEXT, draw_models, random_models
 from app.jobs.recovery.sequences import GaitSequence
 from app.robots.catalog import RobotEntry
 from app.jobs.recovery.evaluate import EvalResult, GaitEvaluator, SimConfig
@@ -77,3 +79,24 @@ def robust_fitness(metrics: dict[str, np.ndarray], weights, units: str, how: str
 
 def case_models(mspec: mujoco.MjSpec, model: mujoco.MjModel, cases: Sequence[Perturbation]) -> list[mujoco.MjModel]:
     return [perturbed_model(mspec, c, model) for c in cases]
+
+
+def held_out(mspec: mujoco.MjSpec, robot: RobotEntry, seq: GaitSequence, cfg: SimConfig, x: np.ndarray, seed: int,
+             n: int, judge: Callable[[dict], bool | None]) -> tuple[dict, int]:
+    """The answer ``x`` on ``n`` random models drawn from ``cases.RANDOM_RANGES`` with the
+    held-out stream of the job's seed (never drawn by a search), in one rollout call:
+    ({"n", "met", "share", "ranges", "models": [{"draw", "metrics", "target_met"}]}, steps)."""
+    draws = draw_models(seed, n, HELD_OUT_STREAM)
+    ev = MultiModelEvaluator(robot, random_models(mspec, draws, robot.geometry.total_mass), seq, cfg)
+    try:
+        r = ev.evaluate_all(np.atleast_2d(x))
+    finally:
+        ev.close()
+    models = []
+    for k, d in enumerate(draws):
+        m = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}
+        models.append({"draw": d, "metrics": m, "target_met": judge(m)})
+    met = sum(1 for m in models if m["target_met"] is True)
+    return {"n": n, "met": met, "share": met / n if n else None, "ranges": dict(RANDOM_RANGES),
+            "ranges_text": RANGE_TEXT, "stream": "held-out stream of the job's seed (cases.HELD_OUT_STREAM)",
+            "models": models}, r.sim_steps

@@ -22,8 +22,8 @@ from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
 from app.jobs.recovery.cases import walking_cases
 from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
-from app.jobs.recovery.metrics import TARGET, fitness, objective_terms
-from app.jobs.recovery.robust import MultiModelEvaluator, case_models, robust_fitness
+from app.jobs.recovery.metrics import TARGET, fitness, objective_terms, target_for, target_met
+from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.recovery.trajectory import param_names
@@ -218,6 +218,8 @@ class _Job:
     baseline: dict = dataclasses.field(default_factory=dict)
     controls: list[dict] = dataclasses.field(default_factory=list)
     robustness: dict | None = None
+    held_out: dict | None = None  # the answer on the held-out random models
+    open_loop: dict | None = None  # closed loop: the answer again without the correction
     robust: dict | None = None
     traces: dict = dataclasses.field(default_factory=dict)
     evaluations: int = 0
@@ -257,7 +259,10 @@ def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
     per_search = s.population * (s.generations + 1) * spec.models_per_candidate
     rnd = int(spec.controls.random_search)
     sizes = {"search": per_search, "random_search": rnd * per_search, "final_scoring": 2,
-             "random_search_scoring": rnd, "robustness": len(spec.robustness.cases), "traces": 2}
+             "random_search_scoring": rnd, "robustness": len(spec.robustness.cases),
+             "held_out": spec.robustness.held_out, "traces": 2}
+    if spec.control.mode == "closed_loop":
+        sizes["open_loop"] = 1 + len(spec.robustness.cases) + spec.robustness.held_out
     return {name: n for name, n in sizes.items() if n}
 
 
@@ -360,6 +365,67 @@ def robustness(job: _Job, phases: Phases) -> None:
         job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
 
 
+def held_out_and_open_loop(job: _Job, phases: Phases) -> None:
+    """The answer on the held-out random models (a stream of the job's seed no search draws
+    from); in closed loop, the answer once more without the correction, on the nominal
+    model, every case and the held-out set: the correction's share, same models and seeds."""
+    s, best_x = job.spec, job.searches["search"].best_x
+    n = s.robustness.held_out if getattr(job.robot, "gait_layout", None) is None else 0  # built-in robots' floors
+
+    def judge(m: dict) -> bool | None:
+        return target_met(m, s.sim.duration_s)
+
+    if n:
+        ph = _enter(job, phases, "held_out")
+        job.held_out, steps = held_out(job.mspec, job.robot, job.seq, job.ev.cfg, best_x, s.seed, n, judge)
+        job.evaluations, job.sim_steps = job.evaluations + n, job.sim_steps + steps
+        _done(job, ph)
+    if job.ev.cfg.law is None:
+        return
+    ph = _enter(job, phases, "open_loop")
+    cfg = sim_config(s, open_loop=True)
+    ev = GaitEvaluator(job.robot, job.model, job.seq, cfg)
+    best = _scored(ev, best_x, s.objective.weights, s.objective.units)
+    ev.close()
+    job.open_loop = {"best": best | {"target_met": judge(best["metrics"])}, "cases": []}
+    job.evaluations += 1
+    if job.cases:
+        rob = MultiModelEvaluator(job.robot, case_models(job.mspec, job.model, job.cases), job.seq, cfg)
+        r = rob.evaluate_all(best_x)
+        rob.close()
+        job.sim_steps += r.sim_steps
+        job.evaluations += len(job.cases)
+        job.open_loop["cases"] = [{"name": c.name, "metrics": _scalars(r.metrics, k),
+                                   "target_met": judge(_scalars(r.metrics, k))} for k, c in enumerate(job.cases)]
+    if n:
+        job.open_loop["held_out"], steps = held_out(job.mspec, job.robot, job.seq, cfg, best_x, s.seed, n, judge)
+        job.evaluations, job.sim_steps = job.evaluations + n, job.sim_steps + steps
+    _done(job, ph)
+
+
+def _robustness_json(job: _Job) -> dict | None:
+    """The robustness block with the held-out set and the counts by group: numerics (the
+    timestep checks) apart from the physical cases, and the held-out models apart from both."""
+    if job.robustness is None and job.held_out is None:
+        return None
+    rob = dict(job.robustness or {"target": target_for(job.spec.sim.duration_s).text, "cases": [], "met": 0,
+                                  "total": 0, "spread": {}})
+    counts = Robustness.from_json(rob)
+    rob["groups"] = {g: dict(zip(("met", "total"), counts.count(g))) for g in ("numerics", "physical")}
+    if job.held_out is not None:
+        rob["held_out"] = job.held_out
+        rob["groups"]["held_out"] = {"met": job.held_out["met"], "total": job.held_out["n"]}
+    return rob
+
+
+def _control_json(job: _Job) -> dict:
+    """How the gait was driven; in closed loop, the law and the answer without it."""
+    law = job.ev.cfg.law
+    if law is None:
+        return {"mode": "open_loop"}
+    return {"mode": "closed_loop", "law": law.as_dict(), "open_loop": job.open_loop}
+
+
 def record_traces(job: _Job, phases: Phases) -> None:
     ph = _enter(job, phases, "traces")
     job.traces = {"best": job.ev.trace(job.searches["search"].best_x), "baseline": job.base_ev.trace(job.nominal_x)}
@@ -393,7 +459,8 @@ def summary(job: _Job) -> dict:
                    "note": ("the baseline already meets the target: this damage needs no recovery"
                             if baseline["target_met"] else "")},
         "controls": job.controls,
-        "robustness": job.robustness,
+        "robustness": _robustness_json(job),
+        "control": _control_json(job),
         "robust": job.robust,
         "gait": job.seq.as_dict() | {"period_s": job.ev.n_period * job.ev.dt},
         "timestep_s": float(job.model.opt.timestep),
@@ -424,6 +491,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         post_start = time.perf_counter()
         controls(job, phases)
         robustness(job, phases)
+        held_out_and_open_loop(job, phases)
         record_traces(job, phases)
     finally:
         job.close()

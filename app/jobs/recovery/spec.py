@@ -172,6 +172,10 @@ class Controls(StrictModel):
 
 class Robustness(StrictModel):
     cases: list[CaseName] = Field(default_factory=lambda: list(CASE_NAMES), max_length=len(CASE_NAMES))
+    held_out: int = Field(20, ge=0, le=200, description=(
+        "random models the answer is judged on, drawn from stated ranges (friction, masses, payload and its place, "
+        "servo torque and gains, rough floor: cases.RANDOM_RANGES) with a stream of the job's seed that no search "
+        "draws from; reported apart from the named cases"))
 
     @field_validator("cases")
     @classmethod
@@ -307,8 +311,10 @@ class RecoverySpec(SpecBase):
     budget_formula: ClassVar[str] = (
         "population x (generations + 1) candidate gaits (generation 0 is the initial population), each simulated "
         "on 1 + len(robust.models) models; the same again for the random-search control when it is on; plus one "
-        "simulation per robustness case and three re-scorings (best, baseline, random-search best); with "
-        "stop.at_target, at most two confirmation walks per generation (at the default step and at half of it)")
+        "simulation per robustness case, one per held-out model and three re-scorings (best, baseline, "
+        "random-search best); in closed loop, the answer once more without the correction on the nominal model, "
+        "each case and each held-out model; with stop.at_target, at most two confirmation walks per generation "
+        "(at the default step and at half of it)")
 
     @property
     def seed(self) -> int:
@@ -322,7 +328,10 @@ class RecoverySpec(SpecBase):
     def evaluations_budget(self) -> int:
         search = self.search.population * (self.search.generations + 1) * self.models_per_candidate
         confirm = 2 * (self.search.generations + 1) if self.stop.at_target else 0
-        return search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3 + confirm
+        # closed loop: the answer again without the correction, on the nominal model, the cases and the held-out set
+        again = 1 + len(self.robustness.cases) + self.robustness.held_out if self.control.mode == "closed_loop" else 0
+        return (search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3 + confirm
+                + self.robustness.held_out + again)
 
 
 Spec = RecoverySpec
