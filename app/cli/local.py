@@ -64,7 +64,10 @@ def run(
         TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=err, transient=False)
     with (progress or contextlib.nullcontext()):
         task = progress.add_task(spec.kind, total=None, info="") if progress else None
-        result = kind.run(spec, LocalContext(out, progress, task, kind))
+        try:
+            result = kind.run(spec, LocalContext(out, progress, task, kind))
+        except SpecError as e:  # found only when the job starts: an uploaded robot not stored here, say
+            fail(str(e))
     bundle = write_bundle(out / f"{job_id}.zip", job_id, spec, result)
     folder = out / job_id
     with zipfile.ZipFile(bundle) as z:

@@ -166,3 +166,30 @@ def test_an_oversized_upload_is_refused_before_it_is_read(client, settings):
     r = client.post("/api/robots", files={"model": ("big.xml", big)})
     assert r.status_code == 413, r.text
     assert _stored(settings) == (0, [])
+
+
+def test_a_recovery_job_on_an_uploaded_robot_runs_through_the_api_and_the_worker(settings):
+    from app.service.runner import run_job
+
+    A, B = _tokens(settings, "alice", "bob")
+    client = TestClient(create_app(settings, host="0.0.0.0"))
+    robot = client.post("/api/robots", files={"model": ("ant.xml", _ant())}, headers=A).json()
+    leg = robot["legs"]["legs"][0]
+    spec = {"kind": "recovery", "robot": robot["id"], "search": {"population": 4, "generations": 1},
+            "robot_damage": {"locked_joints": [{"leg": leg["name"], "joint": leg["joints"][-1], "angle_deg": 40.0}]},
+            "sim": {"duration_s": 1.0}, "controls": {"random_search": False}, "robustness": {"cases": []}}
+    other = client.post("/api/jobs", json=spec, headers=B)  # bob's answer is the one for a robot that is not there
+    assert other.status_code == 422 and other.json()["errors"][0]["field"] == "robot" and robot["id"] in other.json()["detail"]
+    bad = client.post("/api/jobs", json=spec | {"robot_damage": {"lost_legs": ["no_such_leg"]}}, headers=A)
+    assert bad.status_code == 422 and bad.json()["errors"][0]["field"] == "robot_damage" and "no_such_leg" in bad.json()["detail"]
+    r = client.post("/api/jobs", json=spec, headers=A)
+    assert r.status_code == 201, r.text
+    jid = r.json()["id"]
+    assert client.delete(f"/api/robots/{robot['id']}", headers=A).status_code == 409  # a queued job uses it
+    status = run_job(settings, jid)  # the worker loads the stored, sanitised robot
+    assert status == "succeeded", client.get(f"/api/jobs/{jid}", headers=A).json().get("error")
+    job = client.get(f"/api/jobs/{jid}", headers=A).json()
+    user = job["summary"]["uploaded_robot"]
+    assert job["robot"] == robot["id"] and user["actuation"]["upload_had"] == {"motor (torque)": 8}
+    assert leg["joints"][-1] not in user["actuation"]["gains"]
+    assert client.get(f"/api/jobs/{jid}/bundle", headers=A).status_code == 200

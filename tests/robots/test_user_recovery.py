@@ -124,7 +124,7 @@ def test_what_cannot_walk_or_does_not_fit_is_refused_naming_it(quadruped):
         UserRobot(RID, quadruped, NamedDamage(locked=(("front_left", "yaw_front_left", 0.0),)))
     for bad, field in (({"kind": "recovery", "robot_damage": {}}, "robot_damage"),
                        ({"kind": "recovery", "robot": RID, "damage": {"lost_legs": [1]}}, "damage"),
-                       ({"kind": "recovery", "robot": RID, "gait": {"stance_height_m": 0.1}}, "gait.stance_height_m"),
+                       ({"kind": "recovery", "robot": RID, "gait": {"stance_height_m": 0.12}}, "gait.stance_height_m"),
                        ({"kind": "recovery", "robot": "not-a-robot"}, "robot")):
         with pytest.raises(SpecError) as e:
             RecoverySpec.parse(bad)
@@ -137,3 +137,33 @@ def test_neighbours_follow_the_leg_map():
     robot = _hexapod()
     near = neighbours_of(robot.legs)
     assert near[1] == {2, 3} and near[3] == {1, 4, 5} and near[6] == {4, 5}  # 1..6: front to back, left first
+
+
+def test_the_cli_adds_a_robot_and_runs_recovery_on_it(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from app.cli import cli
+
+    env = {"GAITMEND_DATA_DIR": str(tmp_path / "data"), "GAITMEND_DATABASE_URL": ""}
+    model = tmp_path / "hexapod_other.xml"
+    model.write_text(_hexapod().mjcf)
+    added = CliRunner().invoke(cli, ["robot", "add", str(model), "--json"], env=env, catch_exceptions=False)
+    robot = json.loads(added.stdout.strip().splitlines()[-1])
+    assert robot["kinds"] == ["recovery"]
+    leg = robot["legs"]["legs"][1]
+    spec = {"kind": "recovery", "robot": robot["id"], "search": {"population": 4, "generations": 1},
+            "robot_damage": {"weak_joints": [{"leg": leg["name"], "joint": leg["joints"][2], "torque_scale": 0.3}]},
+            "sim": {"duration_s": 1.0}, "controls": {"random_search": False}, "robustness": {"cases": []}}
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    ran = CliRunner().invoke(cli, ["run", str(tmp_path / "spec.json"), "--out", str(tmp_path / "out"), "--json",
+                                   "--quiet"], env=env, catch_exceptions=False)
+    assert ran.exit_code == 0, ran.output
+    s = json.loads(ran.stdout.strip().splitlines()[-1])
+    assert s["robot"] == robot["id"] and s["uploaded_robot"]["legs"] and Path(s["bundle"]).is_file()
+    verified = CliRunner().invoke(cli, ["verify", s["bundle"], "--quiet"], env=env, catch_exceptions=False)
+    assert verified.exit_code == 0 and "same numbers" in verified.stdout, verified.stdout  # gaitmend verify reproduces it
+    missing = CliRunner().invoke(cli, ["run", str(tmp_path / "spec.json")], env=env | {
+        "GAITMEND_DATA_DIR": str(tmp_path / "elsewhere")})
+    assert missing.exit_code != 0 and "no robot" in missing.output

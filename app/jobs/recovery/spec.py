@@ -302,9 +302,9 @@ class RecoverySpec(SpecBase):
             raise ValueError("robot_damage: only for an uploaded robot; a built-in robot's damage is `damage`")
         if uploaded and self.damage != Damage():
             raise ValueError("damage: an uploaded robot's damage is `robot_damage`, by its leg map's names")
-        if uploaded and "stance_height_m" in self.gait.model_fields_set:
+        if uploaded and self.gait.stance_height_m != Gait().stance_height_m:  # a stored spec holds the default
             raise ValueError("gait.stance_height_m: an uploaded robot walks at its own stance height (its leg map's "
-                             "stance); leave it out")
+                             "stance); leave it at its default")
         return self
 
     budget_field: ClassVar[str] = "search.generations"
