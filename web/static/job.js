@@ -185,22 +185,41 @@
     }
     const src = `/viser/?playbackPath=${encodeURIComponent(f.url)}`;
     $("replay-card").hidden = false;
-    $("replay").src = src;
     $("replay-open").href = src;
+    // viser's client starts playing (and rendering, in software on many machines) as soon
+    // as it loads: it gets its address only once the replay is on screen
+    const frame = $("replay");
+    frame.dataset.src = src;
+    if (!("IntersectionObserver" in window)) { frame.src = src; return; }
+    const seen = new IntersectionObserver((entries) => {
+      if (!entries.some((e) => e.isIntersecting)) return;
+      seen.disconnect();
+      frame.src = frame.dataset.src;
+    }, { threshold: 0.05 });
+    seen.observe(frame);
   }
+
+  // the views and the history are asked for beside the job itself (one round trip, not three)
+  let early = null;
+  const take = (key, path) => {
+    const p = early && early[key];
+    if (early) early[key] = null;
+    return p || api(path);
+  };
 
   async function results(j) {
     if (resultShown) return;
     resultShown = true;
     summaryTable(j.summary || {});
-    try { meta = await api(`/api/jobs/${jobId}/views`); } catch (e) {
+    try { meta = await take("views", `/api/jobs/${jobId}/views`); } catch (e) {
       $("panels").replaceChildren(el("p", { class: "alert", text: `The result views could not be loaded: ${e.message}` }));
       return;
     }
     header(j);
-    verdict(meta.verdict);
+    verdict(meta.verdict, meta.headline || []);
     headline(meta.headline || []);
-    const history = api(`/api/jobs/${jobId}/history`).then(convergence).catch(() => null);
+    if (j.status === "succeeded") GM.loadPlotly().catch(() => null); // its start-up runs while the page is laid out
+    const history = take("history", `/api/jobs/${jobId}/history`).then(convergence).catch(() => null);
     if (j.status !== "succeeded") { await history; return; }
     const secs = [...GMViews.panels($("panels"), meta.panels || []), ...GMViews.panels($("evidence"), meta.evidence || [])];
     figures(meta.figures || []);
@@ -221,14 +240,20 @@
   const fill = (node, ...kids) => node.replaceChildren(...kids.filter((k) => k !== null && k !== undefined));
   const OUTCOME = { beat: ["▲", "beat", "better"], tied: ["=", "tied", "tied"], lost: ["▼", "lost", "worse"] };
 
-  function verdict(v) {
+  function verdict(v, rows = []) {
     const box = $("verdict");
     if (!v) { box.hidden = true; return; }
     box.hidden = false;
     $("verdict-sentence").textContent = v.sentence || "";
-    const t = v.target || {};
+    let t = v.target || {};
+    // a target the kind states but did not judge this run by (e.g. a walk too short for it):
+    // the headline row that carries the target says why, in words
+    const unjudged = t.met === true || t.met === false ? null
+      : rows.find((r) => r.target && (r.met === null || r.met === undefined) && typeof r.value === "string");
+    if (unjudged) t = { text: unjudged.target, met: null };
     const mark = t.met === true ? el("span", { class: "mark met", text: "✓ target met" })
-      : t.met === false ? el("span", { class: "mark unmet", text: "✗ target not met" }) : el("span", { class: "mark none", text: "no target of its own" });
+      : t.met === false ? el("span", { class: "mark unmet", text: "✗ target not met" })
+      : unjudged ? el("span", { class: "mark none", text: "– target not judged" }) : el("span", { class: "mark none", text: "no target of its own" });
     const p = v.primary;
     fill($("verdict-target"), el("h3", { text: "Target" }), mark,
       el("p", { class: "small", text: t.text || "The kind states no target." }),
@@ -249,9 +274,12 @@
       others.length ? el("p", { class: "small muted", text: `Judged on their own terms (see Controls below): ${others.map((c) => c.label).join("; ")}.` }) : null,
       v.criteria && v.criteria.length ? el("p", { class: "small muted", text: `Compared on: ${v.criteria.join(", then ")}.` }) : null);
     const r = v.robustness;
+    const notJudged = r ? r.total - r.met - r.failed.length : 0; // neither met nor missed: not judged
     fill($("verdict-robustness"), el("h3", { text: "Robustness" }),
-      r ? el("p", {}, el("span", { class: `mark ${r.met === r.total ? "met" : "unmet"}`, text: `${r.met} of ${r.total}` }),
-             " re-runs meet the target") : el("p", { class: "small", text: "No robustness re-runs were recorded." }),
+      r ? el("p", {}, el("span", { class: `mark ${r.met === r.total ? "met" : notJudged === r.total ? "none" : "unmet"}`,
+                                   text: `${r.met} of ${r.total}` }),
+             " re-runs meet the target", notJudged ? `; ${notJudged} not judged` : "")
+        : el("p", { class: "small", text: "No robustness re-runs were recorded." }),
       r ? el("ul", { class: "verdict-list small" }, r.groups.map((g) => el("li", { "data-group": g.name, text: `${g.label}: ${g.met} of ${g.total}` }))) : null,
       r && r.failed.length ? el("p", { class: "small muted", text: `Missed under: ${r.failed.join("; ")}.` }) : null);
     performance.mark("gm-verdict");
@@ -302,6 +330,10 @@
   }
 
   async function load() {
+    if (!job) { // the first load: the job, its views and its history at once
+      const quiet = (p) => { p.catch(() => null); return p; };
+      early = { views: quiet(api(`/api/jobs/${jobId}/views`)), history: quiet(api(`/api/jobs/${jobId}/history`)) };
+    }
     try {
       job = await api(`/api/jobs/${jobId}`);
     } catch (e) {
@@ -313,10 +345,10 @@
     }
     header(job);
     if (FINAL.has(job.status)) { results(job); return; }
-    try { meta = await api(`/api/jobs/${jobId}/views`); } catch (e) { /* plain labels */ }
+    try { meta = await take("views", `/api/jobs/${jobId}/views`); } catch (e) { /* plain labels */ }
     header(job);
     queueLine(meta && meta.queue, job.status);
-    try { await convergence(await api(`/api/jobs/${jobId}/history`)); } catch (e) { /* shown as waiting */ }
+    try { await convergence(await take("history", `/api/jobs/${jobId}/history`)); } catch (e) { /* shown as waiting */ }
     pollQueue();
     follow();
   }

@@ -32,13 +32,19 @@ const GMViews = (() => {
     return el(tag, { class: classes.filter(Boolean).join(" ") || null }, parts);
   }
 
+  // a column header: right-aligned over a column of numbers; an unnamed column (the row
+  // labels) still named for a screen reader
+  const isNum = (c) => typeof c === "number" || (isCell(c) && typeof c.value === "number" && !(c.met !== undefined && c.text));
+  const colHead = (name, i, rows) => el("th", { scope: "col", class: i > 0 && rows.length && rows.every((r) => isNum(r[i]) || r[i] === null) ? "num" : null },
+    name === "" || name === null || name === undefined ? el("span", { class: "sr-only", text: i === 0 ? "row" : `column ${i + 1}` }) : String(name));
+
   function table(t, caption) {
-    const head = el("thead", {}, el("tr", {}, t.columns.map((c) => el("th", { scope: "col", text: c }))));
+    const head = el("thead", {}, el("tr", {}, t.columns.map((c, i) => colHead(c, i, t.rows))));
     const body = el("tbody", {}, t.rows.map((r) => el("tr", {}, r.map((c, i) => (i === 0 ? cell(c, "th") : cell(c))))));
     const out = [el("table", { class: "data" }, caption ? el("caption", { class: "sr-only", text: caption }) : null, head, body)];
     if (t.foot && t.foot.length) {
       out.push(el("table", { class: "data small" }, el("caption", { class: "small muted", style: "text-align:left", text: "Spread over the cases" }),
-        el("thead", {}, el("tr", {}, t.foot_columns.map((c) => el("th", { scope: "col", text: c })))),
+        el("thead", {}, el("tr", {}, t.foot_columns.map((c, i) => colHead(c, i, t.foot)))),
         el("tbody", {}, t.foot.map((r) => el("tr", {}, r.map((c, i) => (i === 0 ? cell(c, "th") : cell(c))))))));
     }
     return el("div", { class: "table-wrap", tabindex: "0", role: "region", "aria-label": caption ? `${caption}, table` : "table" }, out);
@@ -62,7 +68,8 @@ const GMViews = (() => {
       el("thead", {}, el("tr", {}, cols.map((c) => el("th", { scope: "col", text: c })))),
       el("tbody", {}, rows.map((r) => {
         const b = cmp(r);
-        const tds = [el("th", { scope: "row", text: r.label }), el("td", { class: "num big", text: fmt(r.value, r.unit) }),
+        const tds = [el("th", { scope: "row", text: r.label }),
+                     el("td", { class: typeof r.value === "string" && r.value.length > 24 ? "small" : "num big", text: fmt(r.value, r.unit) }),
                      el("td", { class: "small", text: r.better || "–" })];
         if (hasBase) {
           tds.push(el("td", { class: "num", title: r.baseline_label || "control", text: r.baseline === undefined || r.baseline === null ? "–" : `${fmt(r.baseline, r.unit)}${r.baseline_label ? ` (${r.baseline_label})` : ""}` }));

@@ -167,8 +167,9 @@ def _n(v: float) -> str:
 def target_text(walk_s: float = BASIS_S) -> str:
     """The target in words for a walk of ``walk_s`` s (the 10 s walk's text is the paper's)."""
     lim = limits(walk_s)
+    walk = "the walk" if float(walk_s) == BASIS_S else f"the {_n(walk_s)} s walk (the paper's 10 s numbers as rates)"
     return (f"forward >= {_n(100 * lim['y_min_m'])} cm, |lateral| <= {_n(100 * lim['x_abs_max_m'])} cm, "
-            f"|yaw| <= {_n(lim['yaw_abs_max_deg'])} deg at the end of the walk, and no fall")
+            f"|yaw| <= {_n(lim['yaw_abs_max_deg'])} deg at the end of {walk}, and no fall")
 
 
 def basis_text(walk_s: float = BASIS_S) -> str:
@@ -180,7 +181,9 @@ def basis_text(walk_s: float = BASIS_S) -> str:
 
 
 def target_for(walk_s: float = BASIS_S) -> Target:
-    text = target_text(walk_s) if judged(walk_s) else f"not judged below {_n(MIN_WALK_S)} s of walk; no fall"
+    text = target_text(walk_s) if judged(walk_s) else (
+        f"a {_n(walk_s)} s walk is too short to judge (the target's {RATES_TEXT} needs >= {_n(MIN_WALK_S)} s); "
+        "only a fall fails it")
     return Target(text, lambda m: meets_target(m, walk_s))
 
 

@@ -53,16 +53,33 @@ def com_position(traces: dict[str, dict], out: Path, style: dict[str, tuple[str,
                        "Centre of mass (forward is +y)", "com")
 
 
-def gait_diagram(trace: dict, out: Path, name: str = "gait_diagram", seconds: float = 2.4) -> list[Path]:
+def gait_diagram(trace: dict, out: Path, name: str = "gait_diagram", seconds: float = 2.4, color: str | None = None,
+                 plan: tuple[dict | None, float | None] = (None, None)) -> list[Path]:
+    """Per leg, the measured contact (swing: the run's ``color``; support: the same, faded)
+    and the planned swing of ``plan`` (gait sequence, period) beside it, in the page's
+    colour scheme (views.GAIT_SCHEME)."""
+    from app.core.colors import ROLES
+    from app.jobs.recovery.gaitplan import GAIT_SCHEME, planned_swings
+
+    color = color or ROLES["method"]
     t = np.asarray(trace["time_s"])
-    contact = np.asarray(trace["foot_contact"])
-    legs = list(trace["legs"])
+    contact = np.asarray(trace["foot_contact"]).astype(bool)
+    legs = [int(x) for x in trace["legs"]]
     sel = (t >= 0) & (t <= seconds)
-    fig, ax = plt.subplots(figsize=(6, 0.45 * len(legs) + 1))
+    fig, ax = plt.subplots(figsize=(6, 0.55 * len(legs) + 1.3))
     for i, leg in enumerate(legs):
+        y = len(legs) - 1 - i  # leg order top to bottom, as on the page
         c = contact[sel, i]
-        ax.fill_between(t[sel], i - 0.4, i + 0.4, where=c, step="post", color="#1f4e79", label="support" if i == 0 else None)
-    ax.set_yticks(range(len(legs)), [f"leg {l}" for l in legs])
+        ax.fill_between(t[sel], y - 0.42, y + 0.08, where=c, step="post", color=color, alpha=GAIT_SCHEME["support_alpha"],
+                        linewidth=0, label="support (measured)" if i == 0 else None)
+        ax.fill_between(t[sel], y - 0.42, y + 0.08, where=~c, step="post", color=color, linewidth=0,
+                        label="swing (measured)" if i == 0 else None)
+        if plan[0] is not None:
+            for k, (a, b) in enumerate(planned_swings(plan[0], plan[1], leg, float(t[sel][-1]) if sel.any() else 0.0)):
+                ax.fill_between([a, b], y + 0.14, y + 0.40, color=GAIT_SCHEME["planned"], linewidth=0,
+                                label="planned swing" if i == 0 and k == 0 else None)
+    ax.set_yticks(range(len(legs)), [f"leg {l}" for l in reversed(legs)])
     ax.set_xlabel("time (s)")
-    ax.set_title("Gait diagram (filled: foot on the ground)")
+    ax.set_title("Gait diagram: planned swing (grey) above the measured contact")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=3, frameon=False, fontsize=8)
     return _save(fig, out, name)

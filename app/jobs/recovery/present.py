@@ -26,7 +26,8 @@ FIGURES = {
     "convergence": "best, mean and worst F per generation (paper Fig. 3)",
     "orientation": "body roll, pitch and yaw against time, recovered and baseline (Fig. 4)",
     "com": "centre of mass against time, recovered and baseline (Fig. 5)",
-    "gait_diagram_*": "gait diagram: when each foot is on the ground",
+    "gait_diagram_*": "gait diagram: per leg the planned swing (grey) above the measured contact (swing dark, support "
+                      "light, in the run's colour, as on the page)",
 }
 
 
@@ -125,13 +126,15 @@ def summary_tables(s: dict) -> list[Table]:
 def figures(result: JobResult, out: Path) -> list[Path]:
     """Bundle figures: convergence (Fig. 3), orientation (Fig. 4), CoM (Fig. 5), gait diagrams."""
     from app.jobs.recovery import plots as P
+    from app.jobs.recovery.gaitplan import plan_of
 
     style = {t.name: (t.label, t.color) for t in replay_style(list(result.traces))}
     files = P.convergence(result.history, out)
     files += P.orientation(result.traces, out, style)
     files += P.com_position(result.traces, out, style)
     for name, tr in result.traces.items():
-        files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}")
+        files += P.gait_diagram(tr, out, name=f"gait_diagram_{name}", color=style.get(name, ("", None))[1],
+                                plan=plan_of(result.summary, name))
     return files
 
 

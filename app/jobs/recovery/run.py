@@ -22,7 +22,7 @@ from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
 from app.jobs.recovery.cases import walking_cases
 from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
-from app.jobs.recovery.metrics import TARGET, fitness, objective_terms, target_for, target_met
+from app.jobs.recovery.metrics import basis_text, fitness, objective_terms, target_for, target_met
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
@@ -181,14 +181,14 @@ class _Goal:
         self.score, self.ev, self.half_ev = score, ev, half_ev
 
     def __call__(self, x: np.ndarray) -> GoalCheck:
-        m = self.score.metrics_of(x)
-        if m is not None and not TARGET.met(m):
+        m, walk_s = self.score.metrics_of(x), self.ev.cfg.duration_s  # the target scales with the walk
+        if m is not None and not target_met(m, walk_s):
             return GoalCheck(False)
         n, steps = 0, 0
         for ev in ([] if m is not None else [self.ev]) + [self.half_ev]:
             r = ev.evaluate(x)
             n, steps = n + 1, steps + r.sim_steps
-            if not TARGET.met(_scalars(r.metrics)):
+            if not target_met(_scalars(r.metrics), walk_s):
                 return GoalCheck(False, n, {"sim_steps": steps})
         return GoalCheck(True, n, {"sim_steps": steps})
 
@@ -321,8 +321,10 @@ def controls(job: _Job, phases: Phases) -> None:
     job.best = _scored(job.ev, job.searches["search"].best_x, w, u)
     job.baseline = _scored(job.base_ev, job.nominal_x, w, u)
     job.evaluations += 2
-    met = TARGET.met(job.baseline["metrics"])
-    note = ("already meets the target without recovery" if met else "does not meet the target") + (
+    walk_s = job.spec.sim.duration_s
+    met = target_met(job.baseline["metrics"], walk_s)
+    note = ("already meets the target without recovery" if met else "does not meet the target" if met is False
+            else "not judged (walk too short)") + (
         "; falls (chassis or upper leg on the ground)" if job.baseline["metrics"]["fell"] else "")
     job.controls = [ControlRow("baseline", "nominal tripod with nominal parameters (no recovery)",
                                job.baseline["metrics"], met, 1, note,
@@ -337,7 +339,7 @@ def controls(job: _Job, phases: Phases) -> None:
     s = job.spec
     beats = "beats" if rs["fitness"] > job.best["fitness"] else "does not beat"
     job.controls.append(ControlRow(
-        "random_search", "uniform random search over the same bounds", rs["metrics"], TARGET.met(rs["metrics"]),
+        "random_search", "uniform random search over the same bounds", rs["metrics"], target_met(rs["metrics"], walk_s),
         job.searches["random_search"].evaluations,  # the search's own count, fewer when a stop rule ended it
         "same budget, same scoring" + (" (robust)" if s.robust else "") + f"; {beats} the search's best F",
         extra={"fitness": rs["fitness"], "params": _params(job.names, rx)}).to_json())
@@ -358,8 +360,9 @@ def robustness(job: _Job, phases: Phases) -> None:
         for k, c in enumerate(job.cases):
             m = _scalars(r.metrics, k)
             f = float(fitness({key: v[:, k] for key, v in r.metrics.items()}, w, u)[0])
-            rows.append({"name": c.name, "label": c.label, "metrics": m, "target_met": TARGET.met(m), "fitness": f})
-        job.robustness = Robustness.build(TARGET.text, job.best["metrics"], rows).to_json()
+            rows.append({"name": c.name, "label": c.label, "metrics": m, "fitness": f,
+                         "target_met": target_met(m, job.spec.sim.duration_s)})
+        job.robustness = Robustness.build(target_for(job.spec.sim.duration_s).text, job.best["metrics"], rows).to_json()
         _done(job, ph)
     if job.spec.robust is not None:
         job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
@@ -445,9 +448,10 @@ def _target_reached(out: SearchOutcome) -> dict:
 
 def summary(job: _Job) -> dict:
     search_out = job.searches["search"]
-    best = job.best | {"params": _params(job.names, search_out.best_x), "target_met": TARGET.met(job.best["metrics"])}
+    walk_s = job.spec.sim.duration_s  # the target scales with the walk (metrics.target_for)
+    best = job.best | {"params": _params(job.names, search_out.best_x), "target_met": target_met(job.best["metrics"], walk_s)}
     baseline = job.baseline | {"params": _params(job.names, job.nominal_x), "gait": job.base_ev.seq.as_dict(),
-                               "target_met": TARGET.met(job.baseline["metrics"])}
+                               "target_met": target_met(job.baseline["metrics"], walk_s)}
     return {
         "kind": "recovery",
         "robot": job.spec.robot,
@@ -455,7 +459,8 @@ def summary(job: _Job) -> dict:
         "seed": job.spec.seed,
         "baseline": baseline,
         "best": best,
-        "target": {"text": TARGET.text, "best_met": best["target_met"], "baseline_met": baseline["target_met"],
+        "target": {"text": target_for(walk_s).text, "walk_s": walk_s, "basis": basis_text(walk_s),
+                   "best_met": best["target_met"], "baseline_met": baseline["target_met"],
                    "note": ("the baseline already meets the target: this damage needs no recovery"
                             if baseline["target_met"] else "")},
         "controls": job.controls,

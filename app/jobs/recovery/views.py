@@ -10,6 +10,7 @@ import numpy as np
 
 from app.jobs import viewkit as kit
 from app.jobs.recovery.metrics import basis_text, judged, target_checks, target_for, target_met, walk_of
+from app.jobs.recovery.gaitplan import GAIT_SCHEME, faded, plan_of, planned_swings
 from app.jobs.recovery.present import HISTORY_COLUMNS, met_word, replay_style
 
 # labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
@@ -115,6 +116,30 @@ def _col(key: str, i: int | None = None):
     return get
 
 
+def _gait_bars(t: np.ndarray, contact: np.ndarray, legs: list[int], short: str, plan) -> tuple[dict, ...]:
+    """Measured swing and support and planned swing bars of one trace, one row per leg."""
+    bars = {k: {"x": [], "base": [], "y": [], "text": []} for k in ("swing", "support", "plan")}
+
+    def add(kind, y, a, b, what):
+        d = bars[kind]
+        d["base"].append(a); d["x"].append(b - a); d["y"].append(y); d["text"].append(f"{what} {a:.2f}–{b:.2f} s")
+
+    T = float(t[-1]) if len(t) else 0.0
+    for k, leg in enumerate(legs):
+        y, t0 = f"{short} · leg {leg}", float(t[0]) if len(t) else 0.0
+        for s, e in kit.swing_intervals(t, contact[:, k]):
+            if s > t0:
+                add("support", y, t0, s, "on the ground")
+            add("swing", y, s, e, "in the air")
+            t0 = e
+        if t0 < T:
+            add("support", y, t0, T, "on the ground")
+        if plan[0] is not None:
+            for s, e in planned_swings(plan[0], plan[1], leg, T):
+                add("plan", y, s, e, "planned swing")
+    return bars["swing"], bars["support"], bars["plan"]
+
+
 def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
     names = [n for n in _order(traces) if "foot_contact" in traces[n]]
     if not names:
@@ -127,25 +152,17 @@ def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
         legs = [int(x) for x in tr["legs"]] if "legs" in tr else list(range(1, contact.shape[1] + 1))
         nice, color = _style(name, i)
         short = {"best": "recovered", "baseline": "tripod"}.get(name, nice)
-        sw = {"x": [], "base": [], "y": [], "text": []}
-        su = {"x": [], "base": [], "y": [], "text": []}
-        T = float(t[-1]) if len(t) else 0.0
-        for k, leg in enumerate(legs):
-            y = f"{short} · leg {leg}"
-            cats.append(y)
-            t0 = float(t[0]) if len(t) else 0.0
-            for s, e in kit.swing_intervals(t, contact[:, k]):
-                if s > t0:
-                    su["base"].append(t0); su["x"].append(s - t0); su["y"].append(y)
-                    su["text"].append(f"support {t0:.2f}–{s:.2f} s")
-                sw["base"].append(s); sw["x"].append(e - s); sw["y"].append(y); sw["text"].append(f"swing {s:.2f}–{e:.2f} s")
-                t0 = e
-            if t0 < T:
-                su["base"].append(t0); su["x"].append(T - t0); su["y"].append(y); su["text"].append(f"support {t0:.2f}–{T:.2f} s")
+        cats += [f"{short} · leg {leg}" for leg in legs]
+        sw, su, pl = _gait_bars(t, contact, legs, short, plan_of(summary, name))
         common = {"type": "bar", "orientation": "h", "textposition": "none", "hovertemplate": "%{y}: %{text}<extra></extra>",
                   "legendgroup": name}
-        data.append(common | sw | {"name": f"{nice}: swing", "marker": {"color": color}})
-        data.append(common | su | {"name": f"{nice}: support", "marker": {"color": color, "opacity": 0.25}})
+        measured = {"offset": -0.42, "width": 0.5}  # the measured contact below, the plan above it
+        data.append(common | sw | measured | {"name": f"{nice}: swing (measured)", "marker": {"color": color}})
+        data.append(common | su | measured | {"name": f"{nice}: support (measured)",
+                                              "marker": {"color": faded(color)}})
+        if pl["x"]:
+            data.append(common | pl | {"offset": 0.14, "width": 0.26, "name": f"{nice}: planned swing",
+                                       "marker": {"color": GAIT_SCHEME["planned"]}})
     period = (summary.get("gait") or {}).get("period_s")
     T = max(float(np.asarray(traces[n]["time_s"])[-1]) for n in names)
     layout = {"barmode": "overlay", "hovermode": "closest", "bargap": 0.25,
@@ -163,8 +180,12 @@ def gait_diagram(summary: dict, traces: Mapping) -> dict | None:
         parts.append("Recovered: " + describe(summary["gait"]))
     if (summary.get("baseline") or {}).get("gait"):
         parts.append("Baseline: " + describe(summary["baseline"]["gait"]))
-    cap = ". ".join(parts) + ". Dark bars: swing (foot in the air); light bars: support. Double-click the plot for the whole walk."
-    return kit.panel("gait", "Gait diagram", cap, kit.figure(data, layout), height=130 + 26 * len(cats))
+    cap = ". ".join(parts) + (". Per leg, the measured contact (dark: swing, the foot in the air; light: support) and, "
+                              "just above it, the swing the gait sequence plans (grey): where a foot never leaves the "
+                              "ground, the plan's swing has no dark bar under it. The bundle's gait diagrams use the "
+                              "same colours. Double-click the plot for the whole walk.")
+    return kit.panel("gait", "Gait diagram: planned swing and measured contact", cap, kit.figure(data, layout),
+                     height=130 + 30 * len(cats))
 
 
 def views(summary: dict, traces: Mapping) -> list[dict]:
