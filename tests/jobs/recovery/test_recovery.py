@@ -67,7 +67,7 @@ def test_small_run_beats_the_baseline(small_run):
     bests = [h["best"] for h in s["history"]]
     assert bests == sorted(bests)  # DE's best never regresses
     assert all(h["worst"] <= h["mean"] <= h["best"] for h in s["history"])
-    assert s["timing"]["evaluations"] == spec_evaluations(SMALL) == 8 * 5 * 2 + 7 + 3
+    assert s["timing"]["evaluations"] == spec_evaluations(SMALL) == 8 * 5 * 2 + 7 + 3 + 20  # 20 held-out models
     assert set(s["best"]["metrics"]) == {"x_f_m", "y_f_m", "yaw_f_deg", "roll_amp_deg", "pitch_amp_deg",
                                          "tilt_max_deg", "under_3_feet_frac", "fell"}
     assert res.model_xml.startswith("<mujoco") and "leg1_coxa" not in res.model_xml
@@ -177,7 +177,7 @@ def test_robust_search_scores_every_candidate_on_every_model(tmp_path):
                  "robust": {"models": ["friction_0.7", "payload"], "aggregate": "worst"},
                  "controls": {"random_search": False}, "robustness": {"cases": ["friction_1.3"]}}
     spec = parse_spec(d)
-    assert spec.evaluations_budget == 6 * 3 * 3 + 1 + 3
+    assert spec.evaluations_budget == 6 * 3 * 3 + 1 + 3 + 20  # 20 held-out models
     s = run(spec, Ctx(tmp_path)).summary
     per = s["robust"]["best_per_model"]
     assert [p["name"] for p in per] == ["nominal", "friction_0.7", "payload"]
@@ -196,7 +196,7 @@ def test_a_baseline_that_already_meets_the_target_is_marked(tmp_path):
     assert s["baseline"]["target_met"] is True and s["target"]["baseline_met"] is True
     assert "no recovery" in s["target"]["note"]
     assert s["controls"][0]["note"].startswith("already meets the target")
-    assert s["robustness"] is None
+    assert s["robustness"]["cases"] == [] and s["robustness"]["held_out"]["n"] == 20  # no named case: held-out only
 
 
 @pytest.mark.parametrize("patch,field", [

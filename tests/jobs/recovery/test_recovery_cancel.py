@@ -8,7 +8,7 @@ from cancel_support import PhaseCtx, assert_cancel_stops_in
 from app.jobs import registry
 from app.jobs.recovery import run as recovery_run
 
-POST = ["random_search", "final_scoring", "random_search_scoring", "robustness", "traces"]
+POST = ["random_search", "final_scoring", "random_search_scoring", "robustness", "held_out", "traces"]
 
 
 class Ctx(PhaseCtx):
