@@ -92,6 +92,10 @@ def _evidence_rows(s: dict) -> list[HeadlineRow]:
     return rows
 
 
+def _yes(v) -> str:
+    return "yes" if v else "no"
+
+
 def _walk_cells(m: dict) -> list[str]:
     return [f"{100 * m['x_f_m']:.1f}", f"{100 * m['y_f_m']:.1f}", f"{m['yaw_f_deg']:.1f}"]
 
@@ -101,23 +105,23 @@ def summary_tables(s: dict) -> list[Table]:
     for name in ("baseline", "best"):
         m = s[name]["metrics"]
         rows.append(["before (nominal tripod)" if name == "baseline" else "after recovery", *_walk_cells(m),
-                     f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", str(m["fell"]), f"{s[name]['fitness']:.4f}",
+                     f"{m['roll_amp_deg']:.2f}", f"{m['pitch_amp_deg']:.2f}", _yes(m["fell"]), f"{s[name]['fitness']:.4f}",
                      met_word(target_met(m, walk_of(s)))])
     title = (f"{s['robot']}: legs {s['damage']['lost_legs']} lost, gait {s['gait']['name']} "
              f"(sigma={s['gait']['sigma']})")
-    out = [table(title, ["", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F",
+    out = [table(title, ["gait", "x (cm)", "y (cm)", "yaw (deg)", "roll amp (deg)", "pitch amp (deg)", "fell", "F",
                          "target"], rows, [f"target: {target_for(walk_of(s)).text} ({basis_text(walk_of(s))})"])]
     controls = controls_of(s)
     if controls:
         out.append(table("controls (same budget)", ["control", "evaluations", "x (cm)", "y (cm)", "yaw (deg)", "fell",
                                                      "target met", "note"],
-                         [[c.label, c.evaluations, *_walk_cells(c.metrics), str(c.metrics["fell"]),
-                           str(c.target_met), c.note] for c in controls]))
+                         [[c.label, c.evaluations, *_walk_cells(c.metrics), _yes(c.metrics["fell"]),
+                           met_word(c.target_met), c.note] for c in controls]))
     rob = robustness_of(s)
     if rob is not None:
         out.append(table("robustness: the recovered gait re-simulated", ["case", "x (cm)", "y (cm)", "yaw (deg)", "fell",
                                                                         "target met"],
-                         [[c.label, *_walk_cells(c.metrics), str(c.metrics["fell"]), str(c.target_met)]
+                         [[c.label, *_walk_cells(c.metrics), _yes(c.metrics["fell"]), met_word(c.target_met)]
                           for c in rob.cases],
                          [f"target: {rob.target}; met in {rob.met} of {rob.total} cases"]))
     return out
