@@ -52,13 +52,17 @@ class NamedDamage:
     locked: tuple[tuple[str, str, float], ...] = ()
     weak: tuple[tuple[str, str, float], ...] = ()
     passive: tuple[tuple[str, str], ...] = ()
+    shortened: tuple[tuple[str, float], ...] = ()  # (leg, m cut from its foot segment)
 
     def check(self, legs: LegMap) -> None:
         """LegMapError naming the first leg or joint the map does not have."""
         names = {l.name: l for l in legs.legs}
-        for leg in self.lost_legs:
-            if leg not in names:
-                raise LegMapError(f"lost_legs: no leg {leg!r}; legs: {sorted(names)}")
+        for what, items in (("lost_legs", self.lost_legs), ("shortened_legs", [l for l, _ in self.shortened])):
+            for leg in items:
+                if leg not in names:
+                    raise LegMapError(f"{what}: no leg {leg!r}; legs: {sorted(names)}")
+                if what == "shortened_legs" and leg in self.lost_legs:
+                    raise LegMapError(f"shortened_legs: leg {leg!r} is listed as lost")
         for what, items in (("locked_joints", self.locked), ("weak_joints", self.weak), ("passive_joints", self.passive)):
             for leg, joint, *_ in items:
                 if leg not in names:
@@ -216,10 +220,13 @@ def _upper_bodies(model: mujoco.MjModel, trunk: int, leg: Leg) -> list[str]:
 
 
 def _name_bodies(spec: mujoco.MjSpec) -> None:
-    """Sensors name their bodies: an unnamed body gets one (gm_body<k>)."""
+    """Sensors and edits name their bodies and geoms: an unnamed one gets a name (gm_body<k>, gm_geom<k>)."""
     for k, b in enumerate(spec.bodies):
         if not b.name:
             b.name = f"gm_body{k}"
+    for k, g in enumerate(spec.geoms):
+        if not g.name:
+            g.name = f"gm_geom{k}"
 
 
 def _foot_radius(model: mujoco.MjModel, data: mujoco.MjData, kin: _Kin, foot: Foot) -> float:
@@ -240,6 +247,49 @@ def _foot_radius(model: mujoco.MjModel, data: mujoco.MjData, kin: _Kin, foot: Fo
         if np.linalg.norm(d - t * z) <= r + 1e-6:
             best = max(best, r)
     return best
+
+
+def _shorten(spec: mujoco.MjSpec, model: mujoco.MjModel, kin: _Kin, trunk: int, leg: Leg, cut: float,
+             foot: tuple[str, list[float]]) -> tuple[str, list[float]]:
+    """Cut ``cut`` metres from the leg's foot segment (from its last joint to its foot), at the
+    reference pose: geoms and sites of the segment's bodies beyond the cut move back along it
+    by ``cut``, a capsule or cylinder along it that reaches past the cut is shortened by
+    ``cut``. Returns the foot's body and new point in it."""
+    j = mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, leg.joints[-1])
+    body_f = mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, foot[0])
+    a, f = kin.data.xanchor[j].copy(), kin.data.xpos[body_f] + kin.data.xmat[body_f].reshape(3, 3) @ foot[1]
+    length = float(np.linalg.norm(f - a))
+    if not cut < 0.8 * length:
+        raise LegMapError(f"shortened_legs: leg {leg.name!r}: its foot segment is {length:.3f} m; "
+                          f"at most 80 % of it ({0.8 * length:.3f} m) can be cut")
+    d = (f - a) / length
+    bodies = [int(model.jnt_bodyid[j])] + [b for b in (_path_to_trunk(model, body_f, int(model.jnt_bodyid[j])) or [])]
+    edge = length - cut
+    for b in dict.fromkeys(bodies):
+        R, x = kin.data.xmat[b].reshape(3, 3), kin.data.xpos[b]
+        for g in range(model.ngeom):
+            if model.geom_bodyid[g] != b:
+                continue
+            c, z = kin.data.geom_xpos[g], kin.data.geom_xmat[g].reshape(3, 3)[:, 2]
+            along = (c - a) @ d
+            shift, half = 0.0, float(model.geom_size[g, 1])
+            long = model.geom_type[g] in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER))
+            if long and abs(z @ d) > 0.9 and along + half > edge:
+                half, shift = max(half - cut / 2, 1e-4), cut / 2
+            elif along > edge:
+                shift = cut
+            if shift:
+                sg = spec.geom(mujoco.mj_id2name(model, OBJ.mjOBJ_GEOM, g))  # every geom is named (_name_bodies)
+                sg.fromto = [np.nan] * 6
+                sg.pos, sg.quat = list(R.T @ (c - shift * d - x)), list(model.geom_quat[g])
+                sg.size = [float(model.geom_size[g, 0]), half, float(model.geom_size[g, 2])]
+        for i in range(model.nsite):
+            if model.site_bodyid[i] == b and (kin.data.site_xpos[i] - a) @ d > edge:
+                site = spec.site(mujoco.mj_id2name(model, OBJ.mjOBJ_SITE, i))
+                if site is not None:
+                    site.pos = list(R.T @ (kin.data.site_xpos[i] - cut * d - x))
+    Rf, xf = kin.data.xmat[body_f].reshape(3, 3), kin.data.xpos[body_f]
+    return foot[0], [float(v) for v in Rf.T @ (f - cut * d - xf)]
 
 
 def _add_sensors(spec: mujoco.MjSpec, legs: LegMap, heading: np.ndarray, upper: list[str],
@@ -299,6 +349,7 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
     upload = _actuator_kinds(model)
     kept = [l for l in legs.legs if l.name not in damage.lost_legs]
     feet = {numbers[l.name]: _foot_in_body(model, kin.data, kin, l.foot) for l in kept}
+    cuts = dict(damage.shortened)
     radius = min((_foot_radius(model, kin.data, kin, l.foot) for l in kept), default=0.0)
     upper = sorted({b for l in kept for b in _upper_bodies(model, trunk, l)})
     gains = {}
@@ -329,9 +380,12 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
                     joint = spec.joint(j)
                     joint.armature = max(float(joint.armature), 4.0 * gains[j]["kp"] * timestep**2)
                     gains[j]["armature"] = float(joint.armature)
+    for name, cut in cuts.items():
+        n = numbers[name]
+        feet[n] = _shorten(spec, model, kin, trunk, legs.leg(name), cut, feet[n])
     _rename(spec, legs.trunk)
     left = LegMap(trunk=TRUNK, forward=legs.forward, stance_height=legs.stance_height, gains=legs.gains,
-                  legs=[_without(l, locked) for l in kept])
+                  legs=[_without(l, locked, f"leg{numbers[l.name]}_tip" if l.name in cuts else None) for l in kept])
     _add_sensors(spec, left, heading_quat(legs), [b for b in upper if b != legs.trunk], feet)
     return Walkable(spec=spec, legs=left, numbers={l.name: numbers[l.name] for l in kept},
                     passive={l.name: [j for j in l.joints if j in passive] for l in kept},
@@ -339,7 +393,9 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
                     total_mass=total, foot_radius=radius)
 
 
-def _without(leg: Leg, locked: dict[str, float]) -> Leg:
+def _without(leg: Leg, locked: dict[str, float], foot_site: str | None = None) -> Leg:
+    """The leg without its locked joints (and, shortened, with its foot at the new tip site)."""
     keep = [k for k, j in enumerate(leg.joints) if j not in locked]
     stance = None if leg.stance is None else [leg.stance[k] for k in keep]
-    return leg.model_copy(update={"joints": [leg.joints[k] for k in keep], "stance": stance})
+    foot = leg.foot if foot_site is None else Foot(kind="site", name=foot_site)
+    return leg.model_copy(update={"joints": [leg.joints[k] for k in keep], "stance": stance, "foot": foot})

@@ -84,20 +84,30 @@ class NamedWeakJointIn(NamedJointIn):
     torque_scale: float = Field(0.5, gt=0.0, le=1.0)
 
 
+class ShortenedLegIn(StrictModel):
+    leg: MapName
+    length_m: float = Field(gt=0.0, le=1.0, description="cut from the foot segment (its last joint to its foot), "
+                                                        "at most 80 % of it")
+
+
 class RobotDamage(StrictModel):
     """An uploaded robot's damage by its leg map's names: lost legs, locked joints, weak
-    joints (servo force limit scaled) and passive joints (no servo: the joint swings freely
-    with its damping)."""
+    joints (servo force limit scaled), passive joints (no servo: the joint swings freely
+    with its damping) and shortened legs (the foot segment cut by a length)."""
 
     lost_legs: list[MapName] = Field(default_factory=list, max_length=16)
     locked_joints: list[NamedLockedJointIn] = Field(default_factory=list, max_length=128)
     weak_joints: list[NamedWeakJointIn] = Field(default_factory=list, max_length=128)
     passive_joints: list[NamedJointIn] = Field(default_factory=list, max_length=128)
+    shortened_legs: list[ShortenedLegIn] = Field(default_factory=list, max_length=16)
 
     @model_validator(mode="after")
     def _once(self):
         if len(set(self.lost_legs)) != len(self.lost_legs):
             raise ValueError("lost_legs: each leg may be listed once")
+        short = [l.leg for l in self.shortened_legs]
+        if len(set(short)) != len(short) or set(short) & set(self.lost_legs):
+            raise ValueError("shortened_legs: each leg may be listed once, and not if it is lost")
         seen = set()
         for name in ("locked_joints", "weak_joints", "passive_joints"):
             for j in getattr(self, name):

@@ -237,9 +237,16 @@ class UserRobot:
         res = self.ik.solve(target, tol=1e-7, max_iter=30)
         s = self.ik_stats
         s["calls"] += 1
-        s["wall_s"] += time.perf_counter() - t0
+        took = time.perf_counter() - t0
+        s["wall_s"] += took
+        if res.err.size >= s.get("population_targets", 0):  # the largest call: a whole population's period
+            s["population_targets"], s["population_wall_s"] = int(res.err.size), took
         s["targets"] += int(res.err.size)
         s["max_error_m"] = max(s["max_error_m"], float(res.err.max()))
+        worst = res.err.reshape(-1, res.err.shape[-1]).max(axis=0)
+        by_leg = s.setdefault("max_error_m_by_leg", {})
+        for leg, e in zip(self.walk.legs.legs, worst):
+            by_leg[leg.name] = max(by_leg.get(leg.name, 0.0), float(e))
         s["beyond_1mm"] += int(np.sum(res.err > 1e-3))
         cols = np.cumsum([0] + [len(l.joints) for l in self.walk.legs.legs])
         parts = {n: res.q[..., cols[i]:cols[i + 1]] for i, n in enumerate(order)}
@@ -264,7 +271,8 @@ def named_damage(spec) -> NamedDamage:
     return NamedDamage(lost_legs=tuple(d.lost_legs),
                        locked=tuple((j.leg, j.joint, math.radians(j.angle_deg)) for j in d.locked_joints),
                        weak=tuple((j.leg, j.joint, j.torque_scale) for j in d.weak_joints),
-                       passive=tuple((j.leg, j.joint) for j in d.passive_joints))
+                       passive=tuple((j.leg, j.joint) for j in d.passive_joints),
+                       shortened=tuple((l.leg, l.length_m) for l in d.shortened_legs))
 
 
 def search_bounds(spec, robot: UserRobot, legs: list[int], lost: list[int]) -> tuple[np.ndarray, np.ndarray]:
