@@ -18,6 +18,7 @@ import legged_models as lm_  # noqa: E402
 
 from app.jobs.base import MemoryContext, SpecError  # noqa: E402
 from app.jobs.recovery.run import run  # noqa: E402
+from app.jobs.registry import get_kind  # noqa: E402
 from app.jobs.recovery.spec import RecoverySpec  # noqa: E402
 from app.jobs.recovery.userrobot import UserRobot, neighbours_of, spec_error  # noqa: E402
 from app.robots.detect import detect_legs  # noqa: E402
@@ -74,6 +75,12 @@ def test_a_hexapod_with_other_axes_recovers_from_a_lost_leg_a_passive_joint_and_
     assert s["gait"]["sigma"] >= 2 and sorted(int(k) for k in s["gait"]["swing_phases"]) == sorted(user["legs"].values())
     assert s["best"]["fitness"] > s["baseline"]["fitness"]  # the search beats the intact gait under the damage
     assert s["robustness"]["cases"][0]["name"] == "friction_0.7" and s["robustness"]["total"] == 1
+    # the job page, the CLI's tables and the jobs list word it as for the built-in robot
+    kind = get_kind("recovery")
+    spec = _spec({"lost_legs": [first.name], "shortened_legs": [{"leg": third.name, "length_m": 0.03}]})
+    assert kind.damage_text(spec) == f"lost {first.name}; shortened {third.name} by 3 cm"
+    assert kind.headline(s) and kind.summary_tables(s) and kind.verdict(s)
+    assert kind.views(s, {}) and s["baseline"]["gait"]["name"] == "intact_plan"
 
 
 def test_the_dm_control_quadruped_with_a_locked_knee_walks_further_after_a_short_search(quadruped):

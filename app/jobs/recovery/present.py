@@ -32,13 +32,16 @@ FIGURES = {
 
 
 def damage_text(spec) -> str:
-    damage = spec.damage.model_dump()
+    named = getattr(spec, "robot_damage", None)  # an uploaded robot's, by its leg map's names
+    damage = (named or spec.damage).model_dump()
     parts = []
     if damage.get("lost_legs"):
         parts.append("lost " + ",".join(str(x) for x in damage["lost_legs"]))
-    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak")):
+    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak"), ("passive_joints", "passive")):
         for j in damage.get(key) or []:
             parts.append(f"{word} {j['leg']}.{j['joint']}")
+    for leg in damage.get("shortened_legs") or []:
+        parts.append(f"shortened {leg['leg']} by {leg['length_m'] * 100:g} cm")
     return "; ".join(parts) or "none"
 
 
