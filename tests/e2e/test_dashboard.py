@@ -19,7 +19,7 @@ from playwright.sync_api import expect
 import glance
 
 SMALL = {"kind": "recovery", "damage": {"lost_legs": [2, 5]},
-         "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 2.0}}
+         "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 3.0}}
 JOB_TIMEOUT_MS = 120_000
 STATE: dict = {}  # the job the main flow made, for the tests after it
 
@@ -151,11 +151,11 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     page.fill("#f-search-population", "6")
     page.fill("#f-search-generations", "3")
     page.fill("#f-search-seed", "2")
-    page.fill("#f-sim-duration-s", "2")
+    page.fill("#f-sim-duration-s", "3")  # the shortest walk the target judges (scaled: 15 cm forward)
     # the budget is the spec's own formula, computed by the server (the compare page shows the same)
     with server.client() as c:
         want = c.post("/api/web/check", json={"kind": "recovery", "damage": {"lost_legs": [2, 5]},
-                      "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 2.0}}).json()
+                      "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 3.0}}).json()
     expect(page.locator("#budget")).to_contain_text(f"Budget: {want['evaluations']} evaluations")
 
     t_submit = time.monotonic()
@@ -166,7 +166,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     with server.client() as c:
         spec = c.get(f"/api/jobs/{job_id}").json()["spec"]
     assert spec["damage"]["lost_legs"] == [2, 5] and spec["search"]["population"] == 6
-    assert spec["sim"]["duration_s"] == 2.0
+    assert spec["sim"]["duration_s"] == 3.0
 
     # the job page, opened right away, draws its first convergence plot from the event stream
     jp = new_page()
@@ -209,9 +209,20 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     y_cell = table2.nth(1).locator("td").nth(1)  # y: forward progress, in cm
     expect(y_cell).to_contain_text(f"{y_best:.2f}")
     expect(y_cell).to_contain_text("▲ better" if y_best > y_base else "▼ worse")
-    expect(y_cell).to_contain_text("✓ met" if y_best >= 50 else "✗ not met")
-    forward = jp.locator("#headline tbody tr").filter(has_text="forward").first
-    expect(forward).to_have_attribute("data-met", "true" if y_best >= 50 else "false")
+    # the target scales with the walk: 5 cm/s forward, 15 cm over these 3 s (stated beside it)
+    expect(y_cell).to_contain_text("✓ met" if y_best >= 15 else "✗ not met")
+    forward = jp.locator("#headline tbody tr").filter(has=jp.locator("th", has_text="forward distance"))
+    expect(forward).to_have_attribute("data-met", "true" if y_best >= 15 else "false")
+    expect(forward).to_contain_text(">= 15 cm")
+    expect(jp.locator("#headline tbody tr").filter(has=jp.locator("th", has_text="target basis"))).to_contain_text(
+        "5 cm/s forward")
+    expect(jp.locator("#verdict-target")).to_contain_text("the 3 s walk")
+    # controls and robustness once, in cm and degrees, worded: no raw keys, no True / False
+    evidence = jp.locator("#evidence")
+    expect(evidence.locator("th", has_text="forward y (cm)").first).to_be_visible()
+    for raw in ("y f", "x f", "under 3 feet", "True", "False"):
+        assert raw not in evidence.inner_text(), raw
+    assert jp.locator("#panels table th:empty, #evidence table th:empty").count() == 0
     for plot_id, min_traces in (("plot-convergence", 3), ("plot-orientation", 6), ("plot-com", 6), ("plot-gait", 4)):
         div = jp.locator(f"#{plot_id}")
         expect(div.locator(".main-svg").first).to_be_visible(timeout=30_000)

@@ -161,5 +161,27 @@ def test_a_cold_job_page_draws_within_two_seconds(new_page, server, second_job):
     t = glance.cold_draw_ms(new_page, server, second_job)
     assert first["first"] < 4000, first
     assert t["verdict"] < 2000 and t["first"] < 2000, t
-    assert t["drawn"] < 10_000, t
+    assert t["drawn"] < 5_000, t  # 2.1-2.8 s measured on the 2-core test machine under load (plotly: 1.3-2 s of it)
     assert t["plotly"] and t["plotly"] < 2_000_000, t  # gzipped on the wire
+
+
+def test_a_short_walk_is_not_judged_and_the_replay_waits_for_the_screen(new_page, server, second_job):
+    """SECOND walks 1.5 s, under the 3 s the recovery target needs (issue 25): the verdict
+    says the target was not judged (not "not met"), and so are the re-runs; viser's client
+    (which plays, and renders, as soon as it loads) gets its address only once on screen."""
+    pg = new_page()
+    requested: list[str] = []
+    pg.on("request", lambda r: requested.append(r.url))
+    pg.goto(f"{server.url}/jobs/{second_job}")
+    expect(pg.locator("body[data-drawn='1']")).to_be_attached(timeout=60_000)
+    expect(pg.locator("#verdict-target")).to_contain_text("– target not judged")
+    expect(pg.locator("#verdict-target")).to_contain_text("1.5 s walk is too short to judge")
+    expect(pg.locator("#verdict-robustness")).to_contain_text("not judged")
+    expect(pg.locator("#headline tbody tr").filter(has=pg.locator("th", has_text="recovery target"))).to_contain_text(
+        "not judged (walk too short)")
+    pg.wait_for_timeout(500)
+    assert pg.locator("#replay").get_attribute("src") is None
+    assert not [u for u in requested if "/viser/" in u or "replay.viser" in u], requested
+    pg.locator("#replay").scroll_into_view_if_needed()
+    expect(pg.frame_locator("#replay").locator("canvas").first).to_be_visible(timeout=60_000)
+    assert pg.locator("#replay").get_attribute("src").startswith("/viser/?playbackPath=")
