@@ -272,14 +272,16 @@ class DbRunContext:
         return cancel
 
     def load_robot(self, robot_id: str):
-        """The uploaded robot the job names, as stored (sanitised) under the data folder; the
-        API checked that it is the job owner's when it queued the job, and a robot a queued
-        or running job names cannot be deleted."""
+        """The uploaded robot the job names, as stored (sanitised) under the data folder, if it
+        is the job owner's (POST /api/jobs checks it too; a job reaching the queue another way,
+        a study's point say, still runs only on its owner's robots); a robot a queued or
+        running job names cannot be deleted."""
         from app.store import robots as robot_store
 
         def load(s):
             try:
-                return robot_store.load_robot(s, self.settings.data_dir, robot_id)
+                owner = repo.get_job(s, self.claim.job_id).owner
+                return robot_store.load_robot(s, self.settings.data_dir, robot_id, owner)
             except repo.NotFound:
                 return None
 

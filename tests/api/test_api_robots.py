@@ -193,3 +193,18 @@ def test_a_recovery_job_on_an_uploaded_robot_runs_through_the_api_and_the_worker
     assert job["robot"] == robot["id"] and user["actuation"]["upload_had"] == {"motor (torque)": 8}
     assert leg["joints"][-1] not in user["actuation"]["gains"]
     assert client.get(f"/api/jobs/{jid}/bundle", headers=A).status_code == 200
+
+
+def test_the_worker_runs_a_job_only_on_its_owners_robot(settings):
+    from app.service.runner import run_job
+
+    A, = _tokens(settings, "alice")
+    client = TestClient(create_app(settings, host="0.0.0.0"))
+    rid = client.post("/api/robots", files={"model": ("ant.xml", _ant())}, headers=A).json()["id"]
+    spec = {"kind": "recovery", "robot": rid, "search": {"population": 4, "generations": 1}, "sim": {"duration_s": 1.0}}
+    with session_scope(settings.db_url) as s:  # queued past the API's check (as a study's point is)
+        jid = repo.create_job(s, owner="bob", kind="recovery", robot=rid, spec=spec, evaluations_budget=1,
+                              max_attempts=1).id
+    assert run_job(settings, jid) == "failed"
+    with session_scope(settings.db_url, readonly=True) as s:
+        assert "no uploaded robot" in repo.get_job(s, jid).error
