@@ -192,3 +192,13 @@ def test_the_cli_adds_a_robot_and_runs_recovery_on_it(tmp_path):
     missing = CliRunner().invoke(cli, ["run", str(tmp_path / "spec.json")], env=env | {
         "GAITMEND_DATA_DIR": str(tmp_path / "elsewhere")})
     assert missing.exit_code != 0 and "no robot" in missing.output
+
+
+def test_an_octopod_that_lost_two_legs_gets_a_sequence_for_the_six_left():
+    spec = lm_.build(lm_.OCTOPOD)  # feet are geoms (no sites): the leg map's foot is the foot geom
+    robot = Robot("octopod", spec.to_xml(), {}, detect_legs(spec.compile()))
+    s = _run(_spec({"lost_legs": ["L1", "R2"]}, population=6, generations=1, duration_s=2.0), robot)
+    legs = s["uploaded_robot"]["legs"]
+    assert sorted(legs) == ["L0", "L2", "L3", "R0", "R1", "R3"]
+    assert sorted(int(k) for k in s["gait"]["swing_phases"]) == sorted(legs.values())
+    assert all(len(g) >= 1 for g in s["gait"]["groups"]) and s["best"]["fitness"] >= s["baseline"]["fitness"]
