@@ -411,6 +411,12 @@ class Kind(abc.ABC):
             out[f] = self.describe_file(f)
         return out
 
+    def bundle_files(self, spec: Any, result: JobResult) -> dict[str, str | bytes]:
+        """Files of the kind's own the bundle adds, {path in the zip: content} (e.g. what a lab
+        needs to run the answer on the hardware); ``describe_file`` says what each is.
+        Default: none."""
+        return {}
+
     def describe_file(self, path: str) -> str:
         """What one bundle member is: the common files, history.csv from ``history_columns``,
         traces from ``trace_descriptions``, plots from ``figure_descriptions``."""

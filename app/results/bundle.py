@@ -170,6 +170,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
             members[f"trajectories/{name}.csv"] = trace_csv(tr)
         for p in plot_files:
             members[f"plots/{p.name}"] = p
+        members.update(kind.bundle_files(spec, result))
         members.update(extra_files)
         rows = kind.bundle_rows(list(members) + ["README.md"])
         members["README.md"] = README.format(

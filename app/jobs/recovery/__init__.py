@@ -40,6 +40,16 @@ class RecoveryKind(PackageKind):
 
     user_robots = True  # an uploaded robot by its id (app/jobs/recovery/userrobot.py)
 
+    def bundle_files(self, spec, result):
+        from app.jobs.recovery.export import bundle_files
+
+        return bundle_files(spec, result)
+
+    def describe_file(self, path):
+        from app.jobs.recovery.export import FILES
+
+        return FILES.get(path) or super().describe_file(path)
+
     def robot_info(self, robot):
         return ROBOTS[robot].describe()
 

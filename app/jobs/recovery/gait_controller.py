@@ -72,10 +72,11 @@ class GaitController:
 
     ``base_tips`` (batch or 1, n_period, nlegs, 3) and ``step_length`` (batch or 1,) are
     the gait's; ``y_rel`` (n_period, nlegs) its stride shape; ``sides`` (nlegs,) -1/+1.
-    ``law`` None is the open-loop gait (the correction stays 0)."""
+    ``law`` None is the open-loop gait (the correction stays 0). ``columns``: the (leg index,
+    joint index) of each servo in the order ``setpoints`` gives them (gait.json ``joints``)."""
 
     def __init__(self, base_tips, y_rel, step_length, sides, link_lengths, stride_bounds, update_steps: int,
-                 law: dict | None = None, batch: int = 1):
+                 law: dict | None = None, batch: int = 1, columns=None):
         base = np.asarray(base_tips, dtype=float)
         self.base_tips = np.broadcast_to(base if base.ndim == 4 else base[None], (batch,) + base.shape[-3:])
         self.y_rel = np.asarray(y_rel, dtype=float)
@@ -88,6 +89,7 @@ class GaitController:
         self.law = None if law is None else {k: float(law[k]) for k in GAINS + LIMITS} | {
             "odometry": bool(law.get("odometry", True))}
         self.batch = batch
+        self.columns = None if columns is None else np.asarray(columns, dtype=int).reshape(-1, 2)
         z = np.zeros(batch)
         # per robot: heading and position at the walk's start; the integrals; the command
         # in force before the last update and the one the last update set ([stride, crab])
@@ -97,9 +99,14 @@ class GaitController:
 
     @classmethod
     def from_json(cls, path, batch: int = 1) -> "GaitController":
-        g = json.loads(Path(path).read_text())
+        """The controller of a bundle's ``gait.json``."""
+        return cls.from_dict(json.loads(Path(path).read_text()), batch)
+
+    @classmethod
+    def from_dict(cls, g: dict, batch: int = 1) -> "GaitController":
         return cls(g["base_tips_m"], g["y_rel"], g["step_length_m"], g["sides"], g["link_lengths_m"],
-                   g["stride_bounds_m"], g["update_steps"], g["law"], batch)
+                   g["stride_bounds_m"], g["update_steps"], g["law"], batch,
+                   [[j["leg_index"], j["joint_index"]] for j in g["joints"]])
 
     # -- the correction ----------------------------------------------------------------
     def start(self, quat, pos=None, rows=None) -> None:
@@ -166,6 +173,15 @@ class GaitController:
         """Coxa, femur, tibia set-points (robots, T, nlegs, 3) in radians at ticks [j0, j1)."""
         return self.angles_of(self.tips(j0, j1, rows))
 
+    def setpoints(self, j0: int, j1: int, rows=None) -> np.ndarray:
+        """The servo set-points (robots, T, servos) in radians at ticks [j0, j1), in the order
+        of ``columns`` (gait.json ``joints``)."""
+        return self.named(self.joint_angles(j0, j1, rows))
+
+    def named(self, q: np.ndarray) -> np.ndarray:
+        """(..., nlegs, 3) joint angles -> (..., servos) in the order of ``columns``."""
+        return q[..., self.columns[:, 0], self.columns[:, 1]]
+
     def settle_pose(self) -> np.ndarray:
         """The set-points (robots, nlegs, 3) the robot stands on before the walk (tick 0's
         open-loop pose)."""
@@ -186,12 +202,12 @@ def _accumulate(total: np.ndarray, e: np.ndarray, gain: float, limit: float) -> 
 
 
 def walk(ctl: GaitController, readings, n_walk: int) -> np.ndarray:
-    """Every set-point of a walk of ``n_walk`` ticks (robots, n_walk, nlegs, 3), given the
-    readings ``readings(j) -> (quat, pos)`` at each update tick j (the last reading before
-    tick j); tick 0's reading starts the correction. A robot's control loop does the same,
-    one tick at a time: at each update tick read the IMU, call ``update``, then send
-    ``joint_angles(j, j + 1)`` every servo tick."""
-    out = np.empty((ctl.batch, n_walk, ctl.y_rel.shape[1], 3))
+    """Every servo set-point of a walk of ``n_walk`` ticks (robots, n_walk, servos), given the
+    readings ``readings(j) -> (quat, pos)`` at each update tick j (the state the robot is in
+    at tick j); tick 0's reading starts the correction. A robot's control loop does the
+    same, one tick at a time: at each update tick read the IMU (and odometry), call
+    ``start`` (tick 0) or ``update``, then send ``setpoints(j, j + 1)`` every servo tick."""
+    out = np.empty((ctl.batch, n_walk, len(ctl.columns)))
     for j0 in range(0, n_walk, ctl.update_steps):
         quat, pos = readings(j0)
         if j0 == 0:
@@ -199,5 +215,5 @@ def walk(ctl: GaitController, readings, n_walk: int) -> np.ndarray:
         else:
             ctl.update(quat, pos)
         j1 = min(j0 + ctl.update_steps, n_walk)
-        out[:, j0:j1] = ctl.joint_angles(j0, j1)
+        out[:, j0:j1] = ctl.setpoints(j0, j1)
     return out
