@@ -171,7 +171,7 @@
     $("figures-card").hidden = !list.length;
     $("figures").replaceChildren(...list.map((f) => el("figure", { class: "bundle-figure" },
       el("a", { href: f.svg || f.png, target: "_blank", rel: "noopener" },
-         el("img", { src: f.png || f.svg, alt: `bundle figure ${f.name.replace(/_/g, " ")}` })),
+         el("img", { loading: "lazy", decoding: "async", src: f.png || f.svg, alt: `bundle figure ${f.name.replace(/_/g, " ")}` })),
       el("figcaption", { class: "small" }, `${f.name.replace(/_/g, " ")}`,
          ...["png", "svg"].filter((x) => f[x]).flatMap((x) => [" · ", el("a", { href: f[x], download: `${f.name}.${x}`, text: x.toUpperCase() })])))));
   }
