@@ -91,6 +91,40 @@ def leg_numbers(legs: LegMap) -> dict[str, int]:
     return {l.name: k + 1 for k, l in enumerate(ranked)}
 
 
+def inline_assets(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
+    """No file left to read: each mesh read from a file gets its vertices and faces inline
+    (as compiled, turned back into the file's frame and scale, so it compiles to the same
+    mesh), each height field its elevation data; a texture read from a file becomes a flat
+    grey one of the same type and skins are dropped (both drawn only). The robot.xml of a
+    job's bundle is then the whole robot: the replay draws the uploaded meshes."""
+    for i, mesh in enumerate(spec.meshes):
+        if not mesh.file:
+            continue
+        k = mujoco.mj_name2id(model, OBJ.mjOBJ_MESH, mesh.name) if mesh.name else i
+        v0, nv = model.mesh_vertadr[k], model.mesh_vertnum[k]
+        f0, nf = model.mesh_faceadr[k], model.mesh_facenum[k]
+        R = np.zeros(9)
+        mujoco.mju_quat2Mat(R, model.mesh_quat[k])
+        verts = model.mesh_vert[v0:v0 + nv] @ R.reshape(3, 3).T + model.mesh_pos[k]
+        mesh.file, mesh.scale = "", [1.0, 1.0, 1.0]
+        mesh.uservert = verts.ravel().tolist()
+        mesh.userface = model.mesh_face[f0:f0 + nf].ravel().tolist()
+    for i, hf in enumerate(spec.hfields):
+        if not hf.file:
+            continue
+        k = mujoco.mj_name2id(model, OBJ.mjOBJ_HFIELD, hf.name) if hf.name else i
+        a, nr, nc = model.hfield_adr[k], model.hfield_nrow[k], model.hfield_ncol[k]
+        hf.file, hf.nrow, hf.ncol = "", int(nr), int(nc)
+        hf.userdata = model.hfield_data[a:a + nr * nc].tolist()
+    for tex in spec.textures:
+        if tex.file or any(tex.cubefiles):
+            tex.file, tex.cubefiles = "", [""] * len(tex.cubefiles)
+            tex.builtin, tex.width, tex.height = mujoco.mjtBuiltin.mjBUILTIN_FLAT, 16, 16
+            tex.rgb1 = tex.rgb2 = [0.6, 0.6, 0.6]
+    for skin in list(spec.skins):
+        spec.delete(skin)
+
+
 def _leg_mass_and_reach(model: mujoco.MjModel, kin: _Kin, leg: Leg) -> tuple[float, float]:
     j0 = mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, leg.joints[0])
     body = int(model.jnt_bodyid[j0])
@@ -342,6 +376,7 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
     spec = robot.spec()
     _name_bodies(spec)
     model = spec.compile()
+    inline_assets(spec, model)
     trunk = mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, legs.trunk)
     kin = _Kin.at_rest(model, trunk)
     total = float(model.body_subtreemass[trunk])

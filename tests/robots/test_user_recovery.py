@@ -202,3 +202,30 @@ def test_an_octopod_that_lost_two_legs_gets_a_sequence_for_the_six_left():
     assert sorted(legs) == ["L0", "L2", "L3", "R0", "R1", "R3"]
     assert sorted(int(k) for k in s["gait"]["swing_phases"]) == sorted(legs.values())
     assert all(len(g) >= 1 for g in s["gait"]["groups"]) and s["best"]["fitness"] >= s["baseline"]["fitness"]
+
+
+def test_the_simulated_model_reads_no_file_so_the_bundle_draws_the_uploaded_meshes():
+    import hostile_cases as hc
+    from test_upload import _stl_box
+
+    xml = lm_.build(lm_.HEXAPOD_OTHER).to_xml()
+    xml = xml.replace("<worldbody>", '<asset><mesh name="shell" file="meshes/shell.stl" scale="2 2 2"/>'
+                      '<texture name="skin" type="2d" file="textures/skin.png"/><material name="skin" texture="skin"/>'
+                      "</asset><worldbody>", 1)
+    xml = xml.replace('<joint name="root" type="free"/>', '<joint name="root" type="free"/><geom type="mesh" mesh="shell" '
+                      'material="skin" pos="0.05 0 0.03" quat="0.9 0.1 0 0" contype="0" conaffinity="0"/>', 1)
+    assets = {"meshes/shell.stl": _stl_box(), "textures/skin.png": hc.png(8, 8)}
+    intact = mujoco.MjModel.from_xml_string(xml, assets)
+    robot = Robot("meshy", xml, assets, detect_legs(intact))
+    xml = make_walkable(robot).spec.to_xml()  # what a job simulates and its bundle's robot.xml holds
+    assert "file=" not in xml
+    m = mujoco.MjModel.from_xml_string(xml)  # no assets: every mesh inline
+    g0, g1 = (mujoco.mj_name2id(x, mujoco.mjtObj.mjOBJ_MESH, "shell") for x in (intact, m))
+    v0 = intact.mesh_vert[intact.mesh_vertadr[g0]:intact.mesh_vertadr[g0] + intact.mesh_vertnum[g0]]
+    v1 = m.mesh_vert[m.mesh_vertadr[g1]:m.mesh_vertadr[g1] + m.mesh_vertnum[g1]]
+    np.testing.assert_allclose(v1, v0, atol=1e-6)
+    d0, d1 = mujoco.MjData(intact), mujoco.MjData(m)
+    mujoco.mj_kinematics(intact, d0)
+    mujoco.mj_kinematics(m, d1)
+    k0, k1 = (int(np.flatnonzero(x.geom_dataid == g)[0]) for x, g in ((intact, g0), (m, g1)))
+    np.testing.assert_allclose(d1.geom_xpos[k1], d0.geom_xpos[k0], atol=1e-6)  # drawn where it was
