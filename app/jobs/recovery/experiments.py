@@ -14,6 +14,8 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
+from app.jobs.recovery import loop_check
+from app.jobs.reporting import Section
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
 from app.jobs.recovery.metrics import TARGET
@@ -573,4 +575,8 @@ EXPERIMENTS = [
                 ConvergenceParams, _convergence),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
                         "the paper DE with cut walks checked against Table II", SpeedParams, _speed),
+    Experiment("closed-loop", "issue 24: the four Table II answers open and closed loop on the nominal model, the "
+                              "7 named cases and held-out random models (evaluations, no search)",
+               loop_check.LoopParams, loop_check.run_loop_check,
+               (Section("recovery-closed-loop", (loop_check.JSON,), loop_check.render),)),
 ]
