@@ -265,7 +265,9 @@ PRESET_TEXT = ("paper: every field as paper 000 (DE 30 x 60 over full 10 s walks
 class RecoverySpec(SpecBase):
     kind: Literal["recovery"] = "recovery"
     preset: Literal[tuple(PRESETS)] = Field("paper", description=PRESET_TEXT)  # type: ignore[valid-type]
-    robot: str = Field("jethexa", max_length=64, json_schema_extra={"enum": sorted(ROBOTS)})
+    robot: str = Field("jethexa", max_length=64, json_schema_extra={"enum": sorted(ROBOTS)}, description=(
+        "a built-in robot (the enum), or the id of one of your uploaded robots (GET /api/robots; its damage is "
+        "robot_damage)"))
     # One default for the API, the CLI and the dashboard: the paper's first case (Table II,
     # legs 1 and 6 lost). `"damage": {}` is the intact robot.
     damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
