@@ -92,7 +92,48 @@ def _evidence_rows(s: dict) -> list[HeadlineRow]:
     rob = robustness_of(s)
     if rob is not None:
         rows.append(headline_row("perturbed re-runs meeting the target", f"{rob.met}/{rob.total}", "", "higher"))
+        rows += _loop_rows(s, rob)
     return rows
+
+
+def _loop_rows(s: dict, rob) -> list[HeadlineRow]:
+    """How the gait was driven, the named cases by group and the held-out share (issue 24)."""
+    rows = []
+    control = s.get("control") or {}
+    if control:
+        rows.append(headline_row("drive", control["mode"].replace("_", " "), "", None))
+    for group, label in (("physical", "physical cases meeting the target"), ("numerics", "timestep checks passed")):
+        g = (rob.extra.get("groups") or {}).get(group)
+        if g and g["total"]:
+            rows.append(headline_row(label, f"{g['met']}/{g['total']}", "", "higher"))
+    held = rob.extra.get("held_out")
+    if held and held["n"]:
+        rows.append(headline_row("held-out random models meeting the target", 100 * held["share"], "%", "higher"))
+        off = (control.get("open_loop") or {}).get("held_out")
+        if off:
+            rows.append(headline_row("held-out, same gait without the correction", 100 * off["share"], "%", "higher"))
+    return rows
+
+
+def _loop_table(s: dict) -> Table | None:
+    """A closed-loop job's answer with and without its correction, on the same models."""
+    control = s.get("control") or {}
+    off = control.get("open_loop")
+    rob = robustness_of(s)
+    if control.get("mode") != "closed_loop" or not off or rob is None:
+        return None
+    held = rob.extra.get("held_out") or {}
+
+    def row(label, best, cases, held_out):
+        named = f"{sum(c['target_met'] is True for c in cases)}/{len(cases)}"
+        ho = f"{held_out['met']}/{held_out['n']}" if held_out else "-"
+        return [label, *_walk_cells(best["metrics"]), met_word(best["target_met"]), named, ho]
+
+    return table("open vs closed loop: the answer with and without its correction",
+                 ["drive", "x (cm)", "y (cm)", "yaw (deg)", "nominal target", "named cases met", "held-out met"],
+                 [row("closed loop (the job's answer)", s["best"], [c.to_json() for c in rob.cases], held),
+                  row("open loop (same gait, no correction)", off["best"], off["cases"], off.get("held_out"))],
+                 ["the same named cases and held-out models both ways (summary control.open_loop)"])
 
 
 def _yes(v) -> str:
@@ -127,6 +168,9 @@ def summary_tables(s: dict) -> list[Table]:
                          [[c.label, *_walk_cells(c.metrics), _yes(c.metrics["fell"]), met_word(c.target_met)]
                           for c in rob.cases],
                          [f"target: {rob.target}; met in {rob.met} of {rob.total} cases"]))
+    loop = _loop_table(s)
+    if loop is not None:
+        out.append(loop)
     return out
 
 

@@ -79,3 +79,19 @@ def test_closed_loop_reports_the_answer_without_its_correction(small):
     assert [x["name"] for x in ol["cases"]] == ["dt_half", "friction_0.7", "payload"]
     assert ol["held_out"]["n"] == 4
     assert ol["best"]["metrics"] != res.summary["best"]["metrics"]  # the correction acted
+
+
+def test_the_page_shows_the_drive_and_the_held_out_share(small):
+    from app.jobs.registry import get_kind
+
+    spec, res = small
+    kind = get_kind("recovery")
+    rows = {r["label"]: r for r in kind.headline(res.summary)}
+    held = res.summary["robustness"]["held_out"]
+    assert rows["drive"]["value"] == spec.control.mode.replace("_", " ")
+    assert rows["held-out random models meeting the target"]["value"] == 100 * held["share"]
+    assert rows["timestep checks passed"]["value"] == "{met}/{total}".format(**res.summary["robustness"]["groups"]["numerics"])
+    titles = [t["title"] for t in kind.summary_tables(res.summary)]
+    closed = spec.control.mode == "closed_loop"
+    assert ("open vs closed loop: the answer with and without its correction" in titles) == closed
+    assert ("held-out, same gait without the correction" in rows) == closed
