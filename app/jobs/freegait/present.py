@@ -6,17 +6,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table  # noqa: E402
-from app.core.plots import _save  # noqa: E402
-from app.jobs.evidence import controls_of, robustness_of  # noqa: E402
-from app.jobs.freegait.spec import TARGET, target_parts  # noqa: E402
-from app.jobs.verdict import score  # noqa: E402
+from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
+from app.jobs.evidence import controls_of, robustness_of
+from app.jobs.freegait.spec import TARGET, target_parts
+from app.jobs.verdict import score
 
 HISTORY_COLUMNS = {
     "transfer": "transfer number, from 0",
@@ -155,6 +150,7 @@ def replay_style(trace_names: list[str]) -> list[ReplayTrack]:
 # -- bundle figures ----------------------------------------------------------------------------
 
 def _draw_zones(ax, s: dict) -> None:
+    from app.core.plots import plt  # matplotlib only when drawing (the CLI starts faster)
     f = s["field"]
     for x, y in s.get("zones", []):
         ax.add_patch(plt.Circle((x, y), f["safe_radius_m"], color="0.75", zorder=1))
@@ -162,6 +158,7 @@ def _draw_zones(ax, s: dict) -> None:
 
 
 def minefield_figure(s: dict, traces: dict, out: Path) -> list[Path]:
+    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
     ctl = s.get("control_footholds")
     panels = [("walk", s.get("footholds_list") or [])] + ([(ctl["name"], ctl["footholds"])] if ctl else [])
     fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.8 * len(panels)), squeeze=False, constrained_layout=True)
@@ -188,6 +185,7 @@ def minefield_figure(s: dict, traces: dict, out: Path) -> list[Path]:
 
 
 def margins_figure(s: dict, traces: dict, out: Path) -> list[Path]:
+    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
     tr = traces["walk"]
     t = np.asarray(tr["time_s"])
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
@@ -206,6 +204,7 @@ def margins_figure(s: dict, traces: dict, out: Path) -> list[Path]:
 
 
 def gait_diagram_figure(traces: dict, out: Path) -> list[Path]:
+    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
     tr = traces["walk"]
     t = np.asarray(tr["time_s"])
     ph = np.asarray(tr["phase"])
