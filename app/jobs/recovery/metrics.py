@@ -192,4 +192,10 @@ def walk_of(summary: Mapping[str, Any]) -> float:
     return float((summary.get("target") or {}).get("walk_s") or BASIS_S)
 
 
+def target_text_of(summary: Mapping[str, Any]) -> str:
+    """The target's words as the run stated them (its robustness block carries the same, and
+    the verdict matches the two), else as ``target_for`` states them for its walk."""
+    return (summary.get("target") or {}).get("text") or target_for(walk_of(summary)).text
+
+
 TARGET = target_for(BASIS_S)

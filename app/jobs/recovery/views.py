@@ -9,7 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from app.jobs import viewkit as kit
-from app.jobs.recovery.metrics import basis_text, judged, target_checks, target_for, target_met, walk_of
+from app.jobs.recovery.metrics import basis_text, judged, target_checks, target_met, target_text_of, walk_of
 from app.jobs.recovery.gaitplan import GAIT_SCHEME, faded, plan_of, planned_swings
 from app.jobs.recovery.present import HISTORY_COLUMNS, met_word, replay_style
 
@@ -43,7 +43,7 @@ def table_two(summary: dict) -> dict | None:
         return abs(b) < abs(a)
 
     walk = walk_of(summary)  # the target scales with the walk's length (metrics.target_for)
-    tgt = target_for(walk)
+    tgt = target_text_of(summary)
     rows = []
     for name, r in (("baseline", base), ("best", best)):
         m = r["metrics"]
@@ -61,12 +61,12 @@ def table_two(summary: dict) -> dict | None:
         row.append(kit.cell(met_word(ok), met=ok))
         rows.append(row)
     cap = (f"As in the paper's Table II: final position (x sideways drift, y forward, the walking direction), final yaw, "
-           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {tgt.text}; scaled to the walk: "
+           f"roll and pitch amplitude; F is the fitness of Eq. 5 (higher is better). Target: {tgt}; scaled to the walk: "
            f"{basis_text(walk)} — each "
            "target column says met or not met. Recovered values say better or worse than the baseline."
            + _search_note(summary))
     return kit.panel("table2", "Before and after", cap,
-                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({tgt.text})"],
+                     table=kit.table(["gait"] + [c[0] for c in cols] + ["fell", "F (higher better)", f"target ({tgt})"],
                                      rows))
 
 

@@ -79,7 +79,10 @@ PACED_4S = {"x_f_m": 0.01, "y_f_m": 0.32, "yaw_f_deg": 2.0, "roll_amp_deg": 2.0,
 
 
 def scaled(summary: dict, walk_s: float) -> dict:
-    return summary | {"target": summary["target"] | {"walk_s": walk_s}}
+    """As run.summary states a walk of ``walk_s`` s: the target's words and its robustness block's."""
+    text = target_for(walk_s).text
+    return summary | {"target": summary["target"] | {"walk_s": walk_s, "text": text},
+                      "robustness": summary["robustness"] | {"target": text}}
 
 
 def test_the_target_scales_with_the_walk_and_the_10_s_walk_keeps_the_papers_numbers():
@@ -105,6 +108,21 @@ def test_pages_and_tables_judge_by_the_walk_they_ran():
     short = scaled(summary_of(PACED_4S), 2.0)
     rows = {r["label"]: r for r in present.headline(short)}
     assert rows["recovery target"]["met"] is None and "too short" in rows["recovery target"]["value"]
-    assert all(r.get("met") is None for r in rows.values() if r["label"] != "random search (same budget) forward")
+    assert all(r.get("met") is None for r in rows.values())
     cell = views.table_two(short)["table"]["rows"][1][-1]
     assert cell.get("met") is None and "too short" in cell["value"]
+
+
+def test_the_verdict_judges_by_the_target_the_run_stated():
+    from app.jobs.recovery import KIND
+
+    v = KIND.verdict(scaled(summary_of(PACED_4S), 4.0))
+    assert v["target"] == {"text": target_for(4.0).text, "met": True}
+    # the words as stored: a later change of wording does not turn the verdict into another row's
+    stored = scaled(summary_of(PACED_4S), 4.0)
+    stored["target"]["text"] = stored["robustness"]["target"] = "forward >= 20 cm (as worded then)"
+    assert KIND.verdict(stored)["target"]["met"] is True
+    # too short, and the control fell: the run's target is not judged; the control's fall is its own
+    short = scaled(summary_of(PACED_4S), 2.0)
+    short["controls"] = [c | {"name": "random_search", "target_met": False, "metrics": FELL_FAR} for c in short["controls"]]
+    assert KIND.verdict(short)["target"]["met"] is None
