@@ -132,7 +132,7 @@ def bench(
     quick: bool = typer.Option(False, "--quick", help="small budget (CI smoke); figures are not the targets'"),
     kind: Optional[list[str]] = typer.Option(None, "--kind", help="only these kinds (repeat); default all"),
     studies: bool = typer.Option(False, "--studies", help="instead: a study's dispatch overhead per point through "
-                                 "a real worker on the configured broker and database (200 tiny points; --quick 20)"),
+                                 "a real worker on the configured broker and database (200 tiny points; --quick 6)"),
 ):
     """Measure every kind's hot paths (rollout and evaluator throughput, paper-size runs, peers)."""
     from app.cli.bench import run_bench
@@ -142,7 +142,7 @@ def bench(
     if studies:
         from app.cli.study_bench import dispatch_overhead, tiny_spec
 
-        figures = {"study_dispatch": dispatch_overhead(tiny_spec(), 20 if quick else 200, log=err.print)}
+        figures = {"study_dispatch": dispatch_overhead(tiny_spec(), 6 if quick else 200, log=err.print)}
     else:
         figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
     if as_json:
