@@ -107,6 +107,14 @@ def test_cancel_stops_a_running_search_within_a_generation_and_a_queued_job_neve
 
 
 RESUME_SPEC = spec(generations=18, population=8, seed=7)
+_reference: list[tuple[dict, int]] = []
+
+
+def resume_reference() -> tuple[dict, int]:
+    """RESUME_SPEC's uninterrupted run, once per session (both brokers' tests compare with it)."""
+    if not _reference:
+        _reference.append(reference_run(RESUME_SPEC))
+    return _reference[0]
 
 
 def kill_and_resume(settings, client, jid, start_worker, env, kill, saves: int) -> dict:
@@ -136,7 +144,7 @@ def kill_and_resume(settings, client, jid, start_worker, env, kill, saves: int) 
 
 
 def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_worker):
-    reference, saves = reference_run(RESUME_SPEC)  # first: it must not race the job
+    reference, saves = resume_reference()  # first: it must not race the job
     env = deployment(tmp_path)
     settings = migrated(env)
     client = TestClient(create_app(settings))
@@ -157,7 +165,7 @@ def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_wo
 
 def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worker, redis_url, pg_url):
     """The distributed mode: Redis broker and PostgreSQL store."""
-    reference, saves = reference_run(RESUME_SPEC)  # first: it must not race the job
+    reference, saves = resume_reference()  # first: it must not race the job
     env = deployment(tmp_path, database_url=pg_url, broker=redis_url)
     settings = migrated(env)
     client = TestClient(create_app(settings))
