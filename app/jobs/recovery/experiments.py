@@ -14,7 +14,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import loop_check
+from app.jobs.recovery import loop_check, randomised_check
 from app.jobs.reporting import Section
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
@@ -579,4 +579,8 @@ EXPERIMENTS = [
                               "7 named cases and held-out random models (evaluations, no search)",
                loop_check.LoopParams, loop_check.run_loop_check,
                (Section("recovery-closed-loop", (loop_check.JSON,), loop_check.render),)),
+    Experiment("randomised", "issue 24: randomised robust search against the nominal search at equal simulation "
+                             "budget on the four Table II damages, answers judged on the same held-out random models",
+               randomised_check.RandomisedParams, randomised_check.run_randomised,
+               (Section("recovery-randomised", (randomised_check.JSON,), randomised_check.render),)),
 ]

@@ -24,6 +24,9 @@ from app.jobs.recovery.metrics import fitness
 from app.sim.perturb import Perturbation, perturbed_model, same_signature
 
 AGGREGATES = ("mean", "worst")
+# The randomised search's aggregates (app/jobs/recovery/randomised.py): the mean over the
+# generation's K random models, or CVaR: the mean of the worst ceil(share x K) of them.
+RANDOM_AGGREGATES = ("mean", "cvar")
 
 
 class MultiModelEvaluator:
@@ -67,6 +70,13 @@ def aggregate(f: np.ndarray, how: str) -> np.ndarray:
     if how == "worst":
         return f.min(axis=1)
     raise ValueError(f"aggregate must be one of {AGGREGATES}, got {how!r}")
+
+
+def cvar(f: np.ndarray, share: float) -> np.ndarray:
+    """(P, K) fitness over models -> (P,): the mean of each row's worst ceil(share x K)
+    values (share 1: the mean; share <= 1/K: the worst)."""
+    k = max(1, min(f.shape[1], int(np.ceil(share * f.shape[1] - 1e-9))))
+    return np.sort(f, axis=1)[:, :k].mean(axis=1)
 
 
 def robust_fitness(metrics: dict[str, np.ndarray], weights, units: str, how: str) -> tuple[np.ndarray, np.ndarray]:

@@ -23,6 +23,7 @@ from app.jobs.recovery.cases import walking_cases
 from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
 from app.jobs.recovery.metrics import basis_text, fitness, objective_terms, target_for, target_met
+from app.jobs.recovery.randomised import RandomisedScorer
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
@@ -246,8 +247,10 @@ def set_up(spec: RecoverySpec) -> _Job:
     cfg = sim_config(spec)
     lower, upper = search_bounds(spec, robot)
     cases = walking_cases(robot.geometry.total_mass, spec.robustness.cases)
+    score = RandomisedScorer(spec, robot, mspec, seq, cfg) if spec.randomised else _Scorer(spec, robot, mspec, model,
+                                                                                             seq, cfg)
     return _Job(spec=spec, robot=robot, mspec=mspec, model=model, legs=legs, seq=seq, lower=lower, upper=upper,
-                names=param_names(legs), score=_Scorer(spec, robot, mspec, model, seq, cfg),
+                names=param_names(legs), score=score,
                 ev=GaitEvaluator(robot, model, seq, cfg), base_ev=GaitEvaluator(robot, model, nominal_tripod(legs), cfg),
                 cases=cases,
                 rob_ev=MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None)
@@ -256,7 +259,7 @@ def set_up(spec: RecoverySpec) -> _Job:
 def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
     """Each phase's share of the progress bar, in simulated walks."""
     s = spec.search
-    per_search = s.population * (s.generations + 1) * spec.models_per_candidate
+    per_search = spec.search_walks
     rnd = int(spec.controls.random_search)
     sizes = {"search": per_search, "random_search": rnd * per_search, "final_scoring": 2,
              "random_search_scoring": rnd, "robustness": len(spec.robustness.cases),
@@ -278,6 +281,8 @@ def search(job: _Job, phases: Phases) -> None:
     opt = make_optimizer(s.optimizer, job.lower, job.upper, s.population, s.seed, cr=s.cr, f=s.f)
 
     def evaluate(x: np.ndarray) -> Generation:  # with cut walks, DE's parents are its trials' thresholds
+        if job.spec.randomised is not None:  # the generation's draw; DE's parents scored again on it
+            return job.score.redrawn(opt, x)
         return job.score.generation(x, opt.selection_thresholds() if s.cut_walks else None)
 
     goal = None
@@ -289,8 +294,12 @@ def search(job: _Job, phases: Phases) -> None:
     if job.spec.controls.random_search:
         # its own stream of the job's seed, so adding the control leaves the search's draws alone
         rnd = make_optimizer("random", job.lower, job.upper, s.population, control_seed(s.seed))
-        job.searches["random_search"] = run_search(rnd, job.score.generation, job.searches["search"].generations_run - 1,
-                                                   phases.context("random_search"))
+        gens = job.searches["search"].generations_run - 1
+        if job.spec.randomised is not None:  # each generation on its draw; twice the generations: the same walks
+            score, gens = (lambda x: job.score.redrawn(rnd, x)), 2 * gens
+        else:
+            score = job.score.generation
+        job.searches["random_search"] = run_search(rnd, score, gens, phases.context("random_search"))
     done = job.searches.values()
     job.evaluations = sum(o.evaluations for o in done)
     job.sim_steps = sum(int(o.totals.get("sim_steps", 0)) for o in done)
@@ -366,6 +375,8 @@ def robustness(job: _Job, phases: Phases) -> None:
         _done(job, ph)
     if job.spec.robust is not None:
         job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
+    if job.spec.randomised is not None:  # the summary's robust block states the aggregate and K
+        job.robust = {"randomised": job.score.describe(best_x)}
 
 
 def held_out_and_open_loop(job: _Job, phases: Phases) -> None:

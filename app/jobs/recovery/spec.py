@@ -14,7 +14,7 @@ from app.jobs.loop import StopRules
 from app.robots.catalog import ROBOTS
 from app.robots.hexapod import DEFAULT_TIMESTEP
 from app.jobs.recovery.cases import CASE_NAMES
-from app.jobs.recovery.robust import AGGREGATES
+from app.jobs.recovery.robust import AGGREGATES, RANDOM_AGGREGATES
 
 Leg = Annotated[int, Field(ge=1, le=6)]
 JointName = Literal["coxa", "femur", "tibia"]
@@ -176,6 +176,21 @@ class Robust(StrictModel):
         return _unique_cases(v)
 
 
+class Randomised(StrictModel):
+    """Randomised robust search (app/jobs/recovery/randomised.py; DE only): each generation
+    draws ``models`` random models from the stated ranges (cases.RANDOM_RANGES) with a stream
+    of the job's seed and the generation's index (a resume draws the same), scores every
+    candidate on all of them in one rollout, and its fitness is the mean of the Eq. 5 fitness
+    over them, or the CVaR (the mean of the worst ceil(cvar_share x models)). DE's parents are
+    scored again on each generation's draw (counted): a search costs population x models x
+    (2 generations + 1) walks."""
+
+    models: int = Field(4, ge=2, le=32, description="K: random models drawn per generation")
+    aggregate: Literal[RANDOM_AGGREGATES] = "mean"  # type: ignore[valid-type]
+    cvar_share: float = Field(0.5, ge=0.1, le=1.0, description=(
+        "cvar: the share of the worst models averaged (ceil(share x K) of them)"))
+
+
 class Controls(StrictModel):
     random_search: bool = True  # uniform sampling of the same bounds at the search's budget
 
@@ -281,6 +296,8 @@ class RecoverySpec(SpecBase):
     control: Control = Field(default_factory=Control)
     bounds: Bounds = Field(default_factory=Bounds)
     robust: Robust | None = None
+    randomised: Randomised | None = Field(None, description=(
+        "randomised robust search: K random models drawn per generation, fitness their mean or CVaR"))
     controls: Controls = Field(default_factory=Controls)
     robustness: Robustness = Field(default_factory=Robustness)
 
@@ -319,11 +336,26 @@ class RecoverySpec(SpecBase):
                              "stance); leave it at its default")
         return self
 
+    @model_validator(mode="after")
+    def _randomised_alone(self):
+        if self.randomised is None:
+            return self
+        if self.robust is not None:
+            raise ValueError("randomised: a search is either robust over fixed models or randomised, not both")
+        if self.search.optimizer != "de":
+            raise ValueError("randomised: DE only (its parents are scored again on every generation's draw)")
+        if self.search.cut_walks:
+            raise ValueError("randomised: search.cut_walks is for the nominal model only; set it false")
+        if self.robot not in ROBOTS:
+            raise ValueError("randomised: the random models are the built-in robots' (a rough floor of their world)")
+        return self
+
     budget_field: ClassVar[str] = "search.generations"
     budget_formula: ClassVar[str] = (
         "population x (generations + 1) candidate gaits (generation 0 is the initial population), each simulated "
-        "on 1 + len(robust.models) models; the same again for the random-search control when it is on; plus one "
-        "simulation per robustness case, one per held-out model and three re-scorings (best, baseline, "
+        "on 1 + len(robust.models) models (randomised: population x K x (2 generations + 1) walks, the parents "
+        "scored again on every generation's draw); the same again for the random-search control when it is on; "
+        "plus one simulation per robustness case, one per held-out model and three re-scorings (best, baseline, "
         "random-search best); in closed loop, the answer once more without the correction on the nominal model, "
         "each case and each held-out model; with stop.at_target, at most two confirmation walks per generation "
         "(at the default step and at half of it)")
@@ -337,8 +369,16 @@ class RecoverySpec(SpecBase):
         return 1 + (len(self.robust.models) if self.robust else 0)
 
     @property
+    def search_walks(self) -> int:
+        """Walks one search simulates: P x (G + 1) per model, or randomised P x K x (2G + 1)."""
+        s = self.search
+        if self.randomised is not None:
+            return s.population * self.randomised.models * (2 * s.generations + 1)
+        return s.population * (s.generations + 1) * self.models_per_candidate
+
+    @property
     def evaluations_budget(self) -> int:
-        search = self.search.population * (self.search.generations + 1) * self.models_per_candidate
+        search = self.search_walks
         confirm = 2 * (self.search.generations + 1) if self.stop.at_target else 0
         # closed loop: the answer again without the correction, on the nominal model, the cases and the held-out set
         again = 1 + len(self.robustness.cases) + self.robustness.held_out if self.control.mode == "closed_loop" else 0
