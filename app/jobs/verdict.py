@@ -225,6 +225,7 @@ def robustness_verdict(rob: Robustness | None) -> dict[str, Any] | None:
             groups.append({"name": name, "label": GROUP_LABELS[name], "met": sum(c.target_met is True for c in cs),
                            "total": len(cs)})
     return {"target": rob.target, "met": rob.met, "total": rob.total, "groups": groups,
+            "judged": sum(c.target_met is not None for c in rob.cases),
             "failed": [c.label for c in rob.cases if c.target_met is False]}
 
 
@@ -240,7 +241,12 @@ def _sentence(target: dict, controls: list[dict], rob: dict | None) -> str:
         parts.append(f"Against {len(compared)} control{'s' if len(compared) > 1 else ''} at the same budget: "
                      + ", ".join(f"{k} {v}" for k, v in n.items() if v) + ".")
     if rob is not None:
-        parts.append(f"{rob['met']} of {rob['total']} robustness re-runs meet the target.")
+        judged = rob.get("judged", rob["total"])
+        if judged == 0:
+            parts.append(f"The {rob['total']} robustness re-runs are not judged against the target.")
+        else:
+            of = f"{judged} judged" if judged < rob["total"] else f"{rob['total']}"
+            parts.append(f"{rob['met']} of {of} robustness re-runs meet the target.")
     return " ".join(parts) if parts else "No target, controls or robustness runs recorded."
 
 

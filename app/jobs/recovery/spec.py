@@ -133,8 +133,9 @@ class Search(StrictModel):
 
 class RecoveryStop(StopRules):
     at_target: bool = Field(False, description=(
-        "stop once the best gait meets the recovery target (forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg, "
-        "no fall), confirmed by a walk at half the step; the time it took is reported (summary timing.time_to_target_s)"))
+        "stop once the best gait meets the recovery target (over the 10 s walk: forward >= 50 cm, |lateral| <= 5 cm, "
+        "|yaw| <= 10 deg, no fall; as rates, scaled to the walk's length), confirmed by a walk at half the step; "
+        "the time it took is reported (summary timing.time_to_target_s)"))
 
 
 class Objective(StrictModel):

@@ -126,3 +126,8 @@ def test_the_verdict_judges_by_the_target_the_run_stated():
     short = scaled(summary_of(PACED_4S), 2.0)
     short["controls"] = [c | {"name": "random_search", "target_met": False, "metrics": FELL_FAR} for c in short["controls"]]
     assert KIND.verdict(short)["target"]["met"] is None
+    # ... and its sentence says the re-runs (which a run of that length stores unjudged) were
+    # not judged, not "0 of n meet the target"
+    short["robustness"]["cases"][0]["target_met"] = None
+    assert "robustness re-runs are not judged" in KIND.verdict(short)["sentence"], KIND.verdict(short)["sentence"]
+    assert "robustness re-runs meet the target" in KIND.verdict(scaled(summary_of(PACED_4S), 4.0))["sentence"]
