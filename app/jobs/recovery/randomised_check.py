@@ -151,8 +151,8 @@ def _damage_rows(pairs: dict) -> list[list]:
         fell = {a: sum(m["fell"] for v in ps for m in v[a]["judged"]["held_out"]) for a in ARMS}
         diffs = [(v["randomised"]["judged"]["met"] - v["nominal"]["judged"]["met"]) for v in ps]
         rows.append([" & ".join(map(str, lost)), len(ps), _rate(*c["nominal"]), _rate(*c["randomised"]),
-                     ", ".join(f"{d:+d}" for d in diffs), f"{nom['nominal']}/{len(ps)}", f"{nom['randomised']}/{len(ps)}",
-                     f"{fell['nominal']} / {fell['randomised']}"])
+                     ", ".join(f"{d:+d}" for d in diffs), f"{nom['nominal']}/{len(ps)}",
+                     f"{nom['randomised']}/{len(ps)}", f"{fell['nominal']} / {fell['randomised']}"])
     return rows
 
 
@@ -165,11 +165,11 @@ def render(datas: list) -> str:
         return missing(JSON, COMMAND)
     p, pairs = data["params"], _pairs(runs)
     gn = p["models"] * (2 * p["generations"] + 1) - 1
+    walks = p["population"] * (gn + 1)
     agg = "mean" if p["aggregate"] == "mean" else f"CVaR of the worst {100 * p['cvar_share']:g} %"
     out = [f"Randomised robust search (DE {p['population']} x {p['generations']}, K = {p['models']} random models per "
            f"generation, fitness the {agg} of Eq. 5 over them, parents scored again on every draw) against the nominal "
-           f"search (DE {p['population']} x {gn}: the same {p['population'] * p['models'] * (2 * p['generations'] + 1)} "
-           f"walks), {p['walk_s']:g} s walks at the default step, {p['mode'].replace('_', ' ')}; each answer judged on "
+           f"search (DE {p['population']} x {gn}: the same {walks} walks), {p['walk_s']:g} s walks at the default step, {p['mode'].replace('_', ' ')}; each answer judged on "
            f"the same {p['held_out']} held-out random models (stated ranges, held-out stream of seed {HELD_OUT_SEED}, "
            f"not a search seed) over {p['judge_walk_s']:g} s walks against the target. "
            f"{len(runs)} of {data.get('planned')} planned searches are in ({len(pairs)} complete pairs).", ""]
