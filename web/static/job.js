@@ -41,7 +41,7 @@
     $("compare-link").href = `/compare?ids=${j.id}`;
     const spec = j.spec || {};
     const s = spec.search || {};
-    const facts = [["Robot", j.robot || "–"], [(meta && meta.damage_label) || "Damage", j.damage || "–"]];
+    const facts = [["Robot", robotText(j.robot)], [(meta && meta.damage_label) || "Damage", j.damage || "–"]];
     if (s.optimizer && s.population !== undefined) {
       facts.push(["Search", `${s.optimizer.toUpperCase()}, population ${s.population}, ${s.generations} generations, seed ${s.seed}`]);
     } else if (Object.keys(s).length) {
@@ -55,6 +55,20 @@
     facts.push(["Attempts", `${j.attempt} of ${j.max_attempts}`], ["Owner", j.owner]);
     $("facts").replaceChildren(...facts.flatMap(([k, v]) => [el("dt", { text: k }), el("dd", { text: v })]));
     $("spec").textContent = JSON.stringify(spec, null, 2);
+  }
+
+  // An uploaded robot (a job names it by its 32-hex id) is shown by its name too, once read.
+  const robotNames = {};
+  function robotText(id) {
+    if (!id || !/^[0-9a-f]{32}$/.test(id)) return id || "–";
+    if (robotNames[id] === undefined) {
+      robotNames[id] = null;
+      api(`/api/robots/${id}`).then((r) => {
+        robotNames[id] = `${r.name} (your robot, ${r.legs.legs.length} legs; id ${id})`;
+        for (const dd of document.querySelectorAll("#facts dd")) if (dd.textContent === id) dd.textContent = robotNames[id];
+      }).catch(() => {});
+    }
+    return robotNames[id] || id;
   }
 
   // ---------- convergence ----------

@@ -9,6 +9,7 @@
   const REFRESH_MS = 2000;
   let robots = [];
   let picker = null;
+  let mappedDamage = null; // MappedDamage of an uploaded robot (robot.js)
 
   // ---------- new job form (generated from each kind's JSON schema) ----------
   let kinds = [];
@@ -66,7 +67,11 @@
     const r = props(k).robot ? SpecForm.unwrap(props(k).robot, k.schema) : null;
     if (!r) return null;
     if (r.const !== undefined) return { names: [r.const], fixed: true, def: r.const };
-    if (r.enum) return { names: r.enum, def: r.default };
+    if (r.enum) { // the built-ins, then the caller's uploaded robots that run this kind (by id)
+      const own = robots.filter((x) => x.builtin === false && (x.kinds || []).includes(k.name));
+      return { names: r.enum.concat(own.map((x) => x.id)), def: r.default,
+               labels: Object.fromEntries(own.map((x) => [x.id, `${x.name} (yours, ${x.legs.legs.length} legs)`])) };
+    }
     const tagged = robots.some((x) => Array.isArray(x.kinds));
     let names = tagged ? robots.filter((x) => x.kinds.includes(k.name)).map((x) => x.name) : robots.map((x) => x.name);
     if (r.default !== undefined && !names.includes(r.default)) names = [r.default];
@@ -80,7 +85,7 @@
     const rc = robotChoices(k);
     $("robot-field").hidden = !rc;
     if (rc) {
-      $("robot").replaceChildren(...rc.names.map((n) => el("option", { value: n, text: n, selected: n === rc.def ? true : null })));
+      $("robot").replaceChildren(...rc.names.map((n) => el("option", { value: n, text: (rc.labels || {})[n] || n, selected: n === rc.def ? true : null })));
       $("robot").disabled = !!rc.fixed && rc.names.length === 1;
     }
     selectRobot();
@@ -88,16 +93,24 @@
 
   function selectRobot() {
     const k = kindOf();
-    const r = robots.find((x) => x.name === $("robot").value);
+    const r = robots.find((x) => (x.builtin === false ? x.id : x.name) === $("robot").value);
     $("robot-desc").textContent = r ? r.description : "";
     const dmg = damageSchema(k);
     drawDamage = !!(r && r.hips_m && dmg && dmg.properties && dmg.properties.lost_legs);
+    // an uploaded robot: its damage by its leg map's names (robot_damage), drawn from its map
+    const mapped = !!(r && r.builtin === false && props(k).robot_damage);
+    $("mapped-picker").hidden = !mapped;
+    mappedDamage = mapped ? MappedDamage.create($("mapped-drawing"), $("mapped-joints"), r, (d) => {
+      $("mapped-summary").textContent = MappedDamage.describe(d);
+      checkSoon();
+    }) : null;
     $("damage-picker").hidden = !drawDamage;
     if (drawDamage) {
       picker = RobotPicker.create($("robot-drawing"), r, describeDamage, damageDefault(k));
       picker.setMode(document.querySelector("input[name=mode]:checked").value);
     } else picker = null;
-    const skip = ["robot"].concat(drawDamage ? ["damage.lost_legs", "damage.locked_joints"] : []);
+    const skip = ["robot"].concat(drawDamage ? ["damage.lost_legs", "damage.locked_joints"] : [])
+      .concat(mapped ? ["damage", "robot_damage"] : []);
     form = SpecForm.build($("spec-fields"), k, { skip, onChange: checkSoon });
     clearErrors();
     checkSoon();
@@ -106,6 +119,7 @@
   function specOf() {
     const spec = form.read();
     if (!$("robot-field").hidden && !$("robot").disabled) spec.robot = $("robot").value;
+    if (mappedDamage) spec.robot_damage = mappedDamage.damage();
     if (drawDamage && picker) {
       // The drawing's damage is always sent, as drawn: an emptied drawing is the intact robot
       // ({"lost_legs": []}), never "no damage section", which would run the kind's default damage.
@@ -447,7 +461,7 @@
       [kinds, robots] = await Promise.all([api("/api/web/kinds"), api("/api/robots")]);
       $("kind").replaceChildren(...kinds.map((k) => el("option", { value: k.name, text: k.name })));
       $("f-kind").append(...kinds.map((k) => el("option", { text: k.name })));
-      $("f-robot").append(...robots.map((r) => el("option", { text: r.name })));
+      $("f-robot").append(...robots.map((r) => el("option", { value: r.builtin === false ? r.id : r.name, text: r.name })));
       const want = new URLSearchParams(location.search).get("kind");
       if (want && kinds.some((k) => k.name === want)) $("kind").value = want;
       selectKind();

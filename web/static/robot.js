@@ -125,3 +125,336 @@ const RobotPicker = (() => {
 
   return { create };
 })();
+
+// An uploaded robot (GET /api/robots: its leg map `legs` and `points`, each leg's hip and
+// foot in the trunk frame): the top view, front at the top, each leg drawn from its hip to
+// its foot with its joints spaced along that line (the points hold no elbow positions),
+// numbered in map order and named. draw() is the Add robot page's and the form's drawing;
+// onLeg(name) makes each leg a button (Enter/Space too).
+const LegMapView = (() => {
+  const NS = "http://www.w3.org/2000/svg";
+  const FWD = { "+x": [1, 0], "-x": [-1, 0], "+y": [0, 1], "-y": [0, -1] };
+  const svg = (tag, attrs = {}) => {
+    const e = document.createElementNS(NS, tag);
+    for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, v);
+    return e;
+  };
+
+  // trunk frame (m) -> drawing plane: front up, the robot's left on the left
+  function planar(forward) {
+    const f = FWD[forward] || FWD["+x"], l = [-f[1], f[0]];
+    return (p) => [-(p[0] * l[0] + p[1] * l[1]), -(p[0] * f[0] + p[1] * f[1])];
+  }
+
+  function draw(container, robot, opts = {}) {
+    const map = robot.legs, legs = map.legs, pts = robot.points || {};
+    const to = planar(map.forward);
+    const plane = legs.map((leg) => ({ leg, hip: to((pts[leg.name] || {}).hip || [0, 0, 0]), foot: to((pts[leg.name] || {}).foot || [0, 0, 0]) }));
+    const ext = Math.max(0.05, ...plane.flatMap((p) => [...p.hip, ...p.foot].map(Math.abs)));
+    const S = 300 / ext, half = 300 + 70;
+    const root = svg("svg", { viewBox: `${-half} ${-half} ${2 * half} ${2 * half}`, class: "robot-svg legmap-svg", role: "group",
+                              "aria-label": `${robot.name || "robot"} seen from above, front at the top: ${legs.length} legs` });
+    const hull = [...plane].sort((a, b) => Math.atan2(a.hip[1], a.hip[0]) - Math.atan2(b.hip[1], b.hip[0]));
+    root.append(svg("polygon", { class: "body", points: hull.map((p) => `${p.hip[0] * S},${p.hip[1] * S}`).join(" ") }));
+    const front = svg("text", { class: "front", x: 0, y: -half + 26 });
+    front.textContent = "▲ front";
+    root.append(front);
+    const groups = {};
+    plane.forEach(({ leg, hip, foot }, i) => {
+      const [hx, hy, fx, fy] = [hip[0] * S, hip[1] * S, foot[0] * S, foot[1] * S];
+      const g = svg("g", { class: "leg", "data-leg": leg.name });
+      if (opts.onLeg) {
+        g.setAttribute("tabindex", 0);
+        g.setAttribute("role", "button");
+        g.addEventListener("click", () => opts.onLeg(leg.name));
+        g.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); opts.onLeg(leg.name); } });
+      }
+      const title = svg("title");
+      title.textContent = `Leg ${i + 1}: ${leg.name} (${leg.side}, order ${leg.order}), joints ${leg.joints.join(", ")}`;
+      g.append(title, svg("line", { class: "hit", x1: hx, y1: hy, x2: fx, y2: fy }),
+               svg("line", { class: "seg", x1: hx, y1: hy, x2: fx, y2: fy }));
+      leg.joints.forEach((j, k) => {
+        const t = k / Math.max(1, leg.joints.length);
+        g.append(svg("circle", { class: "joint", "data-joint": j, cx: hx + (fx - hx) * t, cy: hy + (fy - hy) * t, r: 9 }));
+      });
+      g.append(svg("circle", { class: "foot", cx: fx, cy: fy, r: 11 }));
+      const dx = fx - hx, dy = fy - hy, n = Math.hypot(dx, dy) || 1;
+      const label = svg("text", { x: fx + (dx / n) * 34, y: fy + (dy / n) * 34 });
+      label.textContent = i + 1;
+      g.append(label);
+      groups[leg.name] = g;
+      root.append(g);
+    });
+    container.replaceChildren(root);
+    return { root, groups };
+  }
+
+  return { draw, planar };
+})();
+
+// The New job form's damage for an uploaded robot, by its leg map's names (the spec's
+// robot_damage): a click on a leg (or Enter) marks it lost; each joint of a working leg has
+// a state (working, locked at an angle, weak at a torque scale, passive) and each leg a cut.
+const MappedDamage = (() => {
+  const STATES = [["ok", "working"], ["locked", "locked"], ["weak", "weak"], ["passive", "passive (unpowered)"]];
+
+  function create(drawing, table, robot, onChange) {
+    const lost = new Set();
+    const joints = new Map(); // "leg\u0000joint" -> {state, value}
+    const cuts = new Map(); // leg -> m
+    const view = LegMapView.draw(drawing, robot, { onLeg: (name) => { if (!lost.delete(name)) lost.add(name); render(); } });
+    const el = GM.el;
+    const key = (leg, j) => `${leg}\u0000${j}`;
+
+    function row(leg, i) {
+      const out = [];
+      leg.joints.forEach((j, k) => {
+        const id = `dmg-${i}-${k}`;
+        const cur = joints.get(key(leg.name, j)) || { state: "ok", value: "" };
+        const sel = el("select", { id, "data-field": "robot_damage", "data-leg": leg.name, "data-joint": j },
+          STATES.map(([v, t]) => el("option", { value: v, text: t, selected: v === cur.state ? true : null })));
+        const num = el("input", { type: "number", step: "any", "aria-label": `${leg.name} ${j}: angle (°) or torque scale`,
+                                  value: cur.value, hidden: cur.state === "locked" || cur.state === "weak" ? null : true,
+                                  placeholder: cur.state === "weak" ? "0.5" : "0" });
+        const save = () => {
+          if (sel.value === "ok") joints.delete(key(leg.name, j));
+          else joints.set(key(leg.name, j), { state: sel.value, value: num.value });
+        };
+        sel.addEventListener("change", () => {
+          save();
+          num.hidden = !(sel.value === "locked" || sel.value === "weak");
+          num.placeholder = sel.value === "weak" ? "0.5" : "0";
+          paint();
+          onChange(damage());
+        });
+        num.addEventListener("input", () => { save(); onChange(damage()); });
+        out.push(el("tr", {}, k === 0 ? el("th", { scope: "row", rowspan: leg.joints.length + 1, text: `${i + 1} ${leg.name} (${leg.side})` }) : null,
+          el("td", {}, el("label", { for: id, text: j })), el("td", {}, sel, " ", num)));
+      });
+      const cid = `cut-${i}`;
+      const cut = el("input", { id: cid, type: "number", step: "0.005", min: "0", value: cuts.get(leg.name) ?? "", placeholder: "0",
+                                "data-field": "robot_damage.shortened_legs" });
+      cut.addEventListener("input", () => { const v = Number(cut.value); v > 0 ? cuts.set(leg.name, v) : cuts.delete(leg.name); onChange(damage()); });
+      out.push(el("tr", {}, el("td", {}, el("label", { for: cid, text: "foot segment cut (m)" })), el("td", {}, cut)));
+      return out;
+    }
+
+    function paint() {
+      for (const [name, g] of Object.entries(view.groups)) {
+        g.classList.toggle("lost", lost.has(name));
+        if (g.getAttribute("role") === "button") g.setAttribute("aria-pressed", String(lost.has(name)));
+        g.setAttribute("aria-label", `Leg ${name}: ${lost.has(name) ? "lost" : "working"}`);
+        for (const c of g.querySelectorAll("[data-joint]")) c.classList.toggle("locked", joints.has(key(name, c.dataset.joint)));
+      }
+    }
+
+    function render() { // the table is rebuilt only when a leg is lost or found: a select keeps its focus
+      paint();
+      const legs = robot.legs.legs;
+      table.replaceChildren(GM.el("caption", { class: "small muted", text: "Joints of the working legs, from the body out" }),
+        ...legs.flatMap((leg, i) => (lost.has(leg.name) ? [] : row(leg, i))));
+      onChange(damage());
+    }
+
+    function damage() {
+      const d = { lost_legs: robot.legs.legs.map((l) => l.name).filter((n) => lost.has(n)),
+                  locked_joints: [], weak_joints: [], passive_joints: [], shortened_legs: [] };
+      for (const [k, v] of joints) {
+        const [leg, joint] = k.split("\u0000");
+        if (lost.has(leg)) continue;
+        const x = v.value === "" ? undefined : Number(v.value);
+        if (v.state === "locked") d.locked_joints.push(Object.assign({ leg, joint }, x === undefined ? {} : { angle_deg: x }));
+        if (v.state === "weak") d.weak_joints.push(Object.assign({ leg, joint }, x === undefined ? {} : { torque_scale: x }));
+        if (v.state === "passive") d.passive_joints.push({ leg, joint });
+      }
+      for (const [leg, m] of cuts) if (!lost.has(leg)) d.shortened_legs.push({ leg, length_m: m });
+      for (const k of Object.keys(d)) if (!d[k].length) delete d[k];
+      return d;
+    }
+
+    render();
+    return { damage };
+  }
+
+  function describe(d) {
+    const parts = [];
+    if (d.lost_legs) parts.push(`lost ${d.lost_legs.length === 1 ? "leg" : "legs"} ${d.lost_legs.join(", ")}`);
+    for (const j of d.locked_joints || []) parts.push(`${j.leg} ${j.joint} locked at ${j.angle_deg ?? 0}°`);
+    for (const j of d.weak_joints || []) parts.push(`${j.leg} ${j.joint} weak (${j.torque_scale ?? 0.5} of its torque)`);
+    for (const j of d.passive_joints || []) parts.push(`${j.leg} ${j.joint} passive`);
+    for (const s of d.shortened_legs || []) parts.push(`${s.leg} shortened by ${s.length_m} m`);
+    return parts.length ? `Damage: ${parts.join("; ")}.` : "No damage.";
+  }
+
+  return { create, describe };
+})();
+
+// The Add robot page (/robots/new): upload, POST /api/robots?check=true (nothing stored)
+// for the detected leg map and its points, the drawing and the 3D view, the map edited in a
+// table, checked again on request, and saved with POST /api/robots and the edited map as
+// `legs`. A refusal shows the API's message (it names what was refused).
+(() => {
+  const form = document.getElementById("robot-upload");
+  if (!form) return;
+  const { api, el } = GM;
+  const $ = (id) => document.getElementById(id);
+  let checked = null; // the last check's answer: {name, legs, points, stats, detected}
+  let origin = []; // per row: the leg's name in `checked` (its points are keyed by it)
+
+  function parts(legs) {
+    const fd = new FormData();
+    const model = $("up-model").files[0];
+    if (!model) throw new Error("choose the model file (.xml) or a zip first");
+    if (/\.zip$/i.test(model.name)) {
+      fd.append("archive", model, model.name);
+      if ($("up-model-path").value.trim()) fd.append("model_path", $("up-model-path").value.trim());
+    } else fd.append("model", model, model.name);
+    for (const f of $("up-assets").files) fd.append("assets", f, f.name);
+    if ($("up-name").value.trim()) fd.append("name", $("up-name").value.trim());
+    if ($("up-forward").value && !legs) fd.append("forward", $("up-forward").value);
+    if (legs) fd.append("legs", JSON.stringify(legs));
+    return fd;
+  }
+
+  function fail(box, e) {
+    const msg = e.body && e.body.detail ? e.body.detail : e.message;
+    const fields = e.body && e.body.errors ? e.body.errors.map((x) => x.field).filter(Boolean) : [];
+    box.textContent = e.status ? `Refused (${e.status}): ${msg}${fields.length ? ` [field: ${fields.join(", ")}]` : ""}` : msg;
+    box.hidden = false;
+    box.focus();
+  }
+
+  // the map as edited in the table (rows in map order; foot, stance and gains kept)
+  function edited() {
+    const map = JSON.parse(JSON.stringify(checked.legs));
+    map.trunk = $("lm-trunk").value.trim();
+    map.forward = $("lm-forward").value;
+    map.legs = map.legs.map((leg, i) => Object.assign(leg, {
+      name: $(`lm-name-${i}`).value.trim(), side: $(`lm-side-${i}`).value, order: Number($(`lm-order-${i}`).value),
+      joints: $(`lm-joints-${i}`).value.split(",").map((j) => j.trim()).filter(Boolean),
+    }));
+    for (const leg of map.legs) if (leg.stance && leg.stance.length !== leg.joints.length) delete leg.stance;
+    return map;
+  }
+
+  function rows(map) {
+    origin = map.legs.map((l) => l.name);
+    $("lm-trunk").value = map.trunk;
+    $("lm-forward").value = map.forward;
+    $("legmap-rows").replaceChildren(...map.legs.map((leg, i) => {
+      const cell = (id, input, text) => el("td", {}, el("label", { for: id, class: "sr-only", text }), input);
+      const side = el("select", { id: `lm-side-${i}`, "data-field": `legs.legs.${i}.side` },
+        ["left", "right"].map((s) => el("option", { text: s, selected: s === leg.side ? true : null })));
+      return el("tr", { "data-leg": i },
+        el("th", { scope: "row", text: String(i + 1) }),
+        cell(`lm-name-${i}`, el("input", { id: `lm-name-${i}`, type: "text", value: leg.name, autocomplete: "off", spellcheck: "false",
+                                           "data-field": `legs.legs.${i}.name` }), `Leg ${i + 1} name`),
+        cell(`lm-side-${i}`, side, `Leg ${i + 1} side`),
+        cell(`lm-order-${i}`, el("input", { id: `lm-order-${i}`, type: "number", min: "0", max: "15", step: "1", value: leg.order,
+                                            "data-field": `legs.legs.${i}.order` }), `Leg ${i + 1} order`),
+        cell(`lm-joints-${i}`, el("input", { id: `lm-joints-${i}`, type: "text", value: leg.joints.join(", "), autocomplete: "off",
+                                             spellcheck: "false", "data-field": `legs.legs.${i}.joints` }), `Leg ${i + 1} joints`),
+        el("td", { class: "small", text: `${leg.foot.kind} ${leg.foot.name}` }));
+    }));
+  }
+
+  function drawAll(map) {
+    const points = Object.fromEntries(map.legs.map((l, i) => [l.name, checked.points[origin[i]] || checked.points[l.name]]));
+    const robot = { name: checked.name, legs: map, points };
+    LegMapView.draw($("legmap-drawing"), robot);
+    draw3d(robot);
+  }
+
+  function draw3d(robot) {
+    const legs = robot.legs.legs.filter((l) => robot.points[l.name]);
+    const hips = legs.map((l) => robot.points[l.name].hip);
+    const ring = [...hips].sort((a, b) => Math.atan2(a[1], a[0]) - Math.atan2(b[1], b[0]));
+    ring.push(ring[0]);
+    const traces = [{ type: "scatter3d", mode: "lines", name: "trunk (hips)", x: ring.map((p) => p[0]), y: ring.map((p) => p[1]),
+                      z: ring.map((p) => p[2]), line: { color: "#40536b", width: 6 }, hoverinfo: "skip" }];
+    legs.forEach((l, i) => {
+      const { hip, foot } = robot.points[l.name];
+      traces.push({ type: "scatter3d", mode: "lines+markers+text", name: `${i + 1} ${l.name}`, x: [hip[0], foot[0]], y: [hip[1], foot[1]],
+                    z: [hip[2], foot[2]], text: ["", `${i + 1}`], line: { width: 8, color: l.side === "left" ? "#2563eb" : "#b45309" },
+                    marker: { size: [3, 5] }, hovertemplate: `${l.name} (${l.side}, order ${l.order})<extra></extra>` });
+    });
+    // equal metres on every axis, the whole robot in view (a flat robot is not stretched to a cube)
+    const all = legs.flatMap((l) => [robot.points[l.name].hip, robot.points[l.name].foot]);
+    const ext = Math.max(0.05, ...all.flatMap((p) => p.map(Math.abs))) * 1.1;
+    const zr = [Math.min(-ext * 0.4, ...all.map((p) => p[2] * 1.1)), Math.max(ext * 0.4, ...all.map((p) => p[2] * 1.1))];
+    const axis = (title, range) => ({ title, range, autorange: false });
+    GM.plot($("legmap-3d"), traces, { hovermode: "closest", margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: false,
+      scene: { aspectmode: "manual", aspectratio: { x: 1, y: 1, z: (zr[1] - zr[0]) / (2 * ext) },
+               camera: { eye: { x: -1.1, y: -1.5, z: 0.9 } },
+               xaxis: axis("x (m)", [-ext, ext]), yaxis: axis("y (m)", [-ext, ext]), zaxis: axis("z (m)", zr) } })
+      .catch((e) => GM.empty($("legmap-3d"), `3D view unavailable: ${e.message}`));
+  }
+
+  function show(answer, rebuild) {
+    checked = answer;
+    const n = answer.legs.legs.length;
+    $("legs-what").textContent = `${answer.name}: ${n} legs ${answer.detected ? "found in the model: check them, edit if need be, then save" : "as given"}`
+      + ` (trunk ${answer.legs.trunk}, forward ${answer.legs.forward}).`;
+    $("legs-stats").replaceChildren(...Object.entries(answer.stats || {}).flatMap(([k, v]) =>
+      [el("dt", { text: k.replace(/_/g, " ") }), el("dd", { text: typeof v === "object" ? JSON.stringify(v) : String(v) })]));
+    if (rebuild) rows(answer.legs);
+    else origin = answer.legs.legs.map((l) => l.name);
+    $("legs-card").hidden = false;
+    drawAll(answer.legs);
+  }
+
+  async function send(legs, check) {
+    return api(`/api/robots${check ? "?check=true" : ""}`, { method: "POST", body: parts(legs) });
+  }
+
+  form.addEventListener("submit", async (e) => {
+    e.preventDefault();
+    $("up-error").hidden = true;
+    $("save-ok").hidden = true;
+    $("up-check").disabled = true;
+    $("up-status").textContent = "Checking the model (compiled in a confined process)…";
+    try {
+      const answer = await send(null, true);
+      $("up-status").textContent = `Checked in ${answer.seconds} s; nothing is stored until you save.`;
+      show(answer, true);
+      $("legs-h").scrollIntoView({ block: "start" });
+    } catch (err) {
+      $("up-status").textContent = "";
+      $("legs-card").hidden = true;
+      fail($("up-error"), err);
+    } finally {
+      $("up-check").disabled = false;
+    }
+  });
+
+  $("legmap-form").addEventListener("input", () => {
+    if (!checked) return;
+    try { drawAll(edited()); } catch (err) { /* half-typed: the drawing waits */ }
+  });
+
+  $("lm-recheck").addEventListener("click", async () => {
+    $("save-error").hidden = true;
+    try {
+      show(await send(edited(), true), false);
+      $("save-ok").textContent = "The edited leg map is valid for this model.";
+      $("save-ok").hidden = false;
+    } catch (err) { fail($("save-error"), err); }
+  });
+
+  $("legmap-form").addEventListener("submit", async (e) => {
+    e.preventDefault();
+    $("save-error").hidden = true;
+    $("save-ok").hidden = true;
+    $("lm-save").disabled = true;
+    try {
+      const robot = await send(edited(), false);
+      const box = $("save-ok");
+      box.replaceChildren(`Saved ${robot.created ? "" : "(stored before) "}as `, el("strong", { text: robot.name }),
+        ` (id ${robot.id}), ${robot.legs.legs.length} legs. `, el("a", { href: "/", text: "New job with it" }),
+        " — pick it in the Robot list of the New job form.");
+      box.hidden = false;
+      box.dataset.robotId = robot.id;
+      box.focus();
+    } catch (err) { fail($("save-error"), err); } finally { $("lm-save").disabled = false; }
+  });
+})();

@@ -44,8 +44,9 @@ WEB_DIR = Path(os.environ.get("GAITMEND_WEB_DIR") or asset_dir("web"))
 # page name -> (template, title, the nav link marked as the current page)
 PAGES = {"jobs": ("index.html", "jobs", "/"), "job": ("job.html", "job", None),
          "compare": ("compare.html", "compare", "/compare"),
-         "studies": ("studies.html", "studies", "/studies")}  # app/studies
-NAV = (("/", "Jobs"), ("/studies", "Studies"), ("/compare", "Compare"), ("/docs", "API"))
+         "studies": ("studies.html", "studies", "/studies"),  # app/studies
+         "robot_add": ("robot_add.html", "add robot", "/robots/new")}
+NAV = (("/", "Jobs"), ("/studies", "Studies"), ("/compare", "Compare"), ("/robots/new", "Add robot"), ("/docs", "API"))
 HEADER_MARK = "<!-- gaitmend: header -->"
 LINK_TTL_S = 3600
 
@@ -309,7 +310,7 @@ def _page(name: str):
 
 
 for _path, _name in (("/", "jobs"), ("/jobs/{job_id}", "job"), ("/compare", "compare"), ("/studies", "studies"),
-                     ("/studies/{study_id}", "studies")):
+                     ("/studies/{study_id}", "studies"), ("/robots/new", "robot_add")):
     router.add_api_route(_path, _page(_name), include_in_schema=False, methods=["GET"])
 
 

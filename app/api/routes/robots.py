@@ -8,7 +8,7 @@ from __future__ import annotations
 import time
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Path as PathParam, Request, Response
+from fastapi import APIRouter, Depends, Path as PathParam, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
 
@@ -140,11 +140,13 @@ async def _upload(form):
 
 @router.post("", status_code=201, openapi_extra=UPLOAD_SCHEMA, responses=ERRORS | {200: {"description": "the same content was stored before: that robot"}})
 async def add_robot(request: Request, response: Response, who: Principal = Depends(principal),
-                    db: Db = Depends(get_db)) -> dict:
+                    db: Db = Depends(get_db), check: bool = Query(False, description=(
+                        "only check: the same checks and compile, nothing stored; 200 with the leg map (detected "
+                        "unless given), its points and the model's sizes, for the dashboard to confirm"))) -> dict:
     """Upload an MJCF legged robot: checked, compiled in a confined process, stored
     sanitised with its leg map (detected unless `legs` is given: confirm it). 201 with the
     robot; 200 with the stored one when you uploaded the same content before; 4xx naming
-    what was refused, with nothing stored."""
+    what was refused, with nothing stored. With `?check=true` nothing is stored either way."""
     t0 = time.perf_counter()
     form = await _form(request, await _body(request))
     try:
@@ -156,6 +158,11 @@ async def add_robot(request: Request, response: Response, who: Principal = Depen
         raise ApiError(e.status, f"refused: {e}", field=e.field) from None
     finally:
         await form.close()
+    if check:
+        response.status_code = 200
+        return {"name": prepared.name, "legs": prepared.legs.to_json(), "detected": prepared.detected,
+                "points": prepared.points, "stats": prepared.stats, "content_hash": prepared.content_hash,
+                "stored": False, "seconds": round(time.perf_counter() - t0, 3)}
     data_dir = settings_of(request).data_dir
     info = {"detected": prepared.detected, "points": prepared.points, "stats": prepared.stats,
             "sandbox": prepared.sandbox}

@@ -1,0 +1,130 @@
+"""Your robot in the browser (issue 23): the Add robot page uploads a hexapod built here with
+MjSpec (four joints a leg, other axes and lengths than the JetHexa's), draws the legs it
+found (top view and 3D), takes an edited leg name, and saves; a hostile upload shows the
+API's refusal; the New job form then offers the robot, draws *its* legs, and a short
+recovery with one leg lost (named by the edited map) runs to its page, which names the
+robot and its damage. axe: 0 critical / serious on the page at 1280 and 390 px."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+from playwright.sync_api import expect
+
+import glance
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "robots"))
+from legged_models import HEXAPOD_OTHER, build  # noqa: E402
+
+JOB_TIMEOUT_MS = 90_000
+ENTITY_BOMB = b'<?xml version="1.0"?><!DOCTYPE m [<!ENTITY a "aaaaaaaaaa">]><mujoco model="x">&a;</mujoco>'
+
+
+def _model(tmp_path) -> Path:
+    path = tmp_path / "hexapod_other.xml"
+    path.write_text(build(HEXAPOD_OTHER).to_xml())
+    return path
+
+
+def _own_robots(server) -> list[dict]:
+    with server.client("alice") as c:
+        return [r for r in c.get("/api/robots").json() if not r["builtin"]]
+
+
+def _check(page, server, model: Path):
+    page.goto(f"{server.url}/robots/new")
+    page.set_input_files("#up-model", str(model))
+    page.click("#up-check")
+    expect(page.locator("#legs-card")).to_be_visible(timeout=30_000)
+
+
+def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, server, shots, tmp_path):
+    before = {r["id"] for r in _own_robots(server)}
+    # a refused upload: the API's 4xx message, naming what was refused, and nothing stored
+    bomb = tmp_path / "bomb.xml"
+    bomb.write_bytes(ENTITY_BOMB)
+    page.goto(f"{server.url}/robots/new")
+    expect(page.locator('header nav a[aria-current="page"]')).to_have_text("Add robot")
+    page.set_input_files("#up-model", str(bomb))
+    page.click("#up-check")
+    err = page.locator("#up-error")
+    expect(err).to_be_visible(timeout=20_000)
+    expect(err).to_contain_text(re.compile(r"Refused \(4\d\d\): refused: .*(DTD|entit)", re.I))
+    expect(page.locator("#legs-card")).to_be_hidden()
+
+    # the detected legs, drawn and listed; the check stores nothing
+    model = _model(tmp_path)
+    _check(page, server, model)
+    expect(err).to_be_hidden()
+    rows = page.locator("#legmap-rows tr")
+    expect(rows).to_have_count(6)
+    expect(page.locator("#legmap-drawing svg .leg")).to_have_count(6)
+    expect(page.locator("#legmap-drawing svg .leg text")).to_have_text([str(i) for i in range(1, 7)])
+    expect(page.locator('#legmap-3d[data-rendered="1"]')).to_be_attached(timeout=30_000)
+    names = [page.locator(f"#lm-name-{i}").input_value() for i in range(6)]
+    sides = [page.locator(f"#lm-side-{i}").input_value() for i in range(6)]
+    assert sorted(names) == ["L0", "L1", "L2", "R0", "R1", "R2"], names
+    assert all(s == ("left" if n.startswith("L") else "right") for n, s in zip(names, sides)), (names, sides)
+    first = names.index("L0")
+    assert page.locator(f"#lm-joints-{first}").input_value() == "L0_j0, L0_j1, L0_j2, L0_j3"
+    # front at the top: the front legs (order 0) are drawn above the rear ones (order 2)
+    y = {n: float(page.locator(f'#legmap-drawing .leg[data-leg="{n}"] .foot').get_attribute("cy")) for n in ("L0", "L2")}
+    assert y["L0"] < y["L2"], y
+    assert {r["id"] for r in _own_robots(server)} == before
+    glance.no_axe_faults(page, "add robot")
+    page.screenshot(path=str(shots / "robot-add-desktop.png"), full_page=True)
+
+    # edit a leg's name (the drawing follows), save: the stored map carries the edit
+    page.fill(f"#lm-name-{first}", "front_left")
+    expect(page.locator('#legmap-drawing .leg[data-leg="front_left"]')).to_have_count(1)
+    page.click("#lm-save")
+    ok = page.locator("#save-ok")
+    expect(ok).to_contain_text("Saved", timeout=30_000)
+    robot_id = ok.get_attribute("data-robot-id")
+    with server.client("alice") as c:
+        stored = c.get(f"/api/robots/{robot_id}").json()
+    assert "front_left" in [leg["name"] for leg in stored["legs"]["legs"]]
+    assert stored["kinds"] == ["recovery"]
+
+    phone = new_page(viewport=glance.PHONE)
+    _check(phone, server, model)
+    glance.fits_width(phone)
+    glance.no_axe_faults(phone, "add robot")
+    phone.screenshot(path=str(shots / "robot-add-phone.png"), full_page=True)
+
+    # the New job form offers it and draws its legs; one leg lost, by the edited name
+    page.goto(f"{server.url}/")
+    page.select_option("#kind", "recovery")
+    page.select_option("#robot", robot_id)
+    expect(page.locator("#mapped-picker")).to_be_visible()
+    expect(page.locator("#damage-picker")).to_be_hidden()
+    expect(page.locator("#mapped-drawing .leg")).to_have_count(6)
+    page.locator('#mapped-drawing .leg[data-leg="front_left"]').click()
+    expect(page.locator("#mapped-summary")).to_have_text("Damage: lost leg front_left.")
+    expect(page.locator('#mapped-joints select[data-leg="front_left"]')).to_have_count(0)
+    expect(page.locator("#mapped-joints select")).to_have_count(5 * 4)  # the working legs' joints
+    page.locator("#new-job").screenshot(path=str(shots / "robot-form-desktop.png"))
+    page.fill("#f-search-population", "6")
+    page.fill("#f-search-generations", "2")
+    page.fill("#f-sim-duration-s", "1.5")
+    if page.locator("#f-controls-random-search").is_checked():
+        page.locator("#f-controls-random-search").evaluate("e => { e.closest('details').open = true; }")
+        page.uncheck("#f-controls-random-search")
+    page.locator("#f-robustness-cases").evaluate("e => { e.closest('details').open = true; }")
+    page.fill("#f-robustness-cases", "[]")
+    page.fill("#f-robustness-held-out", "0")
+    page.click("#submit")
+    done = page.locator("#form-ok")
+    expect(done).to_be_visible(timeout=30_000)
+    job_id = done.locator("a").get_attribute("href").rsplit("/", 1)[1]
+    with server.client("alice") as c:
+        spec = c.get(f"/api/jobs/{job_id}").json()["spec"]
+    assert spec["robot"] == robot_id and spec["robot_damage"]["lost_legs"] == ["front_left"], spec
+
+    page.goto(f"{server.url}/jobs/{job_id}")
+    expect(page.locator("#status-line .badge")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    facts = page.locator("#facts")
+    expect(facts).to_contain_text("hexapod_other")
+    expect(facts).to_contain_text("lost front_left")
