@@ -83,6 +83,11 @@ def _speed_rows(s: dict) -> list[HeadlineRow]:
 
 def _evidence_rows(s: dict) -> list[HeadlineRow]:
     rows = []
+    rnd_search = (s.get("robust") or {}).get("randomised")
+    if rnd_search:  # a randomised robust search: what each candidate was scored on
+        how = "mean" if rnd_search["aggregate"] == "mean" else f"CVaR of the worst {100 * rnd_search['cvar_share']:g} %"
+        rows.append(headline_row("randomised search", f"{rnd_search['models']} random models per generation, {how}; "
+                                 "parents scored again on each draw", "", None))
     if "baseline" in s:
         rows.append(headline_row("nominal tripod already meets the target",
                                  target_met(s["baseline"]["metrics"], walk_of(s)), "", None))

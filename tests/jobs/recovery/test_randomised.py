@@ -7,6 +7,7 @@ import copy
 import numpy as np
 import pytest
 
+from app.jobs.recovery.present import headline
 from app.jobs.recovery.randomised import draws_of
 from app.jobs.recovery.robust import cvar
 from app.jobs.recovery.run import run
@@ -51,6 +52,8 @@ def test_the_draw_differs_between_generations_and_seeds(tiny):
     assert block["models"] == K and block["aggregate"] == "cvar" and block["cvar_share"] == 0.5
     assert block["last_draw"]["generation"] == G and block["last_draw"]["draws"] == draws_of(5, K, G)
     assert len(block["last_draw"]["best_fitness_per_model"]) == K
+    row = next(r for r in headline(tiny[1].summary) if r["label"] == "randomised search")
+    assert row["value"].startswith(f"{K} random models per generation, CVaR of the worst 50 %")
 
 
 def test_budget_counts_the_parents_rescoring(tiny):
