@@ -7,10 +7,15 @@ robot and its damage. axe: 0 critical / serious on the page at 1280 and 390 px."
 
 from __future__ import annotations
 
+import io
 import re
 import sys
 from pathlib import Path
+from urllib.parse import unquote
 
+import httpx
+import numpy as np
+from PIL import Image
 from playwright.sync_api import expect
 
 import glance
@@ -26,6 +31,27 @@ def _model(tmp_path) -> Path:
     path = tmp_path / "hexapod_other.xml"
     path.write_text(build(HEXAPOD_OTHER).to_xml())
     return path
+
+
+def _drawn(page, frame: str) -> float:
+    """Share of non-background pixels of the viser canvas in ``frame`` once it draws."""
+    page.locator(frame).scroll_into_view_if_needed()
+    canvas = page.frame_locator(frame).locator("canvas").first
+    expect(canvas).to_be_visible(timeout=30_000)
+    share = 0.0
+    for _ in range(20):
+        page.wait_for_timeout(700)
+        bb = canvas.bounding_box(timeout=5000)
+        if not bb or bb["width"] < 50 or bb["height"] < 50:
+            continue
+        png = page.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
+                                    "width": bb["width"] * 0.6, "height": bb["height"] * 0.7})
+        a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
+        colors, counts = np.unique(a, axis=0, return_counts=True)
+        share = float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
+        if share > 0.02:
+            break
+    return share
 
 
 def _own_robots(server) -> list[dict]:
@@ -87,6 +113,16 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
         stored = c.get(f"/api/robots/{robot_id}").json()
     assert "front_left" in [leg["name"] for leg in stored["legs"]["legs"]]
     assert stored["kinds"] == ["recovery"]
+    # the saved robot in viser's client: its recording is served by a signed link, and drawn
+    expect(page.locator("#preview-card")).to_be_visible(timeout=10_000)
+    src = page.locator("#robot-preview").get_attribute("src")
+    link = unquote(src.split("playbackPath=", 1)[1])
+    recording = httpx.get(server.url + link, timeout=60)
+    assert recording.status_code == 200 and len(recording.content) > 1000, recording.status_code
+    assert httpx.get(server.url + link.replace("sig=", "sig=0"), timeout=10).status_code in (401, 404)
+    share = _drawn(page, "#robot-preview")
+    page.locator("#preview-card").screenshot(path=str(shots / "robot-preview-1280.png"))
+    assert share > 0.02, f"the preview shows {share:.1%} non-background pixels"
 
     phone = new_page(viewport=glance.PHONE)
     _check(phone, server, model)

@@ -403,6 +403,17 @@ const MappedDamage = (() => {
     drawAll(answer.legs);
   }
 
+  // the saved robot in viser's client (a .viser recording of the stored model, by a signed link)
+  async function preview(id) {
+    try {
+      const link = await api(`/api/robots/${id}/preview-link`);
+      const src = `/viser/?playbackPath=${encodeURIComponent(link.url)}`;
+      $("preview-open").href = src;
+      $("preview-card").hidden = false;
+      $("robot-preview").src = src;
+    } catch (err) { /* the top view and the 3D plot stand; the preview is extra */ }
+  }
+
   async function send(legs, check) {
     return api(`/api/robots${check ? "?check=true" : ""}`, { method: "POST", body: parts(legs) });
   }
@@ -455,6 +466,7 @@ const MappedDamage = (() => {
       box.hidden = false;
       box.dataset.robotId = robot.id;
       box.focus();
+      preview(robot.id);
     } catch (err) { fail($("save-error"), err); } finally { $("lm-save").disabled = false; }
   });
 })();

@@ -6,6 +6,8 @@ app/robots/upload (pre-parse, confined compile, caps) and is stored sanitised
 from __future__ import annotations
 
 import time
+import uuid
+from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Path as PathParam, Query, Request, Response
@@ -15,6 +17,7 @@ from starlette.datastructures import UploadFile
 from app.api.auth import Principal, principal
 from app.api.deps import Db, get_db, settings_of
 from app.api.errors import ApiError
+from app.api.routes.dashboard import LINK_TTL_S, _link_key, _link_principal, _link_token, _sign
 from app.api.schemas import ERROR_RESPONSES, ErrorOut
 from app.jobs.registry import KINDS, robots as builtin_robots, user_robot_kinds
 from app.robots.upload import LIMITS, RefusedUpload, from_parts, from_zip, prepare
@@ -178,3 +181,53 @@ async def add_robot(request: Request, response: Response, who: Principal = Depen
     if not created:
         response.status_code = 200
     return out | {"builtin": False, "created": created, "seconds": round(time.perf_counter() - t0, 3)}
+
+
+# -- 3D preview --------------------------------------------------------------------------------
+# viser's client plays a .viser recording fetched by a plain GET (?playbackPath=), so the
+# page asks (with its token) for a link signed for this robot, as the job page does for a
+# bundle's replay.viser. The recording is made once from the stored, sanitised model (the one
+# a job simulates; it passed the caps and the confined compile at upload) and kept beside it.
+PREVIEW = "preview.viser"
+
+
+def _preview_bytes(data_dir: Path, robot_id: str, robot) -> bytes:
+    """The robot at its reference pose, its geoms and meshes as viser draws a replay."""
+    import numpy as np
+
+    from app.results.replay import record
+
+    path = store.robot_dir(data_dir, robot_id) / PREVIEW
+    if path.is_file():
+        return path.read_bytes()
+    model = robot.model()
+    qpos = np.stack([model.qpos0, model.qpos0])
+    data = record(model, {robot.name: {"qpos": qpos, "time_s": np.array([0.0, 0.04])}}, fps=25.0)
+    tmp = path.with_name(f".{uuid.uuid4().hex}-{PREVIEW}")
+    tmp.write_bytes(data)
+    tmp.replace(path)  # a reader sees the whole file or none
+    return data
+
+
+@router.get("/{robot_id}/preview-link", responses=ERRORS)
+async def preview_link(robot_id: RobotId, request: Request, who: Principal = Depends(principal),
+                       db: Db = Depends(get_db)) -> dict:
+    """A link to the robot's 3D preview (a .viser recording) that works without the
+    Authorization header for an hour: viser's client opens it with `/viser/?playbackPath=`."""
+    await db.read(lambda s: store.get_robot(s, robot_id, who.owner_filter).id, missing="robot")
+    exp, tid = int(time.time()) + LINK_TTL_S, who.token_id or 0
+    sig = _sign(_link_key(request), f"robot/{robot_id}", PREVIEW, exp, tid)
+    return {"url": f"/api/robots/{robot_id}/{PREVIEW}?exp={exp}&sig={tid}.{sig}", "expires_at": exp}
+
+
+@router.get(f"/{{robot_id}}/{PREVIEW}", responses=ERRORS | {200: {"content": {"application/octet-stream": {}}}})
+async def preview(robot_id: RobotId, request: Request, exp: str | None = None, sig: str | None = None,
+                  db: Db = Depends(get_db)) -> Response:
+    """The robot's 3D preview: a .viser scene recording of the stored model at its
+    reference pose. Authorised like the other robot routes, or by a link from /preview-link."""
+    token = _link_token(_link_key(request), f"robot/{robot_id}", PREVIEW, exp, sig)
+    who = await _link_principal(db, token) or await principal(request)
+    data_dir = settings_of(request).data_dir
+    robot = await db.read(lambda s: store.load_robot(s, data_dir, robot_id, who.owner_filter), missing="robot")
+    data = await run_in_threadpool(_preview_bytes, data_dir, robot_id, robot)
+    return Response(data, media_type="application/octet-stream", headers={"Cache-Control": "private, max-age=3600"})
