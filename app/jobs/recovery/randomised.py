@@ -91,19 +91,21 @@ class RandomisedScorer:
     def metrics_of(self, x: np.ndarray) -> dict | None:
         return None  # no walk on the nominal model at hand: the goal walks one
 
-    def describe(self, best_x: np.ndarray) -> dict:
+    def describe(self, best_x: np.ndarray, generation: int) -> dict:
         """The summary's block: the aggregate, K, the stream, how parents are handled, and
-        the answer's fitness on each model of the last draw."""
-        out = {"models": self.k, "aggregate": self.how, "cvar_share": self.share if self.how == "cvar" else None,
-               "stream": "cases.SEARCH_STREAM of the job's seed, one draw of K models per generation",
-               "parents": PARENTS_TEXT, "ranges": dict(RANDOM_RANGES), "ranges_text": RANGE_TEXT}
-        if self.last is not None:
+        the answer's fitness on each model of the search's last draw (``generation``)."""
+        rows = np.array([], dtype=int)
+        if self.last is not None and self.last["generation"] == generation:
             rows = np.flatnonzero(np.all(self.last["x"] == best_x, axis=1))
-            g = self.last["generation"]
-            out["last_draw"] = {"generation": g, "draws": draws_of(self.seed, self.k, g),
-                                "best_fitness_per_model": None if rows.size == 0 else
-                                [float(v) for v in self.last["f"][rows[0]]]}
-        return out
+        if rows.size:
+            f = self.last["f"][rows[0]]
+        else:  # a job resumed after its search: the same walks again (each walk is its own simulation)
+            f = self.score(np.atleast_2d(best_x), generation)[1][0]
+        return {"models": self.k, "aggregate": self.how, "cvar_share": self.share if self.how == "cvar" else None,
+                "stream": "cases.SEARCH_STREAM of the job's seed, one draw of K models per generation",
+                "parents": PARENTS_TEXT, "ranges": dict(RANDOM_RANGES), "ranges_text": RANGE_TEXT,
+                "last_draw": {"generation": generation, "draws": draws_of(self.seed, self.k, generation),
+                              "best_fitness_per_model": [float(v) for v in f]}}
 
     def close(self) -> None:
         self.ev.close()

@@ -376,7 +376,7 @@ def robustness(job: _Job, phases: Phases) -> None:
     if job.spec.robust is not None:
         job.robust = job.spec.robust.model_dump() | {"best_per_model": job.score.per_model(best_x[None])}
     if job.spec.randomised is not None:  # the summary's robust block states the aggregate and K
-        job.robust = {"randomised": job.score.describe(best_x)}
+        job.robust = {"randomised": job.score.describe(best_x, job.searches["search"].generations_run - 1)}
 
 
 def held_out_and_open_loop(job: _Job, phases: Phases) -> None:

@@ -42,6 +42,10 @@ def test_same_seed_same_numbers_and_resume_is_bit_identical(tiny, tmp_path):
         run(spec, ctx)
     resumed = run(spec, Ctx(tmp_path, checkpoint=ctx.checkpoints[-1]))
     assert numbers(resumed.summary) == numbers(res.summary)
+    ctx = Ctx(tmp_path)  # resumed after the search, before its post-search steps
+    run(spec, ctx)
+    after = run(spec, Ctx(tmp_path, checkpoint=ctx.checkpoints[G]))
+    assert numbers(after.summary) == numbers(res.summary)
 
 
 def test_the_draw_differs_between_generations_and_seeds(tiny):
