@@ -141,7 +141,18 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     expect(page.locator("#mapped-summary")).to_have_text("Damage: lost leg front_left.")
     expect(page.locator('#mapped-joints select[data-leg="front_left"]')).to_have_count(0)
     expect(page.locator("#mapped-joints select")).to_have_count(5 * 4)  # the working legs' joints
+    page.locator("#mapped-details > summary").click()
     page.locator("#new-job").screenshot(path=str(shots / "robot-form-desktop.png"))
+    glance.no_axe_faults(page, "new job form, your robot")
+    # a damage it cannot stand on: the API's 422 naming robot_damage, inline, nothing queued
+    for leg in ("L1", "L2"):
+        page.locator(f'#mapped-drawing .leg[data-leg="{leg}"]').click()
+    expect(page.locator("#mapped-summary")).to_have_text("Damage: lost legs front_left, L1, L2.")
+    page.click("#submit")
+    expect(page.locator("#form-error")).to_contain_text("robot_damage")
+    for leg in ("L1", "L2"):
+        page.locator(f'#mapped-drawing .leg[data-leg="{leg}"]').press("Enter")
+    expect(page.locator("#mapped-summary")).to_have_text("Damage: lost leg front_left.")
     page.fill("#f-search-population", "6")
     page.fill("#f-search-generations", "2")
     page.fill("#f-sim-duration-s", "1.5")
@@ -164,3 +175,6 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     facts = page.locator("#facts")
     expect(facts).to_contain_text("hexapod_other")
     expect(facts).to_contain_text("lost front_left")
+    page.goto(f"{server.url}/")
+    row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
+    expect(row.locator('td[data-label="Robot"]')).to_have_text("hexapod_other")

@@ -62,6 +62,12 @@
     checkSoon();
   }
 
+  // an uploaded robot is named by its id in a job: shown by its name
+  function robotLabel(id) {
+    const r = id && robots.find((x) => x.builtin === false && x.id === id);
+    return r ? r.name : id || "–";
+  }
+
   // the robot field: fixed by the schema (const), its enum, or the catalog's robots for this kind
   function robotChoices(k) {
     const r = props(k).robot ? SpecForm.unwrap(props(k).robot, k.schema) : null;
@@ -340,7 +346,7 @@
       el("td", { class: "sel" }, pick),
       jobCell(item),
       el("td", { "data-label": "Kind", text: item.kind }),
-      el("td", { "data-label": "Robot", text: item.robot || "–" }),
+      el("td", { "data-label": "Robot", text: robotLabel(item.robot) }),
       el("td", { "data-label": "Damage", text: item.damage || "–" }),
       el("td", { "data-label": "Status" }, badge(item.status), " ",
          el("span", { class: "small muted", text: item.status === "running" ? progressText(item) : "" }), bar),
