@@ -5,6 +5,7 @@ app/robots/upload (pre-parse, confined compile, caps) and is stored sanitised
 
 from __future__ import annotations
 
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -189,6 +190,7 @@ async def add_robot(request: Request, response: Response, who: Principal = Depen
 # bundle's replay.viser. The recording is made once from the stored, sanitised model (the one
 # a job simulates; it passed the caps and the confined compile at upload) and kept beside it.
 PREVIEW = "preview.viser"
+PREVIEW_GATE = threading.BoundedSemaphore(2)  # at most two recordings made at once (each compiles the model)
 
 
 def _preview_bytes(data_dir: Path, robot_id: str, robot) -> bytes:
@@ -200,9 +202,10 @@ def _preview_bytes(data_dir: Path, robot_id: str, robot) -> bytes:
     path = store.robot_dir(data_dir, robot_id) / PREVIEW
     if path.is_file():
         return path.read_bytes()
-    model = robot.model()
-    qpos = np.stack([model.qpos0, model.qpos0])
-    data = record(model, {robot.name: {"qpos": qpos, "time_s": np.array([0.0, 0.04])}}, fps=25.0)
+    with PREVIEW_GATE:
+        model = robot.model()
+        qpos = np.stack([model.qpos0, model.qpos0])
+        data = record(model, {robot.name: {"qpos": qpos, "time_s": np.array([0.0, 0.04])}}, fps=25.0)
     tmp = path.with_name(f".{uuid.uuid4().hex}-{PREVIEW}")
     tmp.write_bytes(data)
     tmp.replace(path)  # a reader sees the whole file or none
