@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import re
 import sys
+import zipfile
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -113,6 +114,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
         stored = c.get(f"/api/robots/{robot_id}").json()
     assert "front_left" in [leg["name"] for leg in stored["legs"]["legs"]]
     assert stored["kinds"] == ["recovery"]
+    expect(page.locator(f'#mine-rows tr[data-id="{robot_id}"]')).to_contain_text("front_left")
     # the saved robot in viser's client: its recording is served by a signed link, and drawn
     expect(page.locator("#preview-card")).to_be_visible(timeout=10_000)
     src = page.locator("#robot-preview").get_attribute("src")
@@ -124,8 +126,12 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     page.locator("#preview-card").screenshot(path=str(shots / "robot-preview-1280.png"))
     assert share > 0.02, f"the preview shows {share:.1%} non-background pixels"
 
-    phone = new_page(viewport=glance.PHONE)
-    _check(phone, server, model)
+    phone = new_page(viewport=glance.PHONE)  # the same model as one zip of its folder
+    archive = tmp_path / "hexapod.zip"
+    with zipfile.ZipFile(archive, "w") as z:
+        z.write(model, "hexapod/hexapod_other.xml")
+    _check(phone, server, archive)
+    expect(phone.locator("#legmap-rows tr")).to_have_count(6)
     glance.fits_width(phone)
     glance.no_axe_faults(phone, "add robot")
     phone.screenshot(path=str(shots / "robot-add-phone.png"), full_page=True)
@@ -178,3 +184,12 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     page.goto(f"{server.url}/")
     row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
     expect(row.locator('td[data-label="Robot"]')).to_have_text("hexapod_other")
+
+    # managed from the page: deleted (its job has ended), gone from the list and the API
+    page.goto(f"{server.url}/robots/new")
+    mine = page.locator(f'#mine-rows tr[data-id="{robot_id}"]')
+    page.once("dialog", lambda d: d.accept())
+    mine.get_by_role("button", name="Delete").click()
+    expect(mine).to_have_count(0)
+    with server.client("alice") as c:
+        assert c.get(f"/api/robots/{robot_id}").status_code == 404

@@ -403,9 +403,34 @@ const MappedDamage = (() => {
     drawAll(answer.legs);
   }
 
-  // the saved robot in viser's client (a .viser recording of the stored model, by a signed link)
-  async function preview(id) {
+  // your stored robots: preview or delete each (delete is refused while a job uses it)
+  async function mine() {
+    let list = [];
+    try { list = (await api("/api/robots")).filter((r) => r.builtin === false); } catch (err) { return; }
+    $("mine-count").textContent = list.length ? `${list.length} stored.` : "None stored yet.";
+    $("mine-rows").replaceChildren(...list.map((r) => el("tr", { "data-id": r.id },
+      el("td", { text: r.name }), el("td", { text: r.legs.legs.map((l) => l.name).join(", ") }),
+      el("td", { class: "small", text: r.id }), el("td", { class: "small", text: GM.age(r.created_at) }),
+      el("td", {},
+        el("button", { type: "button", class: "secondary", "aria-label": `Preview ${r.name} in 3D`, onclick: () => preview(r.id, r.name) }, "Preview"), " ",
+        el("button", { type: "button", class: "danger", "aria-label": `Delete ${r.name}`, onclick: () => remove(r) }, "Delete")))));
+  }
+
+  async function remove(r) {
+    $("mine-error").hidden = true;
+    if (!window.confirm(`Delete ${r.name} (${r.id})? Its jobs keep their bundles.`)) return;
     try {
+      await api(`/api/robots/${r.id}`, { method: "DELETE" });
+      if ($("preview-card").dataset.id === r.id) { $("preview-card").hidden = true; $("robot-preview").removeAttribute("src"); }
+    } catch (err) { fail($("mine-error"), err); }
+    mine();
+  }
+
+  // a stored robot in viser's client (a .viser recording of the stored model, by a signed link)
+  async function preview(id, name) {
+    try {
+      $("preview-card").dataset.id = id;
+      $("preview-name").textContent = name ? `: ${name}` : "";
       const link = await api(`/api/robots/${id}/preview-link`);
       const src = `/viser/?playbackPath=${encodeURIComponent(link.url)}`;
       $("preview-open").href = src;
@@ -438,6 +463,8 @@ const MappedDamage = (() => {
     }
   });
 
+  document.addEventListener("DOMContentLoaded", mine);
+
   $("legmap-form").addEventListener("input", () => {
     if (!checked) return;
     try { drawAll(edited()); } catch (err) { /* half-typed: the drawing waits */ }
@@ -466,7 +493,8 @@ const MappedDamage = (() => {
       box.hidden = false;
       box.dataset.robotId = robot.id;
       box.focus();
-      preview(robot.id);
+      preview(robot.id, robot.name);
+      mine();
     } catch (err) { fail($("save-error"), err); } finally { $("lm-save").disabled = false; }
   });
 })();
