@@ -385,7 +385,7 @@ const MappedDamage = (() => {
     const axis = (title, range) => ({ title, range, autorange: false });
     GM.plot($("legmap-3d"), traces, { hovermode: "closest", margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: false,
       scene: { aspectmode: "manual", aspectratio: { x: 1, y: 1, z: (zr[1] - zr[0]) / (2 * ext) },
-               camera: { eye: { x: -1.1, y: -1.5, z: 0.9 } },
+               camera: { eye: { x: -0.75, y: -1.0, z: 0.6 } },
                xaxis: axis("x (m)", [-ext, ext]), yaxis: axis("y (m)", [-ext, ext]), zaxis: axis("z (m)", zr) } })
       .catch((e) => GM.empty($("legmap-3d"), `3D view unavailable: ${e.message}`));
   }
