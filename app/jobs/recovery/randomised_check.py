@@ -13,6 +13,7 @@ so the simulated steps, measured and reported per arm, can differ a little.
 
 from __future__ import annotations
 
+import statistics
 from collections.abc import Callable
 from pathlib import Path
 
@@ -142,6 +143,10 @@ def _rate(k: int, n: int) -> str:
     return f"{k}/{n} ({100 * k / n:.0f} %) [{max(0.0, 100 * lo):.0f}, {100 * hi:.0f}]" if n else "-"
 
 
+def _median(rows: list[dict], key: str, scale: float) -> str:
+    return f"{statistics.median(abs(scale * r[key]) for r in rows):.1f}" if rows else "-"
+
+
 def _damage_rows(pairs: dict) -> list[list]:
     rows = []
     for lost in sorted({k[0] for k in pairs}, key=lambda l: (-len(l), l)):
@@ -182,11 +187,16 @@ def render(datas: list) -> str:
     r = paired(share["randomised"], share["nominal"], names=("randomised search", "nominal search"))
     k = {a: (sum(v[a]["judged"]["met"] for v in pairs.values()), sum(v[a]["judged"]["n"] for v in pairs.values()))
          for a in ARMS}
+    walks = {a: [m for v in pairs.values() for m in v[a]["judged"]["held_out"] if not m["fell"]] for a in ARMS}
+    why = "; ".join(f"{a} search: {len(walks[a])} of {k[a][1]} held-out walks did not fall, of those median |lateral| "
+                    f"{_median(walks[a], 'x_f_m', 100)} cm, |yaw| {_median(walks[a], 'yaw_f_deg', 1)} deg, forward "
+                    f"{_median(walks[a], 'y_f_m', 100)} cm" for a in ("nominal", "randomised"))
     steps = {a: sum(v[a]["sim_steps"] for v in pairs.values()) for a in ARMS}
     wall = {a: sum(v[a]["search_wall_s"] for v in pairs.values()) for a in ARMS}
     out += ["All damages: held-out met, nominal search " + _rate(*k["nominal"]) + ", randomised search "
             + _rate(*k["randomised"]) + ". Paired difference of the held-out share (randomised - nominal, one pair per "
             "damage and seed): " + paired_text(r, digits=3) + ".", "",
+            f"Where the held-out walks fail ({p['judge_walk_s']:g} s walks): {why}.", "",
             f"Budget, measured over the {len(pairs)} pairs: simulated steps nominal {steps['nominal']:,}, randomised "
             f"{steps['randomised']:,} (ratio {steps['randomised'] / max(steps['nominal'], 1):.2f}; walks that fall "
             f"stop early); search wall time {wall['nominal']:.0f} s and {wall['randomised']:.0f} s (the random models' "
