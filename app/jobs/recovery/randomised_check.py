@@ -120,12 +120,23 @@ def run_randomised(p: RandomisedParams, log: Callable[[str], None] = print) -> s
             for arm in ARMS:
                 name = f"legs {'-'.join(map(str, lost))} seed {seed} {arm}"
                 log(f"{name}: searching")
-                led.run(name, arm_spec(p, lost, seed, arm) | {"held_out": p.held_out, "judge_walk_s": p.judge_walk_s},
-                        seed, lambda: run_arm(p, lost, seed, arm), log)
+                led.run(name, ledger_spec(p, lost, seed, arm), seed, lambda: run_arm(p, lost, seed, arm), log)
     return render([led.data])
 
 
 # -- the page ---------------------------------------------------------------------------------
+
+def ledger_spec(p: RandomisedParams, lost: tuple[int, ...], seed: int, arm: str) -> dict:
+    """A run's key spec in the ledger: the job's spec and the judgement's settings."""
+    return arm_spec(p, lost, seed, arm) | {"held_out": p.held_out, "judge_walk_s": p.judge_walk_s}
+
+
+def of_params(runs: list[dict], params: dict) -> list[dict]:
+    """The runs made with the file's parameters (a run of another budget in the file is not tabled)."""
+    p = RandomisedParams(**{k: v for k, v in params.items() if k != "json_out"})
+    return [r for r in runs if r["spec"] == ledger_spec(p, tuple(r["result"]["lost_legs"]), r["seed"],
+                                                        r["result"]["arm"])]
+
 
 def _pairs(runs: list[dict]) -> dict[tuple, dict[str, dict]]:
     """{(damage, seed): {arm: result}} for the pairs with both arms in."""
@@ -165,7 +176,7 @@ def render(datas: list) -> str:
     from app.jobs.stats import paired, paired_text
 
     data = datas[0]
-    runs = current_runs(data) if data else []
+    runs = of_params(current_runs(data), data["params"]) if data else []
     if not runs:
         return missing(JSON, COMMAND)
     p, pairs = data["params"], _pairs(runs)
