@@ -35,7 +35,7 @@ from app.jobs.recovery.speed import EQUAL, throughput
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
 # The search alone (the paper's algorithm): the random-search control doubles a job's
 # simulations and the robustness block adds about 11 walks' worth; both are off here.
-ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": []}}
+ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": [], "held_out": 0}}
 QUICK = {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 2.0}}
 
 

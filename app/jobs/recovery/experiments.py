@@ -555,8 +555,8 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
 
         before = os.getloadavg()[0]
         figures = bench_recovery(log=log)
-        speed.replace_part(p.raw, {"part": "bench", "figures": figures, "load_before": before,
-                                   "load_after": os.getloadavg()[0], "cores": os.cpu_count()})
+        speed.append_part(p.raw, {"part": "bench", "figures": figures, "load_before": before,
+                                  "load_after": os.getloadavg()[0], "cores": os.cpu_count()})
     rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
     md = speed.speed_markdown(rows, Path("docs"))
     p.out.parent.mkdir(parents=True, exist_ok=True)
