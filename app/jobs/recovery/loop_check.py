@@ -40,6 +40,12 @@ class LoopParams(BaseModel):
     json_out: Path | None = Field(Path(JSON), description="the ledger: each answer's run is appended when it ends")
 
 
+
+def _shown(name: str) -> str:
+    """A ledger name ("legs 1-6", "legs 4") as the page says it ("legs 1 & 6", "leg 4")."""
+    shown = name.replace("-", " & ")
+    return shown if "&" in shown else shown.replace("legs ", "leg ", 1)
+
 def table2_answers(docs: Path = Path("docs")) -> list[dict]:
     """The Table II answers at the default step (one per damage in docs/table2.json)."""
     from app.jobs.recovery.spec import RecoverySpec
@@ -162,14 +168,14 @@ def render(datas: list) -> str:
             block = res[mode.replace(" ", "_")]
             allm = [m for m in (block["nominal"], *block["cases"].values(), *block["held_out"]) if not m["fell"]]
             total = 1 + len(block["cases"]) + len(block["held_out"])
-            rows.append([name.replace("-", " & "), mode, "yes" if k.nominal else "no", _frac(k.numerics),
+            rows.append([_shown(name), mode, "yes" if k.nominal else "no", _frac(k.numerics),
                          _frac(k.physical), _frac(k.named), f"{_frac(k.held_out)} ({100 * k.held_out[0] / n:.0f} %)",
                          f"{total - len(allm)}/{total}", _med(allm, "x_f_m", 100), _med(allm, "yaw_f_deg", 1),
                          _med(allm, "y_f_m", 100)])
         rows[-1][6] += f" [{100 * lo:.0f}, {100 * hi:.0f}]"
         for case in res["closed_loop"]["cases"]:
             a, b = res["open_loop"]["cases"][case], res["closed_loop"]["cases"][case]
-            cases_rows.append([name.replace("-", " & "), case,
+            cases_rows.append([_shown(name), case,
                                f"{100 * a['x_f_m']:.1f} / {a['yaw_f_deg']:.1f} / {100 * a['y_f_m']:.1f} "
                                f"{'met' if a['target_met'] else 'not met'}",
                                f"{100 * b['x_f_m']:.1f} / {b['yaw_f_deg']:.1f} / {100 * b['y_f_m']:.1f} "
@@ -188,7 +194,7 @@ def render(datas: list) -> str:
                      "held-out met", "fell (of all models)", "median abs(x) (cm)", "median abs(yaw) (deg)",
                      "median y (cm)"], rows),
            "Issue 24's bar (closed loop: at least 6 of the 7 named cases and at least 80 % of at least 20 held-out "
-           "models): " + "; ".join(f"{n.replace('-', ' & ')} {'met' if ok else '**not met**'}" for n, ok in done) + ".",
+           "models): " + "; ".join(f"{_shown(n)} {'met' if ok else '**not met**'}" for n, ok in done) + ".",
            "",
            f"Cost: {cost['runs']} runs, {cost['wall_s']:.0f} s wall in all ({walls['open_loop']:.0f} s of open-loop "
            f"walks, {walls['closed_loop']:.0f} s closed loop: the correction's chunking and set-points).", "",
