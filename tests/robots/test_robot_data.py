@@ -108,8 +108,7 @@ def test_a_leg_map_that_does_not_fit_the_model_is_refused():
 
 def test_gymnasium_ant_legs_are_found():
     path = lm_.gymnasium_ant()
-    if path is None:
-        pytest.skip("gymnasium is not installed (the test extra brings it)")
+    assert path is not None, "gymnasium is missing: the test extra brings it (pip install -e '.[test]')"
     model = mujoco.MjModel.from_xml_path(str(path))
     legs = detect_legs(model)
     assert legs.trunk == "torso" and len(legs.legs) == 4
@@ -122,8 +121,7 @@ def test_gymnasium_ant_legs_are_found():
 
 def test_dm_control_quadruped_legs_are_found():
     path = lm_.dm_control_quadruped()
-    if path is None:
-        pytest.skip("dm_control is not installed (the test extra brings it)")
+    assert path is not None, "dm_control is missing: the test extra brings it (pip install -e '.[test]')"
     model = mujoco.MjModel.from_xml_path(str(path))
     legs = detect_legs(model)
     assert legs.trunk == "torso" and legs.forward == "+x"  # the ball's free joint is not the trunk

@@ -85,8 +85,7 @@ def test_the_confined_compile_stops_a_memory_bomb_that_got_past_the_pre_parse():
 
 def test_a_scene_including_common_files_loads_dm_control_quadruped(tmp_path):
     path = lm_.dm_control_quadruped()
-    if path is None:
-        pytest.skip("dm_control is not installed (the test extra brings it)")
+    assert path is not None, "dm_control is missing: the test extra brings it (pip install -e '.[test]')"
     shutil.copytree(path.parent / "common", tmp_path / "common")
     prepared = prepare(from_dir(path, tmp_path))
     assert prepared.detected and len(prepared.legs.legs) == 4
@@ -145,8 +144,7 @@ def _cli(tmp_path, *args):
 
 def test_cli_adds_lists_and_deletes_the_gymnasium_ant(tmp_path):
     ant = lm_.gymnasium_ant()
-    if ant is None:
-        pytest.skip("gymnasium is not installed (the test extra brings it)")
+    assert ant is not None, "gymnasium is missing: the test extra brings it (pip install -e '.[test]')"
     r = _cli(tmp_path, "add", str(ant), "--json")
     assert r.exit_code == 0, r.output
     robot = json.loads(r.stdout.strip().splitlines()[-1])

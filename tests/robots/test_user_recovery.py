@@ -37,8 +37,7 @@ def _hexapod() -> Robot:
 @pytest.fixture(scope="module")
 def quadruped(tmp_path_factory) -> Robot:
     path = lm_.dm_control_quadruped()
-    if path is None:
-        pytest.skip("dm_control is not installed (the test extra brings it)")
+    assert path is not None, "dm_control is missing: the test extra brings it (pip install -e '.[test]')"
     folder = tmp_path_factory.mktemp("q")
     shutil.copytree(path.parent / "common", folder / "common")
     p = prepare(from_dir(path, folder))  # the upload's own defence, as the API and the CLI store it
