@@ -27,7 +27,7 @@ from app.jobs.recovery.randomised import RandomisedScorer
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
-from app.jobs.recovery.trajectory import param_names
+from app.jobs.recovery.trajectory import bounds_of, param_names
 from app.optim.registry import make_optimizer
 from app.robots.catalog import ROBOTS, RobotEntry, get_robot
 from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
@@ -51,24 +51,9 @@ def damage_spec(spec: RecoverySpec) -> DamageSpec:
 def search_bounds(spec: RecoverySpec, robot: RobotEntry) -> tuple[np.ndarray, np.ndarray]:
     """X_min / X_max in the layout of ``param_names``. y0 bounds of legs next to a lost
     leg move outward by ``neighbour_relaxation`` of their width on each side (Sec. III-B)."""
-    b = spec.bounds
-    legs = functional_legs(spec)
     lost = set(spec.damage.lost_legs)
-    relaxed = {n for l in lost for n in hexapod_neighbours(l)} - lost
-    y_lo, y_hi = [], []
-    for leg in legs:
-        lo, hi = b.y0_m.get(str(leg), robot.y0_bounds[leg])
-        if leg in relaxed:
-            w = (hi - lo) * b.neighbour_relaxation
-            lo, hi = lo - w, hi + w
-        y_lo.append(lo)
-        y_hi.append(hi)
-    x_lo, x_hi = b.x0_m or robot.x0_bounds
-    sl = b.step_length_m or robot.step_length_bounds
-    sh = b.step_height_m or robot.step_height_bounds
-    lower = np.array(y_lo + [x_lo] * len(legs) + [sl[0], sh[0]])
-    upper = np.array(y_hi + [x_hi] * len(legs) + [sl[1], sh[1]])
-    return lower, upper
+    return bounds_of(spec.bounds, robot, functional_legs(spec), {n for l in lost for n in hexapod_neighbours(l)} - lost)
+
 
 
 def nominal_params(robot: RobotEntry, legs: list[int]) -> np.ndarray:

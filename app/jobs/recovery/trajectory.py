@@ -78,3 +78,23 @@ def tip_positions(
 def swing_mask(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int]) -> np.ndarray:
     """(T, nlegs) True while a leg swings."""
     return leg_phase(t, period, seq, legs) < 1.0 / seq.sigma
+
+
+
+def bounds_of(b, robot, legs: list[int], relaxed: set[int]) -> tuple[np.ndarray, np.ndarray]:
+    """X_min / X_max of ``legs`` from the spec's bounds ``b`` (they win) and the robot's
+    (``y0_bounds``, ``x0_bounds``, ``step_length_bounds``, ``step_height_bounds``: a built-in
+    or an uploaded robot); the y0 bounds of the ``relaxed`` legs widened."""
+    y_lo, y_hi = [], []
+    for leg in legs:
+        lo, hi = b.y0_m.get(str(leg), robot.y0_bounds[leg])
+        if leg in relaxed:
+            w = (hi - lo) * b.neighbour_relaxation
+            lo, hi = lo - w, hi + w
+        y_lo.append(lo)
+        y_hi.append(hi)
+    x_lo, x_hi = b.x0_m or robot.x0_bounds
+    sl = b.step_length_m or robot.step_length_bounds
+    sh = b.step_height_m or robot.step_height_bounds
+    return (np.array(y_lo + [x_lo] * len(legs) + [sl[0], sh[0]]),
+            np.array(y_hi + [x_hi] * len(legs) + [sl[1], sh[1]]))

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from app.jobs.recovery.sequences import GaitSequence, InfeasibleMorphology, plan_general
-from app.jobs.recovery.trajectory import tip_positions
+from app.jobs.recovery.trajectory import bounds_of, tip_positions
 from app.robots.legmap import LegMap, LegMapError, Robot
 from app.robots.numik import LegIK
 from app.robots.walkable import NamedDamage, Walkable, heading_quat, leg_numbers, make_walkable
@@ -277,22 +277,8 @@ def named_damage(spec) -> NamedDamage:
 
 def search_bounds(spec, robot: UserRobot, legs: list[int], lost: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """X_min / X_max in the layout of ``param_names`` (module doc); the spec's bounds win."""
-    b = spec.bounds
     near = neighbours_of(robot.robot.legs)
-    relaxed = {n for l in lost for n in near[l]} - set(lost)
-    y_lo, y_hi = [], []
-    for leg in legs:
-        lo, hi = b.y0_m.get(str(leg), robot.y0_bounds[leg])
-        if leg in relaxed:
-            w = (hi - lo) * b.neighbour_relaxation
-            lo, hi = lo - w, hi + w
-        y_lo.append(lo)
-        y_hi.append(hi)
-    x_lo, x_hi = b.x0_m or robot.x0_bounds
-    sl = b.step_length_m or robot.step_length_bounds
-    sh = b.step_height_m or robot.step_height_bounds
-    return (np.array(y_lo + [x_lo] * len(legs) + [sl[0], sh[0]]),
-            np.array(y_hi + [x_hi] * len(legs) + [sl[1], sh[1]]))
+    return bounds_of(spec.bounds, robot, legs, {n for l in lost for n in near[l]} - set(lost))
 
 
 def plan(robot: UserRobot, model: mujoco.MjModel, legs: list[int], name: str) -> GaitSequence:
