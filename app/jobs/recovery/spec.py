@@ -54,15 +54,21 @@ class Damage(StrictModel):
 
     @model_validator(mode="after")
     def _joints_on_present_legs(self):
-        seen = set()
-        for name, items in (("locked_joints", self.locked_joints), ("weak_joints", self.weak_joints)):
-            for j in items:
-                if j.leg in self.lost_legs:
-                    raise ValueError(f"{name}: leg {j.leg} is listed as lost")
-                if (j.leg, j.joint) in seen:
-                    raise ValueError(f"{name}: joint {j.joint} of leg {j.leg} is damaged twice")
-                seen.add((j.leg, j.joint))
+        _damaged_once(self, ("locked_joints", "weak_joints"), str)
         return self
+
+
+def _damaged_once(damage, fields: tuple[str, ...], show) -> None:
+    """Every joint damage on a leg that is not lost, and no joint damaged twice; ``show``
+    writes a leg or joint in the message (numbers as they are, names quoted)."""
+    seen = set()
+    for name in fields:
+        for j in getattr(damage, name):
+            if j.leg in damage.lost_legs:
+                raise ValueError(f"{name}: leg {show(j.leg)} is listed as lost")
+            if (j.leg, j.joint) in seen:
+                raise ValueError(f"{name}: joint {show(j.joint)} of leg {show(j.leg)} is damaged twice")
+            seen.add((j.leg, j.joint))
 
 
 # An uploaded robot's damage names its leg map's legs and joints (app/robots/legmap.py).
@@ -108,14 +114,7 @@ class RobotDamage(StrictModel):
         short = [l.leg for l in self.shortened_legs]
         if len(set(short)) != len(short) or set(short) & set(self.lost_legs):
             raise ValueError("shortened_legs: each leg may be listed once, and not if it is lost")
-        seen = set()
-        for name in ("locked_joints", "weak_joints", "passive_joints"):
-            for j in getattr(self, name):
-                if j.leg in self.lost_legs:
-                    raise ValueError(f"{name}: leg {j.leg!r} is listed as lost")
-                if (j.leg, j.joint) in seen:
-                    raise ValueError(f"{name}: joint {j.joint!r} of leg {j.leg!r} is damaged twice")
-                seen.add((j.leg, j.joint))
+        _damaged_once(self, ("locked_joints", "weak_joints", "passive_joints"), repr)
         return self
 
 
