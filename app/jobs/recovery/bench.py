@@ -28,14 +28,12 @@ from collections.abc import Callable
 import numpy as np
 
 from app.jobs.base import BenchEntry, MemoryContext
+from app.jobs.recovery.peers import ONLY_SEARCH, scipy_de, timed_search
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.recovery.speed import EQUAL, throughput
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
-# The search alone (the paper's algorithm): the random-search control doubles a job's
-# simulations and the robustness block adds about 11 walks' worth; both are off here.
-ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": [], "held_out": 0}}
 QUICK = {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 2.0}}
 
 
@@ -63,32 +61,6 @@ def paper_search(quick: bool) -> dict:
             s["baseline"]["fitness"]}
 
 
-def _timed(spec: RecoverySpec) -> dict:
-    """The search alone (set-up, search, then its answer judged at the default step and at
-    half of it): what a time to the target or to a quality is about."""
-    from app.jobs.evidence import Phases
-    from app.jobs.recovery.metrics import TARGET
-    from app.jobs.recovery.run import _half_step_evaluator, phase_sizes, search, set_up
-
-    t = time.perf_counter()
-    job = set_up(spec)
-    try:
-        search(job, Phases(MemoryContext(), phase_sizes(spec)))
-        out = job.searches["search"]
-        at = {k: v[0] for k, v in job.ev.evaluate(out.best_x).metrics.items()}
-        half_ev = job.half_ev or _half_step_evaluator(job)
-        half = {k: v[0] for k, v in half_ev.evaluate(out.best_x).metrics.items()}
-        half_ev.close()
-    finally:
-        job.close()
-    return {"fitness": out.best_fitness, "target_met": TARGET.met(at), "half_step_met": TARGET.met(half),
-            "x_cm": 100 * float(at["x_f_m"]), "y_cm": 100 * float(at["y_f_m"]), "yaw_deg": float(at["yaw_f_deg"]),
-            "evaluations": out.evaluations, "sim_steps": int(out.totals.get("sim_steps", 0)),
-            "generations_run": out.generations_run, "stop_reason": out.stop_reason,
-            "time_to_target_s": out.time_to_target_s, "search_wall_s": out.wall_s,
-            "wall_s": time.perf_counter() - t}
-
-
 def _spread(values: list[float]) -> dict:
     return {"median": statistics.median(values), "min": min(values), "max": max(values)} if values else {}
 
@@ -100,7 +72,7 @@ def fast_preset(quick: bool, seeds: int = 3, log: Callable[[str], None] = print)
     for seed in range(seeds):
         for lost in SCENARIOS:
             spec = _spec(quick, preset="fast", damage={"lost_legs": list(lost)}, search={"seed": seed})
-            r = _timed(spec) | {"lost_legs": list(lost), "seed": seed}
+            r = timed_search(spec) | {"lost_legs": list(lost), "seed": seed}
             runs.append(r)
             log(f"  fast preset, legs {lost} seed {seed}: {r['stop_reason']} after {r['generations_run']} generations, "
                 f"{r['wall_s']:.1f} s, target {r['target_met']} (half step {r['half_step_met']})")
@@ -114,54 +86,37 @@ def fast_preset(quick: bool, seeds: int = 3, log: Callable[[str], None] = print)
 def _cmaes_run(quick: bool, seed: int) -> dict:
     spec = _spec(quick, preset="fast", damage={"lost_legs": [1, 6]}, search={"optimizer": "cmaes", "seed": seed,
                                                                             "population": 30})
-    return _timed(spec)
+    return timed_search(spec)
 
 
 def _scipy_run(quick: bool, seed: int) -> dict:
-    """scipy's DE (currenttobest1bin, our population, CR and F, same evaluator) stopped by the
-    same rule: the best meets the target at the step, then at half of it."""
-    from scipy.optimize import differential_evolution
-
-    from app.jobs.recovery.metrics import TARGET, fitness
-
+    """scipy's DE (peers.scipy_de: currenttobest1bin, our population, CR and F, same
+    evaluator) stopped by the same rule: the best meets the target at the step, then at half
+    of it (that confirmation walk counts as an evaluation)."""
+    from app.jobs.recovery.metrics import TARGET
     from app.jobs.recovery.run import _half_step_evaluator, set_up
 
     spec = _spec(quick, preset="fast", damage={"lost_legs": [1, 6]}, search={"seed": seed})
     job = set_up(spec)
     half = job.half_ev = _half_step_evaluator(job)
-    s, w, units = spec.search, spec.objective.weights, spec.objective.units
-    seen: dict[bytes, dict] = {}
-    count = {"evaluations": 0, "met_at": None}
+    count = {"confirmations": 0, "met_at": None}
     t0 = time.perf_counter()
 
-    def neg_f(xt):  # vectorized: xt is (D, S), one batched rollout per generation
-        x = np.asarray(xt).T
-        m = job.ev.evaluate(x).metrics
-        count["evaluations"] += x.shape[0]
-        for i, row in enumerate(x):
-            seen[row.tobytes()] = {k: v[i] for k, v in m.items()}
-        return -fitness(m, w, units)
-
-    def met(intermediate_result) -> bool:  # scipy passes the OptimizeResult to a parameter of this name
-        x = np.asarray(intermediate_result.x)
-        m = seen.get(x.tobytes())
+    def met(x: np.ndarray, m: dict | None) -> bool:
         if m is None or not TARGET.met(m):
             return False
-        count["evaluations"] += 1
+        count["confirmations"] += 1
         ok = TARGET.met({k: v[0] for k, v in half.evaluate(x).metrics.items()})
         if ok:
             count["met_at"] = time.perf_counter() - t0
         return ok
 
     try:
-        res = differential_evolution(
-            neg_f, list(zip(job.lower, job.upper)), strategy="currenttobest1bin",
-            popsize=max(1, s.population // job.lower.size), maxiter=s.generations, mutation=s.f, recombination=s.cr,
-            seed=seed, polish=False, init="random", tol=0, atol=0, updating="deferred", vectorized=True, callback=met)
+        out = scipy_de(job, seed, stop=met)
     finally:
         job.close()
-    return {"fitness": float(-res.fun), "time_to_target_s": count["met_at"], "evaluations": count["evaluations"],
-            "wall_s": time.perf_counter() - t0}
+    return {"fitness": out["fitness"], "time_to_target_s": count["met_at"],
+            "evaluations": out["evaluations"] + count["confirmations"], "wall_s": time.perf_counter() - t0}
 
 
 def peers(quick: bool, ours: list[dict], seeds: int = 3) -> dict:
@@ -185,7 +140,7 @@ def equal_quality(quick: bool, paper_f: float) -> dict:
     default step and at half of it."""
     cfg = EQUAL if not quick else {"search": {"optimizer": "cmaes"}}
     spec = _spec(quick, damage={"lost_legs": [1, 6]}, stop={"target": paper_f}, **cfg)
-    r = _timed(spec)
+    r = timed_search(spec)
     ok = r["fitness"] >= paper_f and r["target_met"] and bool(r["half_step_met"])
     return {"equal_quality_wall_s": r["wall_s"] if ok else None, "equal_quality": r | {
         "config": cfg, "paper_fitness": paper_f, "reached": ok}}

@@ -14,7 +14,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import loop_check, randomised_check
+from app.jobs.recovery import loop_check, peers_check, randomised_check
 from app.jobs.reporting import Section
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
@@ -23,7 +23,8 @@ from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]
-# Table II of the paper (real robot, mean of 10 best solutions): x, y in cm, yaw in deg.
+# Paper 000's Table II, quoted: the paper's numbers, not ours (its real robot, mean of the 10 best
+# solutions): x, y in cm, yaw in deg; before None: N/A in the paper, its robot fell before recovery.
 PAPER = {
     (1, 6): {"before": None, "after": (-9.3, 28.1, -19.5)},
     (3, 4): {"before": (-2.3, 1.5, 2.4), "after": (10.1, 52.7, 5.8)},
@@ -125,80 +126,112 @@ def _name(lost) -> str:
     return ("Legs " if len(lost) > 1 else "Leg ") + " & ".join(str(l) for l in lost) + " lost"
 
 
-def table_markdown(rows: list[dict], generations: int, population: int) -> str:
+def _paper_cell(v) -> str:
+    return "fell (N/A)" if v is None else f"{v[0]} / {v[1]} / {v[2]}"
+
+
+def _scenario_row(lost, rs: list[dict]) -> str:
+    """Table II's row of one damage: our before, our after over seeds, the control, the paper's before and after."""
+    b = rs[0]["baseline"]
+    before = f"{100 * b['x_f_m']:.1f} / {100 * b['y_f_m']:.1f} / {b['yaw_f_deg']:.1f}"
+    bflags = f"{'yes' if b['fell'] else 'no'} / {'**yes**' if rs[0]['baseline_target_met'] else 'no'}"
+
+    def cell(key, scale, src="best"):
+        vals = [scale * r[src][key] for r in rs]
+        return f"{statistics.median(vals):.1f} [{min(vals):.1f}, {max(vals):.1f}]"
+
+    met = sum(r["target_met"] for r in rs)
+    rob = statistics.median(r["robustness"]["met"] for r in rs)
+    tot = rs[0]["robustness"]["total"]
+    rnd = [r["random_search"] for r in rs if r["random_search"] is not None]
+    rnd_cell = "not run" if not rnd else (
+        f"{statistics.median(100 * c['metrics']['y_f_m'] for c in rnd):.1f}, "
+        f"{sum(c['target_met'] for c in rnd)}/{len(rnd)}")
+    paper = PAPER[lost]
+    return (f"| {_name(lost)} | {rs[0]['gait']} | {len(rs)} | {before} | {bflags} | {cell('x_f_m', 100)} | "
+            f"{cell('y_f_m', 100)} | {cell('yaw_f_deg', 1)} | {sum(r['best']['fell'] for r in rs)}/{len(rs)} | "
+            f"{met}/{len(rs)} | {rob:g}/{tot} | {rnd_cell} | {_paper_cell(paper['before'])} | "
+            f"{_paper_cell(paper['after'])} |")
+
+
+def _perturbation_table(rows: list[dict]) -> list[str]:
+    cases = list(rows[0]["robustness"]["cases"]) if rows else []
+    if not cases:
+        return []
+    out = ["Drift and yaw of the recovered gaits under perturbation (median over seeds of |x| cm / |yaw| deg; "
+           "runs meeting the target):", "",
+           "| damage | nominal | " + " | ".join(cases) + " |", "|---" * (len(cases) + 2) + "|"]
+
+    def pc(ms, n):
+        x = statistics.median(abs(100 * m["x_f_m"]) for m in ms)
+        y = statistics.median(abs(m["yaw_f_deg"]) for m in ms)
+        ok = sum(m.get("target_met", TARGET.met(m)) for m in ms)
+        return f"{x:.1f} / {y:.1f}; {ok}/{n}"
+
+    for lost in SCENARIOS:
+        rs = [r for r in rows if tuple(r["lost_legs"]) == lost]
+        if rs:
+            cells = [pc([r["best"] for r in rs], len(rs))]
+            cells += [pc([r["robustness"]["cases"][c] for r in rs], len(rs)) for c in cases]
+            out.append(f"| {_name(lost)} | " + " | ".join(cells) + " |")
+    return out + [""]
+
+
+def table_markdown(rows: list[dict], generations: int, population: int, peers: dict | None = None) -> str:
+    """The Table II page from Table II's rows (docs/table2.json) and the peers' ledger
+    (docs/table2_peers.json, None: not yet run): nothing is simulated here."""
+    from app.jobs.recovery.peers_check import comparisons_markdown
+
     seeds = sorted({r["seed"] for r in rows})
     dt = rows[0]["timestep_s"] if rows else RecoverySpec().sim.timestep_s
     out = [
         f"Simulated Table II: JetHexa-like model, DE {population} x {generations}, 10 s walks, timestep "
         f"{1000 * dt:g} ms, seeds {seeds[0]}-{seeds[-1]} (column 'seeds' counts the runs per scenario); every row "
         "was run by `gaitmend reproduce` with this code (none transcribed). After-recovery columns are medians over "
-        "seeds [min, max]. Before = the nominal tripod on the damaged robot (deterministic).",
+        "seeds [min, max]. Before = the nominal tripod on the damaged robot (deterministic). The paper's columns "
+        "are quoted from paper 000's Table II (its real robot, mean of the 10 best solutions; x, y in cm, yaw in "
+        "deg), not ours: 'fell (N/A)' where the paper's robot fell before recovery and it gives no numbers. "
+        "(The copy's Fig. 12 caption names leg 3 for the last damage; its Table II and text say leg 4, used here.)",
         "",
         "| damage | gait | seeds | before x / y / yaw | before: fell / meets target | after x (cm) | after y (cm) "
         "| after yaw (deg) | fell after | target met (runs) | under perturbation: cases met (median of runs) "
-        "| random search, same budget: y (cm), target met | paper after x / y / yaw |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| random search, same budget: y (cm), target met | paper before x / y / yaw | paper after x / y / yaw |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for lost in SCENARIOS:
         rs = [r for r in rows if tuple(r["lost_legs"]) == lost]
-        if not rs:
-            continue
-        b = rs[0]["baseline"]
-        before = f"{100 * b['x_f_m']:.1f} / {100 * b['y_f_m']:.1f} / {b['yaw_f_deg']:.1f}"
-        bflags = f"{'yes' if b['fell'] else 'no'} / {'**yes**' if rs[0]['baseline_target_met'] else 'no'}"
-
-        def cell(key, scale, src="best"):
-            vals = [scale * r[src][key] for r in rs]
-            return f"{statistics.median(vals):.1f} [{min(vals):.1f}, {max(vals):.1f}]"
-
-        met = sum(r["target_met"] for r in rs)
-        rob = statistics.median(r["robustness"]["met"] for r in rs)
-        tot = rs[0]["robustness"]["total"]
-        rnd = [r["random_search"] for r in rs if r["random_search"] is not None]
-        rnd_cell = "not run" if not rnd else (
-            f"{statistics.median(100 * c['metrics']['y_f_m'] for c in rnd):.1f}, "
-            f"{sum(c['target_met'] for c in rnd)}/{len(rnd)}")
-        p = PAPER[lost]["after"]
-        out.append(f"| {_name(lost)} | {rs[0]['gait']} | {len(rs)} | {before} | {bflags} | {cell('x_f_m', 100)} | "
-                   f"{cell('y_f_m', 100)} | {cell('yaw_f_deg', 1)} | {sum(r['best']['fell'] for r in rs)}/{len(rs)} | "
-                   f"{met}/{len(rs)} | {rob:g}/{tot} | {rnd_cell} | {p[0]} / {p[1]} / {p[2]} |")
-    walls = [r["wall_s"] for r in rows]
+        if rs:
+            out.append(_scenario_row(lost, rs))
+    walks = [r["wall_s"] for r in rows]
     with_control = sum(r["random_search"] is not None for r in rows)
     if with_control < len(rows):
         out += ["", f"The random-search control ran in {with_control} of {len(rows)} runs (the others were run with "
                     "`controls.random_search: false` to fit the CPU time available); 'not run' marks the rest."]
     out += ["", f"Target (issue 12): {TARGET.text}. 'fell' = the chassis, a coxa or a femur touched the ground "
                 "(MuJoCo contact sensors), or the body tilted past 60 deg or sagged below half its height. "
-                f"Wall time per run: median {statistics.median(walls):.0f} s on the machine that ran it "
+                f"Wall time per run: median {statistics.median(walks):.0f} s on the machine that ran it "
                 f"({os.cpu_count()} cores; a loaded machine makes it longer).", ""]
-    cases = list(rows[0]["robustness"]["cases"]) if rows else []
-    if cases:
-        out += ["Drift and yaw of the recovered gaits under perturbation (median over seeds of |x| cm / |yaw| deg; "
-                "runs meeting the target):", "",
-                "| damage | nominal | " + " | ".join(cases) + " |", "|---" * (len(cases) + 2) + "|"]
-        for lost in SCENARIOS:
-            rs = [r for r in rows if tuple(r["lost_legs"]) == lost]
-            if not rs:
-                continue
-
-            def pc(ms, n):
-                x = statistics.median(abs(100 * m["x_f_m"]) for m in ms)
-                y = statistics.median(abs(m["yaw_f_deg"]) for m in ms)
-                ok = sum(m.get("target_met", TARGET.met(m)) for m in ms)
-                return f"{x:.1f} / {y:.1f}; {ok}/{n}"
-
-            cells = [pc([r["best"] for r in rs], len(rs))]
-            cells += [pc([r["robustness"]["cases"][c] for r in rs], len(rs)) for c in cases]
-            out.append(f"| {_name(lost)} | " + " | ".join(cells) + " |")
-        out.append("")
+    out += _perturbation_table(rows)
+    out += ["## Against the controls and the peers, paired", "",
+            comparisons_markdown(rows, peers, population, generations, dt), ""]
     return "\n".join(out)
 
 
 def run_table2(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
-               raw_path: Path | None = Path("docs/table2.json")) -> str:
-    rows = run_scenarios(seeds, generations, population, log, raw_path)
+               raw_path: Path | None = Path("docs/table2.json"), peers_path: Path | None = None,
+               render_only: bool = False) -> str:
+    """Runs what ``raw_path`` lacks (``render_only``: nothing; the page from the files as
+    they are) and renders the page with the peers' ledger at ``peers_path``."""
+    if render_only:
+        timestep = RecoverySpec().sim.timestep_s
+        rows, _ = _rows_in(raw_path, lambda r: r.get("generations") == generations
+                           and r.get("population") == population and r.get("timestep_s") == timestep,
+                           keep=lambda r: r.get("version") == ROW_VERSION)
+    else:
+        rows = run_scenarios(seeds, generations, population, log, raw_path)
     rows = [r for r in rows if r["seed"] < seeds]
-    return table_markdown(rows, generations, population)
+    peers = json.loads(peers_path.read_text()) if peers_path is not None and peers_path.exists() else None
+    return table_markdown(rows, generations, population, peers)
 
 
 # -- robust vs nominal recovery on every feasible 1- and 2-leg loss -----------------------------
@@ -430,16 +463,25 @@ class Table2Params(BaseModel):
     population: int = Field(30, ge=4, le=1000, description="DE population (paper: 30)")
     out: Path = Field(Path("docs/table2.md"), description="markdown table to write")
     raw: Path = Field(Path("docs/table2.json"), description="per-run rows; runs already there are not run again")
+    peers: Path = Field(Path("docs/table2_peers.json"), description="scipy DE and CMA-ES runs at the same budget "
+                                                                     "(`gaitmend reproduce recovery-peers`), read only")
+    render_only: bool = Field(False, description="run nothing: the page from the rows in --raw and --peers as they are")
 
 
 def _table2(p: Table2Params, log: Callable[[str], None]) -> str:
     # docs/recovery.md: a paper-size run (DE 30 x 60 with its random-search control and the
     # robustness re-runs, 1 ms) took 379 s on an idle 2-core machine, 782 s at load 4-5.
+    if p.render_only:
+        md = run_table2(p.seeds, p.generations, p.population, log, p.raw, p.peers, render_only=True)
+        p.out.parent.mkdir(parents=True, exist_ok=True)
+        p.out.write_text(md)
+        return md
     runs = 4 * p.seeds
     scale = p.population * (p.generations + 1) / (30 * 61) * (0.001 / RecoverySpec().sim.timestep_s)
     log(f"{runs} runs (4 scenarios x {p.seeds} seeds); estimate {runs * 379 * scale / 60:.0f}-"
         f"{runs * 782 * scale / 60:.0f} min (idle to loaded 2-core machine), less for runs already in {p.raw}")
-    md = run_table2(seeds=p.seeds, generations=p.generations, population=p.population, log=log, raw_path=p.raw)
+    md = run_table2(seeds=p.seeds, generations=p.generations, population=p.population, log=log, raw_path=p.raw,
+                    peers_path=p.peers)
     p.out.parent.mkdir(parents=True, exist_ok=True)
     p.out.write_text(md)
     return md
@@ -567,6 +609,10 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
 EXPERIMENTS = [
     Experiment("table2", "Paper 000's Table II scenarios (legs 1&6, 3&4, 1, 4 lost) over seeds, with the "
                          "random-search control and the robustness block; writes the table", Table2Params, _table2),
+    Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
+                        "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
+                        "docs/table2_peers.json; the Table II page pairs them with our DE",
+               peers_check.PeersParams, peers_check.run_peers),
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
