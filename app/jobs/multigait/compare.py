@@ -269,11 +269,15 @@ class RuggednessParams(BaseModel):
     robot: str = Field("lizard", description="modular robot (healthy)")
     n: int = Field(40, ge=3, le=1000, description="uniform random gait sets")
     seed: int = Field(1, ge=0, le=2**32 - 1, description="seed of the gait sets and perturbations")
-    out: Path = Field(Path("multigait_ruggedness.json"), description="JSON to write")
+    out: Path = Field(Path("docs/multigait_ruggedness.json"), description="JSON to write")
 
 
 def ruggedness_experiment(p: RuggednessParams, log: Callable[[str], None] = print) -> str:
+    t0, c0 = time.monotonic(), time.process_time()
     r = ruggedness(p.robot, p.n, p.seed)
+    r |= {"robot": p.robot, "seed": p.seed, "iterations": 150, "gait_s": 30.0, "wall_s": time.monotonic() - t0,
+          "cpu_s": time.process_time() - c0,
+          "command": f"gaitmend reproduce multigait-ruggedness --robot {p.robot} --n {p.n} --seed {p.seed} --write-docs"}
     p.out.write_text(json.dumps(r, indent=1))
     lines = [f"{p.n} random gait sets ({p.robot}, coverage, K = 150): mean {r['mean']:.2f} %, std between sets "
              f"{r['std_between_sets']:.2f}",

@@ -141,6 +141,7 @@ def _write(p: TablesParams, rows: list[dict], write_json: bool = True) -> str:
 
 PAPER_JSON = ("docs/multigait_paper_s0.json", "docs/multigait_paper_s1.json")
 COMPARE_JSON = "docs/multigait_compare.json"
+RUGGEDNESS_JSON = "docs/multigait_ruggedness.json"
 PAPER_COMMAND = "gaitmend reproduce multigait --particles 20 --generations 150 --seed S --json-out docs/multigait_paper_sS.json"
 WINDOW = 10  # generations at each end of a run whose swarm means are compared
 
@@ -205,6 +206,27 @@ def render_composition(datas: list) -> str:
                       "error per edge / edge length", "heading error mean (deg)"], tab)
             + f"\nA gait composed at the root is exact (depth-1 column: floating-point level); each further gait adds "
               f"{100 * min(rel):.0f}-{100 * max(rel):.0f} % of its length.\n")
+
+
+def render_ruggedness(datas: list) -> str:
+    """How much structure a search could follow: the same gait sets re-planned, and perturbed."""
+    d = datas[0]
+    if d is None:
+        return missing(RUGGEDNESS_JSON, "gaitmend reproduce multigait-ruggedness --write-docs")
+    pl = d["planner"]
+    rows = [[f"planned again on {pl['streams']} other planner-draw streams (mean)", num(pl["corr"], "{:.3f}"),
+             f"{num(pl['std_within_set'])} (spread within a set)", "-", "-"]]
+    rows += [[f"gait parameters perturbed by {100 * q['eps']:g} % of the box width, simulated again",
+              num(q["corr"]), num(q["mean_abs_change"]), num(q["gait_distance_corr"]),
+              num(q["gait_distance_rel_change_median"])] for q in d["perturbed"]]
+    return (f"{d['n']} uniform random gait sets of the healthy {d['robot'].capitalize()} (seed {d['seed']}, "
+            f"coverage cost, K = {d['iterations']}, {d['gait_s']:g} s gaits): mean coverage {num(d['mean'])} %, "
+            f"spread between sets {num(d['std_between_sets'])} points. Correlation of each set's coverage with "
+            f"the original's:\n\n"
+            + md_table(["the same gait sets", "coverage correlation", "mean coverage change (points)",
+                        f"correlation of each gait's {d['gait_s']:g} s displacement",
+                        "median relative change of that displacement"], rows)
+            + f"\nOne run, {num(d.get('cpu_s'), '{:.0f}')} s of CPU.\n")
 
 
 def _arm_vals(rows: list[dict], arm: str, key: str) -> dict[int, float]:
@@ -303,7 +325,8 @@ EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and dista
                            Section("multigait-summary", (COMPARE_JSON,), render_summary, readme=True))),
                Experiment("ruggedness", "How much of a random gait set's coverage a search could follow: re-plans "
                                         "on other planner draws, re-simulations of slightly perturbed gaits",
-                          _ruggedness_params(), _ruggedness),
+                          _ruggedness_params(), _ruggedness,
+                          (Section("multigait-ruggedness", (RUGGEDNESS_JSON,), render_ruggedness),)),
                Experiment("rows", "The rows of Tables I-IV the paper has (five robots; Empty, Column; coverage and "
                                   "distance) at a stated fraction of its budget (resumable)", paper_rows.RowsParams,
                           paper_rows.rows, (Section("multigait-rows", (paper_rows.ROWS_JSON,), paper_rows.render_rows),
