@@ -15,7 +15,7 @@ from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery import loop_check, peers_check, randomised_check
-from app.jobs.reporting import Section
+from app.jobs.reporting import Section, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
 from app.jobs.recovery.metrics import TARGET
@@ -364,22 +364,23 @@ PARTIAL_DAMAGES = [
 ]
 
 
-def baselines_markdown(log: Callable[[str], None] = print) -> str:
+BASELINES_JSON = "docs/recovery_baselines.json"
+BASELINES_COMMAND = "gaitmend reproduce recovery-baselines --write-docs"
+BASELINE_KEEP = ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "under_3_feet_frac", "fell")
+
+
+def baselines_data(log: Callable[[str], None] = print) -> dict:
     """The nominal tripod (no recovery) on every feasible 1- and 2-leg loss and a few
-    partial damages: does it fall, does it already meet the target? One batch per damage."""
+    partial damages: does it fall, does it already meet the target? One batch per damage;
+    the JSON docs/recovery_baselines.json holds (the page is rendered from it)."""
     from app.jobs.recovery.sequences import nominal_tripod
     from app.jobs.recovery.run import functional_legs, nominal_params, sim_config, sim_model
     from app.robots.catalog import get_robot
     from app.jobs.recovery.evaluate import GaitEvaluator
 
-    damages = [{"lost_legs": list(l)} for l in feasible_losses()] + PARTIAL_DAMAGES
-    spec0 = RecoverySpec()
-    out = [f"The nominal tripod with nominal parameters (no recovery) on each damage; timestep "
-           f"{1000 * spec0.sim.timestep_s:g} ms, 10 s walk. 'fell': chassis, coxa or femur touched the ground. "
-           "'< 3 feet': share of the walk with fewer than three feet on the ground.", "",
-           "| damage | x (cm) | y (cm) | yaw (deg) | max tilt (deg) | < 3 feet | fell | meets the target |",
-           "|---|---|---|---|---|---|---|---|"]
-    for dmg in damages:
+    t0, c0 = time.monotonic(), time.process_time()
+    spec0, rows = RecoverySpec(), []
+    for dmg in [{"lost_legs": list(l)} for l in feasible_losses()] + PARTIAL_DAMAGES:
         spec = RecoverySpec(damage=dmg)
         robot = get_robot(spec.robot)
         _, model = sim_model(spec, robot)
@@ -387,11 +388,27 @@ def baselines_markdown(log: Callable[[str], None] = print) -> str:
         ev = GaitEvaluator(robot, model, nominal_tripod(legs), sim_config(spec))
         m = {k: v[0] for k, v in ev.evaluate(nominal_params(robot, legs)).metrics.items()}
         ev.close()
-        ok = TARGET.met(m)
-        out.append(f"| {_damage_text(dmg)} | {100 * m['x_f_m']:.1f} | {100 * m['y_f_m']:.1f} | {m['yaw_f_deg']:.1f} | "
+        rows.append({"damage": dmg, "text": _damage_text(dmg), "target_met": bool(TARGET.met(m)),
+                     "metrics": {k: (bool(m[k]) if k == "fell" else float(m[k])) for k in BASELINE_KEEP}})
+        log(json.dumps(rows[-1]))
+    return {"command": BASELINES_COMMAND, "timestep_s": spec0.sim.timestep_s, "duration_s": spec0.sim.duration_s,
+            "rows": rows, "wall_s": time.monotonic() - t0, "cpu_s": time.process_time() - c0}
+
+
+def render_baselines(datas: list) -> str:
+    d = datas[0]
+    if d is None:
+        return missing(BASELINES_JSON, BASELINES_COMMAND)
+    out = [f"The nominal tripod with nominal parameters (no recovery) on each damage; timestep "
+           f"{1000 * d['timestep_s']:g} ms, {d['duration_s']:g} s walk. 'fell': chassis, coxa or femur touched the "
+           "ground. '< 3 feet': share of the walk with fewer than three feet on the ground.", "",
+           "| damage | x (cm) | y (cm) | yaw (deg) | max tilt (deg) | < 3 feet | fell | meets the target |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in d["rows"]:
+        m = r["metrics"]
+        out.append(f"| {r['text']} | {100 * m['x_f_m']:.1f} | {100 * m['y_f_m']:.1f} | {m['yaw_f_deg']:.1f} | "
                    f"{m['tilt_max_deg']:.1f} | {100 * m['under_3_feet_frac']:.0f} % | {'**yes**' if m['fell'] else 'no'} | "
-                   f"{'**yes**' if ok else 'no'} |")
-        log(out[-1])
+                   f"{'**yes**' if r['target_met'] else 'no'} |")
     return "\n".join(out) + "\n"
 
 
@@ -522,13 +539,17 @@ def _robust(p: RobustParams, log: Callable[[str], None]) -> str:
 
 
 class BaselinesParams(BaseModel):
-    out: Path = Field(Path("docs/recovery_baselines.md"), description="markdown table to write")
+    out: Path = Field(Path("docs/recovery_baselines.md"), description="the page to write (its generated section)")
+    raw: Path = Field(Path(BASELINES_JSON), description="every damage's walk, the data the page is rendered from")
 
 
 def _baselines(p: BaselinesParams, log: Callable[[str], None]) -> str:
-    md = baselines_markdown(log=log)
-    p.out.parent.mkdir(parents=True, exist_ok=True)
-    p.out.write_text(md)
+    data = baselines_data(log=log)
+    for path in (p.out, p.raw):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    p.raw.write_text(json.dumps(data, indent=1) + "\n")
+    md = render_baselines([data]).strip("\n") + "\n"
+    p.out.write_text(f"<!-- generated: recovery-baselines ({BASELINES_COMMAND}) -->\n{md}<!-- /generated -->\n")
     return md
 
 
@@ -616,7 +637,8 @@ EXPERIMENTS = [
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
-                            "already meets the target?", BaselinesParams, _baselines),
+                            "already meets the target?", BaselinesParams, _baselines,
+               (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),
     Experiment("convergence", "search at a timestep, re-simulate the answers at half of it: the convergence rule",
                 ConvergenceParams, _convergence),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
