@@ -56,6 +56,8 @@ def run_peers(p: PeersParams, log: Callable[[str], None] = print) -> str:
             for method in methods:
                 name = f"legs {'-'.join(map(str, lost))} seed {seed} {method}"
                 spec = peer_spec(method, lost, seed, p.population, p.generations) | {"method": method}
+                if led.find(spec, seed) is None:
+                    log(f"{name}: searching ({p.population} x {p.generations + 1} walks)")
                 led.run(name, spec, seed, lambda: run_peer(method, lost, seed, p.population, p.generations), log)
     runs = [r["result"] for r in current_runs(led.data)]
     return (f"{len(runs)} of {led.data['planned']} planned peer runs in {p.json_out} (code {led.version}); "
