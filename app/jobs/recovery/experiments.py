@@ -452,7 +452,8 @@ def which_text(r: dict) -> str:
     return f"{words} at that step" if words else ""
 
 
-def convergence_markdown(reports: list[dict]) -> str:
+def convergence_table(reports: list[dict]) -> list[str]:
+    """The rule and one row per (step, set of answers): the lines convergence_markdown starts with."""
     from app.jobs.recovery.convergence import RULE_TEXT
 
     out = [f"Rule: {RULE_TEXT}.", "",
@@ -464,7 +465,31 @@ def convergence_markdown(reports: list[dict]) -> str:
                    f"{100 * r['max_forward_rel']:.1f} % | {100 * r['median_lateral_m']:.1f} / {100 * r['max_lateral_m']:.1f} | "
                    f"{r['median_yaw_deg']:.1f} / {r['max_yaw_deg']:.1f} | {100 * r['share_within']:.0f} % | "
                    f"{'yes' if r['passes'] else '**no**'} |")
-    out.append("")
+    return out
+
+
+CONVERGENCE_JSON = "docs/recovery_convergence.json"
+ROBUST_W20_JSON = "docs/recovery_robust_w20.json"
+ROBUST_W20_COMMAND = ("gaitmend reproduce recovery-robust --weights 1,20,10,100,100 --raw docs/recovery_robust_w20.json "
+                      "--out docs/recovery_robust_w20.md")
+
+
+def render_convergence_table(datas: list) -> str:
+    if datas[0] is None:
+        return missing(CONVERGENCE_JSON, "gaitmend reproduce recovery-convergence --timesteps 0.004,0.002,0.001")
+    return "\n".join(convergence_table(datas[0])) + "\n"
+
+
+def render_robust_w20(datas: list) -> str:
+    """The drift-weighted robust comparison at the default step (the rows its command tables)."""
+    if datas[0] is None:
+        return missing(ROBUST_W20_JSON, ROBUST_W20_COMMAND)
+    step = RecoverySpec().sim.timestep_s
+    return robust_markdown([r for r in datas[0] if r["timestep_s"] == step])
+
+
+def convergence_markdown(reports: list[dict]) -> str:
+    out = convergence_table(reports) + [""]
     for r in reports:
         out.append(f"Per answer at {1000 * r['timestep_s']:g} ms, {which_text(r)} (x cm, yaw deg: at the step -> at half of it):")
         for a in r["per_answer"]:
@@ -635,12 +660,14 @@ EXPERIMENTS = [
                         "docs/table2_peers.json; the Table II page pairs them with our DE",
                peers_check.PeersParams, peers_check.run_peers),
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
-                         "under seven perturbations", RobustParams, _robust),
+                         "under seven perturbations", RobustParams, _robust,
+               (Section("recovery-robust-w20", (ROBUST_W20_JSON,), render_robust_w20),)),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
                             "already meets the target?", BaselinesParams, _baselines,
                (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),
     Experiment("convergence", "search at a timestep, re-simulate the answers at half of it: the convergence rule",
-                ConvergenceParams, _convergence),
+                ConvergenceParams, _convergence,
+               (Section("recovery-convergence", (CONVERGENCE_JSON,), render_convergence_table),)),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
                         "the paper DE with cut walks checked against Table II", SpeedParams, _speed),
     Experiment("closed-loop", "issue 24: the four Table II answers open and closed loop on the nominal model, the "
