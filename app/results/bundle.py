@@ -152,14 +152,16 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
         plot_files = kind.figures(result, tmp / "plots")
         extra_files = dict(extra_files or {})
         replayable = {k: v for k, v in result.traces.items() if "qpos" in v}
+        replay_rows: dict[str, str] = {}
         if replayable and "replay.viser" not in extra_files:
             import mujoco
 
-            from app.results.replay import record, replay_tracks
+            from app.results.replay import record_scenes, replay_tracks, scene_rows
 
             tracks = replay_tracks(kind, list(replayable))
             model = mujoco.MjModel.from_xml_string(result.model_xml)
-            extra_files["replay.viser"] = record(model, {t.name: replayable[t.name] for t in tracks}, tracks=tracks)
+            extra_files.update(record_scenes(model, replayable, tracks))  # one scene per track
+            replay_rows = scene_rows(tracks)
         members: dict[str, bytes | str | Path] = {
             "manifest.json": json.dumps(man, indent=2), "result.json": json.dumps(_finite(json.loads(dumps(result.summary)))),
             "history.csv": _csv(result.history), "robot.xml": result.model_xml}
@@ -172,7 +174,7 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
             members[f"plots/{p.name}"] = p
         members.update(kind.bundle_files(spec, result))
         members.update(extra_files)
-        rows = kind.bundle_rows(list(members) + ["README.md"])
+        rows = kind.bundle_rows(list(members) + ["README.md"]) | replay_rows
         members["README.md"] = README.format(
             job_id=job_id, kind=spec.kind, title=kind.title, robot=getattr(spec, "robot", ""), version=__version__,
             mujoco=man["versions"]["mujoco"], install=install_text(man["versions"].get("commit")), rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))

@@ -3,14 +3,17 @@
 The robot's geometry is taken from the MuJoCo model (one viser frame per body, its geoms
 as primitives under it) and sent once; every replay frame then only moves the body
 frames (poses, not meshes). ``record`` writes a ``.viser`` scene recording that viser's
-own client plays back with ``?playbackPath=``; ``serve_live`` opens a live server with a
-timeline slider, play/pause, speed and a recovered/baseline toggle.
+own client plays back with ``?playbackPath=``; ``record_scenes`` records one scene per
+track (the bundle's ``replay.viser`` is the method's answer alone, ``replay/<name>.viser``
+each other track: one robot is what a software renderer draws smoothly); ``serve_live``
+opens a live server with a timeline slider, play/pause, speed and a recovered/baseline toggle.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import re
 import socket
 import threading
 from collections.abc import Mapping
@@ -31,6 +34,31 @@ def replay_tracks(kind, names: list[str]) -> list[ReplayTrack]:
         return [ReplayTrack(n, n, None, i) for i, n in enumerate(names)]
     tracks = [t for t in kind.replay_style(list(names)) if t.name in names]
     return sorted(tracks, key=lambda t: t.order)
+
+
+SCENE = "replay.viser"  # the first track's scene (the method's answer), where it always was
+
+
+def scene_paths(names: list[str]) -> dict[str, str]:
+    """Bundle member of each track's scene, tracks in the kind's order: the first is
+    ``replay.viser`` (links to it and `gaitmend` readers of a bundle keep working), each
+    other ``replay/<name>.viser``."""
+    return {n: SCENE if i == 0 else f"replay/{re.sub(r'[^A-Za-z0-9_-]', '_', n)}.viser" for i, n in enumerate(names)}
+
+
+def scene_rows(tracks: list[ReplayTrack]) -> dict[str, str]:
+    """The bundle README's row of each track's scene."""
+    paths = scene_paths([t.name for t in tracks])
+    return {paths[t.name]: f"3D replay of {t.label} alone (trace `{t.name}`): a viser scene recording "
+                           "(the dashboard plays it; `gaitmend replay` shows every track live)" for t in tracks}
+
+
+def record_scenes(model: mujoco.MjModel, traces: Mapping[str, Mapping[str, np.ndarray]],
+                  tracks: list[ReplayTrack], fps: float = 25.0) -> dict[str, bytes]:
+    """One .viser recording per track, {bundle member: bytes} (``scene_paths``): each robot
+    alone on its own ground, the camera framing (or following) its own path."""
+    paths = scene_paths([t.name for t in tracks])
+    return {paths[t.name]: record(model, {t.name: traces[t.name]}, fps, [t]) for t in tracks}
 
 
 def _free_port() -> int:
@@ -173,6 +201,9 @@ class _Scene:
         self.server, self.model = server, model
         scene = server.scene
         scene.set_up_direction("+z")
+        # no dynamic shadows: a software renderer (SwiftShader, no GPU) drew a one-robot scene
+        # at about half the frame rate with them; the contact dots show where the feet touch
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
         idx, self.n = _frames(traces, fps)
         self.fps = fps
         poses = {name: body_poses(model, np.asarray(tr["qpos"])[idx[name]]) for name, tr in traces.items()}

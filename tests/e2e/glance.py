@@ -140,19 +140,53 @@ def non_background(png: bytes) -> float:
     return float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
 
 
-def replay_frames(jp, shots: Path, name: str) -> list[float]:
+def colour_share(png: bytes, hex_colour: str) -> float:
+    """Share of the picture in a run's colour (hue within ~14 degrees, saturated, not dark):
+    its robot and its path, however the scene's light shades them; the ground, the sky and
+    the world's own zones are other colours."""
+    hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV")).astype(int).reshape(-1, 3)
+    want = np.asarray(Image.new("RGB", (1, 1), hex_colour).convert("HSV")).astype(int).reshape(3)
+    dh = np.abs(hsv[:, 0] - want[0])
+    return float(((np.minimum(dh, 256 - dh) <= 10) & (hsv[:, 1] > 90) & (hsv[:, 2] > 40)).mean())
+
+
+def default_scene(jp, server, job_id: str) -> list[dict]:
+    """The replay opens on the method's answer alone (the kind's first track, the bundle's
+    replay.viser), with a pressed button for it among one per run when there are several;
+    returns the tracks as the API lists them."""
+    with server.client() as c:
+        tracks = c.get(f"/api/jobs/{job_id}/views").json()["replay"]
+    assert tracks and all(t["path"] for t in tracks), tracks
+    assert tracks[0]["path"] == "replay.viser"
+    frame = jp.locator("#replay")
+    expect(frame).to_have_attribute("data-track", tracks[0]["name"], timeout=30_000)
+    expect(frame).to_have_attribute("title", f"3D replay of {tracks[0]['label']}")
+    buttons = jp.locator("#replay-tracks button")
+    if len(tracks) > 1:
+        expect(buttons).to_have_count(len(tracks))
+        expect(buttons.nth(0)).to_have_attribute("aria-pressed", "true")
+        expect(buttons.nth(0)).to_have_text(tracks[0]["label"])
+    else:
+        expect(jp.locator("#replay-tracks")).to_be_hidden()
+    return tracks
+
+
+def replay_frames(jp, shots: Path, name: str, server=None, job_id: str | None = None) -> list[float]:
     """The replay's canvas at the start, the middle and the end of the walk: viser's client
     plays the recording in a loop and its timeline slider says where it is (aria-valuenow of
     aria-valuemax seconds), so each screenshot is taken when the slider is in that part of
     the walk. Returns the share of the canvas that is not background in each (the robot,
-    its path and the ground in view); prints the time each was taken at."""
+    its path and the ground in view); prints the time each was taken at. With the job, the
+    scene shown is the method's answer alone and its robot is in view in each (a share of
+    the canvas in the run's colour; its path alone is a thin line)."""
+    tracks = default_scene(jp, server, job_id) if job_id else None
     jp.locator("#replay").scroll_into_view_if_needed()
     canvas = jp.frame_locator("#replay").locator("canvas").first
     expect(canvas).to_be_visible(timeout=60_000)
     frame = next(f for f in jp.frames if "/viser/" in f.url)
     where = "() => { const s = document.querySelector('[role=slider]'); return s ? [+s.getAttribute('aria-valuenow'), +s.getAttribute('aria-valuemax')] : null; }"
     wanted = {"start": (0.0, 0.12), "middle": (0.4, 0.6), "end": (0.85, 1.0)}
-    shares, at = {}, {}
+    shares, at, robot = {}, {}, {}
     for _ in range(600):
         pos = frame.evaluate(where)
         if not pos or not pos[1]:
@@ -167,9 +201,35 @@ def replay_frames(jp, shots: Path, name: str) -> list[float]:
         png = jp.screenshot(clip=bb, path=shots / f"{name}-replay-{tag}-1280.png")
         if bb["width"] > 50 and non_background(png) > 0.02:  # drawn (not the first blank frames)
             shares[tag], at[tag] = non_background(png), round(pos[0], 2)
+            robot[tag] = colour_share(png, tracks[0]["color"]) if tracks else None
         if len(shares) == len(wanted):
             break
     print(f"\nreplay {name}: screenshots at {at} s of the walk; non-background share "
-          f"{ {t: round(v, 3) for t, v in shares.items()} }")
+          f"{ {t: round(v, 3) for t, v in shares.items()} }; in the run's colour "
+          f"{ {t: v if v is None else round(v, 4) for t, v in robot.items()} }")
     assert set(shares) == set(wanted), f"the replay of {name} was not caught at {set(wanted) - set(shares)}"
+    if tracks:
+        assert min(robot.values()) > ROBOT_IN_VIEW, f"the {name} robot is out of view at some point: {robot}"
     return [shares[t] for t in wanted]
+
+
+ROBOT_IN_VIEW = 0.004  # share of the canvas in the run's colour with the robot in view (see replay_frames)
+
+
+def switch_track(jp, track: dict) -> None:
+    """Press a run's button: the frame plays that run's own scene (its bundle member through
+    a signed link), the button is pressed and the others not, and the canvas draws it."""
+    jp.locator(f'#replay-tracks button[data-track="{track["name"]}"]').click()
+    frame = jp.locator("#replay")
+    expect(frame).to_have_attribute("data-track", track["name"])
+    expect(frame).to_have_attribute("src", re.compile(r"playbackPath=[^&]*" + re.escape(track["path"].replace("/", "%2F"))))
+    for b in jp.locator("#replay-tracks button").all():
+        expect(b).to_have_attribute("aria-pressed", str(b.get_attribute("data-track") == track["name"]).lower())
+    canvas = jp.frame_locator("#replay").locator("canvas").first
+    expect(canvas).to_be_visible(timeout=60_000)
+    for _ in range(60):  # the new scene arrives over a few frames in software GL
+        bb = canvas.bounding_box()
+        if bb and bb["width"] > 50 and colour_share(jp.screenshot(clip=bb), track["color"]) > ROBOT_IN_VIEW:
+            return
+        jp.wait_for_timeout(500)
+    raise AssertionError(f"the {track['label']} scene shows no robot in its colour")

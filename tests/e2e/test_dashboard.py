@@ -283,7 +283,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     assert [g["name"] for g in v["robustness"]["groups"]][:1] == ["numerics"]
     glance.no_axe_faults(jp, "recovery job page")
     jp.reload()
-    shares = glance.replay_frames(jp, shots, "recovery")
+    shares = glance.replay_frames(jp, shots, "recovery", server, job_id)
     assert min(shares) > 0.02, shares
 
     # the bundle download carries the token (blob) and is the real zip
@@ -293,7 +293,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     with zipfile.ZipFile(path) as z:
         names = set(z.namelist())
         manifest = json.loads(z.read("manifest.json"))
-    assert {"result.json", "replay.viser", "trajectories/best.csv"} <= names
+    assert {"result.json", "replay.viser", "replay/baseline.viser", "trajectories/best.csv"} <= names
     assert manifest["job_id"] == job_id
     assert dl.value.suggested_filename == f"gaitmend-{job_id}.zip"
     STATE["job_id"] = job_id

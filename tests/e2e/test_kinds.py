@@ -301,7 +301,7 @@ def test_newer_kind_through_the_form(kind, page, new_page, server, shots):
     v = glance.check_verdict(jp, server, job_id)
     assert v["primary"]["label"] == listed, v["primary"]
     # the replay frames the robot from the first step to the last
-    shares = glance.replay_frames(jp, shots, kind)
+    shares = glance.replay_frames(jp, shots, kind, server, job_id)
     assert min(shares) > 0.02, shares
     glance.check_list_row(jp, server, job_id)
     glance.job_page_everywhere(new_page, server, job_id, kind, shots)

@@ -34,6 +34,13 @@ def test_bundle_members_links_and_traces(server, second_job):
         assert set(gait["layout"]["yaxis"]["tickvals"]) == {
             f"{who} · leg {leg}" for who in ("recovered", "tripod") for leg in (2, 3, 4, 5)}
         assert sorted(f["path"] for f in v["files"]) == sorted(files)
+        # one scene per run: the recovered gait in replay.viser (where it always was), the
+        # baseline in its own member, each with its README row
+        assert [(t["name"], t["path"]) for t in v["replay"]] == [("best", "replay.viser"),
+                                                                  ("baseline", "replay/baseline.viser")]
+        assert files["replay/baseline.viser"] > 1000
+        what = {f["path"]: f["what"] for f in v["files"]}
+        assert "recovered gait alone" in what["replay.viser"] and "nominal tripod alone" in what["replay/baseline.viser"]
         assert all("sig=" in f["url"] for f in v["files"])
     raw = httpx.get(server.url + link["url"])  # no Authorization header: the signature admits it
     assert raw.status_code == 200 and raw.content[:1] and len(raw.content) == files["replay.viser"]
@@ -165,10 +172,14 @@ def test_a_cold_job_page_draws_within_two_seconds(new_page, server, second_job):
     assert t["plotly"] and t["plotly"] < 2_000_000, t  # gzipped on the wire
 
 
-def test_a_short_walk_is_not_judged_and_the_replay_waits_for_the_screen(new_page, server, second_job):
+def test_a_short_walk_is_not_judged_and_the_replay_waits_for_the_screen_then_switches_runs(new_page, server, second_job):
     """SECOND walks 1.5 s, under the 3 s the recovery target needs (issue 25): the verdict
     says the target was not judged (not "not met"), and so are the re-runs; viser's client
-    (which plays, and renders, as soon as it loads) gets its address only once on screen."""
+    (which plays, and renders, as soon as it loads) gets its address only once on screen,
+    opens on the recovered gait alone, and a button switches it to the baseline's own scene
+    and back."""
+    import glance
+
     pg = new_page()
     requested: list[str] = []
     pg.on("request", lambda r: requested.append(r.url))
@@ -181,7 +192,13 @@ def test_a_short_walk_is_not_judged_and_the_replay_waits_for_the_screen(new_page
         "not judged (walk too short)")
     pg.wait_for_timeout(500)
     assert pg.locator("#replay").get_attribute("src") is None
-    assert not [u for u in requested if "/viser/" in u or "replay.viser" in u], requested
+    assert not [u for u in requested if "/viser/" in u or ".viser" in u], requested
+    tracks = glance.default_scene(pg, server, second_job)
+    assert [t["name"] for t in tracks] == ["best", "baseline"], tracks
     pg.locator("#replay").scroll_into_view_if_needed()
     expect(pg.frame_locator("#replay").locator("canvas").first).to_be_visible(timeout=60_000)
     assert pg.locator("#replay").get_attribute("src").startswith("/viser/?playbackPath=")
+    glance.switch_track(pg, tracks[1])
+    assert pg.locator("#replay-file").inner_text() == "replay/baseline.viser"
+    glance.switch_track(pg, tracks[0])
+    glance.no_axe_faults(pg, "recovery job page with the run buttons")

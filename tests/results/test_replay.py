@@ -57,3 +57,36 @@ def test_record_returns_a_viser_file(traces):
     data = record(model, tr)
     assert isinstance(data, bytes) and len(data) > 10_000
     assert np.isfinite(tr["best"]["qpos"]).all()
+
+
+def _messages(data: bytes) -> list[dict]:
+    """The messages of a .viser recording (zstd over an 8-byte length and msgpack metadata)."""
+    import msgspec
+    import zstandard
+
+    inner = zstandard.ZstdDecompressor().decompress(data[8:], max_output_size=int.from_bytes(data[:8], "little"))
+    n = int.from_bytes(inner[:8], "little")
+    return [m for _, m in msgspec.msgpack.decode(inner[8:8 + n])["messages"]]
+
+
+def test_one_scene_per_track_each_robot_alone(traces):
+    """The bundle's replay.viser holds the first track's robot alone, replay/<name>.viser each
+    other's; no dynamic shadows (what a software renderer plays smoothly); README rows name
+    the runs."""
+    from app.jobs.base import ReplayTrack
+    from app.results.replay import record_scenes, scene_rows
+
+    model, tr = traces
+    both = {"best": tr["best"], "base line": tr["best"]}
+    tracks = [ReplayTrack("best", "recovered gait", "method", 0), ReplayTrack("base line", "nominal tripod", "baseline", 1)]
+    scenes = record_scenes(model, both, tracks)
+    assert list(scenes) == ["replay.viser", "replay/base_line.viser"]
+    for path, own, other in (("replay.viser", "best", "base line"), ("replay/base_line.viser", "base line", "best")):
+        msgs = _messages(scenes[path])
+        names = {m["name"] for m in msgs if isinstance(m.get("name"), str)}
+        assert any(n.startswith(f"/world/{own}/") for n in names), path
+        assert not any(n.startswith(f"/world/{other}/") for n in names), path
+        lights = [m for m in msgs if m.get("type") == "EnableLightsMessage"]
+        assert lights and lights[-1]["cast_shadow"] is False, lights
+    rows = scene_rows(tracks)
+    assert set(rows) == set(scenes) and "nominal tripod alone" in rows["replay/base_line.viser"]

@@ -190,21 +190,46 @@
          ...["png", "svg"].filter((x) => f[x]).flatMap((x) => [" · ", el("a", { href: f[x], download: `${f.name}.${x}`, text: x.toUpperCase() })])))));
   }
 
-  function replay(list, tracks) {
-    const f = list.find((x) => x.path === "replay.viser");
-    if (!f) return;
-    if (tracks && tracks.length) { // named and coloured as the plots name and colour them
-      $("replay-what").replaceChildren(...tracks.flatMap((t, i) => [i ? (i === tracks.length - 1 ? " and " : ", ") : "",
-        el("span", { class: "swatch", style: `background:${t.color}` }), el("strong", { text: t.label })]), " side by side");
+  // One scene per run (the bundle's replay.viser is the method's answer alone, each other
+  // run replay/<name>.viser: one robot is what a software renderer plays smoothly): the
+  // answer first, a button per run switches the frame to another. An older bundle has one
+  // replay.viser with every run side by side, and no buttons.
+  function replay(list, tracks = []) {
+    const url = Object.fromEntries(list.map((x) => [x.path, x.url]));
+    const own = tracks.filter((t) => t.path && url[t.path]);
+    const apart = own.length > 0 && own.length === tracks.length;
+    if (!url[apart ? own[0].path : "replay.viser"]) return;
+    const frame = $("replay");
+    const named = (t) => [el("span", { class: "swatch", style: `background:${t.color}` }), el("strong", { text: t.label })];
+    const chooser = $("replay-tracks");
+    const show = (t) => {
+      const src = `/viser/?playbackPath=${encodeURIComponent(url[t ? t.path : "replay.viser"])}`;
+      $("replay-open").href = src;
+      frame.dataset.src = src;
+      if (frame.getAttribute("src")) frame.src = src; // already on screen: the other scene now
+      if (!t) return;
+      frame.dataset.track = t.name;
+      frame.title = `3D replay of ${t.label}`;
+      $("replay-file").textContent = t.path;
+      $("replay-what").replaceChildren(...named(t), own.length > 1 ? " alone (the buttons below show another run)" : "");
+      for (const b of chooser.children) b.setAttribute("aria-pressed", String(b.dataset.track === t.name));
+    };
+    if (apart) {
+      chooser.replaceChildren(...own.map((t) => el("button", { type: "button", class: "secondary", "data-track": t.name,
+        "aria-pressed": "false", onclick: () => show(t) }, ...named(t))));
+      chooser.hidden = own.length < 2;
+      show(own[0]);
+    } else {
+      if (tracks.length) { // named and coloured as the plots name and colour them
+        $("replay-what").replaceChildren(...tracks.flatMap((t, i) => [i ? (i === tracks.length - 1 ? " and " : ", ") : "",
+          ...named(t)]), " side by side");
+      }
+      show(null);
     }
-    const src = `/viser/?playbackPath=${encodeURIComponent(f.url)}`;
     $("replay-card").hidden = false;
-    $("replay-open").href = src;
     // viser's client starts playing (and rendering, in software on many machines) as soon
     // as it loads: it gets its address only once the replay is on screen
-    const frame = $("replay");
-    frame.dataset.src = src;
-    if (!("IntersectionObserver" in window)) { frame.src = src; return; }
+    if (!("IntersectionObserver" in window)) { frame.src = frame.dataset.src; return; }
     const seen = new IntersectionObserver((entries) => {
       if (!entries.some((e) => e.isIntersecting)) return;
       seen.disconnect();

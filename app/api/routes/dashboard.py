@@ -205,6 +205,7 @@ def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
     import numpy as np
 
     from app.jobs.viewkit import controls_panel, robustness_panel
+    from app.results import replay
 
     with zipfile.ZipFile(bundle) as z:
         members = [n for n in z.namelist() if not n.endswith("/")]
@@ -224,10 +225,14 @@ def _bundle_views(bundle: str, mtime_ns: int) -> dict[str, Any]:
         names = kind.metric_names(summary)
         out["panels"] = [_as_panel(v, i) for i, v in enumerate(kind.views(summary, traces))]
         out["panels"] += _panels_of_tables(list(kind.page_tables(summary)))
-        out["describe"] = dict(kind.bundle_rows(members))
         replayable = [n for n, tr in traces.items() if "qpos" in tr.files]
-        out["replay"] = [{"name": t.name, "label": t.label, "color": t.color}
-                         for t in sorted(kind.replay_style(replayable), key=lambda t: t.order) if t.name in replayable]
+        tracks = [t for t in sorted(kind.replay_style(replayable), key=lambda t: t.order) if t.name in replayable]
+        # each track's own scene (an older bundle has one replay.viser with every track side by side)
+        scenes = {n: p for n, p in replay.scene_paths([t.name for t in tracks]).items() if p in members}
+        out["describe"] = dict(kind.bundle_rows(members)) | {p: d for p, d in replay.scene_rows(tracks).items()
+                                                            if p in members and len(scenes) == len(tracks)}
+        out["replay"] = [{"name": t.name, "label": t.label, "color": t.color, "path": scenes.get(t.name)}
+                         for t in tracks]
     out["evidence"] = [p for p in (controls_panel(summary, names), robustness_panel(summary, names)) if p]
     return _jsonable(out)
 
