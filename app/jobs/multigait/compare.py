@@ -274,8 +274,9 @@ class RuggednessParams(BaseModel):
 
 def ruggedness_experiment(p: RuggednessParams, log: Callable[[str], None] = print) -> str:
     t0, c0 = time.monotonic(), time.process_time()
-    r = ruggedness(p.robot, p.n, p.seed)
-    r |= {"robot": p.robot, "seed": p.seed, "iterations": 150, "gait_s": 30.0, "wall_s": time.monotonic() - t0,
+    iterations, gait_s = 150, 30.0  # the paper's K and gait length, passed and recorded together
+    r = ruggedness(p.robot, p.n, p.seed, iterations=iterations, gait_s=gait_s)
+    r |= {"robot": p.robot, "seed": p.seed, "iterations": iterations, "gait_s": gait_s, "wall_s": time.monotonic() - t0,
           "cpu_s": time.process_time() - c0,
           "command": f"gaitmend reproduce multigait-ruggedness --robot {p.robot} --n {p.n} --seed {p.seed} --write-docs"}
     p.out.write_text(json.dumps(r, indent=1))
