@@ -108,7 +108,8 @@ def _ci(r: dict, digits: int = 2) -> str:
     if r["n"] == 0:
         return "-"
     ci = "no interval (n < 2)" if r["ci"] is None else f"[{r['ci'][0]:+.{digits}f}, {r['ci'][1]:+.{digits}f}]"
-    return f"{r['mean_diff']:+.{digits}f} {ci}"
+    dz = "" if r["effect_size"] is None else f", d_z {r['effect_size']:.2f}"
+    return f"{r['mean_diff']:+.{digits}f} {ci}{dz}"
 
 
 def _p(r: dict) -> str:
@@ -184,7 +185,7 @@ def comparisons_markdown(rows: list[dict], peers_data: dict | None, population: 
            "random-search control (uniform in the bounds, its own stream of the run's seed): docs/table2.json; "
            "scipy's `differential_evolution` (current-to-best/1/bin, our F and CR, our population exactly, deferred "
            "updating, no polish) and CMA-ES (app/optim/cmaes.py through our search loop): "
-           + (f"{JSON} ({len(peers)} runs, code {peers_data['code_version']}, "
+           + (f"{JSON} ({len(peers)} run{'s' if len(peers) > 1 else ''}, code {peers_data['code_version']}, "
               f"{machine_time(peers_data)['wall_s']:.0f} s wall)." if peers else
               f"*no data yet: `{COMMAND}` writes {JSON}.*"), "",
            md_table(["damage", "method", "seeds", "F median [min, max]", "forward y median (cm)", "fell",
@@ -193,7 +194,7 @@ def comparisons_markdown(rows: list[dict], peers_data: dict | None, population: 
            + " 'ours wins': pairs where our DE's F is higher. Pooled rows pair across damages whose F scales differ "
              "(leg 1's F is several times legs 1 & 6's), so their mean is dominated by the large-F damages; the "
              "wins share and the per-damage rows do not have that weight.", "",
-           md_table(["comparison", "damage", "pairs (n)", "F: mean difference [95 % CI]", "median difference",
+           md_table(["comparison", "damage", "pairs (n)", "F: mean difference [95 % CI], d_z", "median difference",
                      "ours wins", "Wilcoxon p", "F: verdict", "forward (cm): mean difference [95 % CI]",
                      "Wilcoxon p", "forward: verdict"], comparison_rows(methods))]
     return "\n".join(out)
