@@ -182,6 +182,9 @@ def table_markdown(rows: list[dict], generations: int, population: int, peers: d
     (docs/table2_peers.json, None: not yet run): nothing is simulated here."""
     from app.jobs.recovery.peers_check import comparisons_markdown
 
+    if not rows:
+        return (f"*No Table II runs of DE {population} x {generations} at the default step in the data yet: "
+                "`gaitmend reproduce recovery --write-docs` writes docs/table2.json.*\n")
     seeds = sorted({r["seed"] for r in rows})
     dt = rows[0]["timestep_s"] if rows else RecoverySpec().sim.timestep_s
     out = [

@@ -99,3 +99,8 @@ def test_render_only_reads_the_files_and_runs_nothing(tmp_path, monkeypatch):
     assert "| fell (N/A) | -9.3 / 28.1 / -19.5 |" in md and "| -2.3 / 1.5 / 2.4 | 10.1 / 52.7 / 5.8 |" in md
     assert "| 14.6 / 26.6 / 64.0 | 9.4 / 66.9 / 13.0 |" in md
     assert "| our DE vs random search | all damages | 4 | +10.00" in md and "no pairs yet" in md
+
+
+def test_render_only_without_rows_says_so(tmp_path):
+    md = experiments.run_table2(10, 60, 30, raw_path=tmp_path / "none.json", peers_path=None, render_only=True)
+    assert md.startswith("*No Table II runs of DE 30 x 60") and not (tmp_path / "none.json").exists()
