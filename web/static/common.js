@@ -157,13 +157,14 @@ const GM = (() => {
     div.textContent = text;
   }
 
-  // Durations and dates as a person reads them.
+  // Durations and dates as a person reads them (a number and its unit never split over two
+  // lines: a no-break space between them).
   function duration(s) {
     if (s === null || s === undefined || !Number.isFinite(s)) return "–";
-    if (s < 90) return `${Math.max(1, Math.round(s))} s`;
-    if (s < 5400) return `${Math.round(s / 60)} min`;
-    if (s < 172800) return `${(s / 3600).toFixed(1)} h`;
-    return `${(s / 86400).toFixed(1)} days`;
+    if (s < 90) return `${Math.max(1, Math.round(s))}\u00a0s`;
+    if (s < 5400) return `${Math.round(s / 60)}\u00a0min`;
+    if (s < 172800) return `${(s / 3600).toFixed(1)}\u00a0h`;
+    return `${(s / 86400).toFixed(1)}\u00a0days`;
   }
   function date(iso) {
     const t = Date.parse(iso);
