@@ -78,6 +78,8 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None, window=None)
     frames = {}
     for b in range(1, model.nbody):
         frames[b] = scene.add_frame(f"{prefix}/body{b}", show_axes=False)
+    root = _root_body(model)
+    robot = {b for b in range(1, model.nbody) if b == root or _descends(model, b, root)}
     for g in range(model.ngeom):
         b = int(model.geom_bodyid[g])
         if b == 0 and int(model.geom_type[g]) == _G.mjGEOM_PLANE:
@@ -89,9 +91,10 @@ def add_model(scene, prefix: str, model: mujoco.MjModel, tint=None, window=None)
         t = int(model.geom_type[g])
         size = model.geom_size[g]
         pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
-        # the world's own geoms (terrain, forbidden zones, obstacles) keep their colours: tinted
-        # in the run's colour they read as part of the robot (zones looked like footholds)
-        color = tint if tint is not None and t != _G.mjGEOM_SPHERE and b else _rgb(model.geom_rgba[g])
+        # the world's own geoms (terrain, forbidden zones, obstacles) and bodies that are not the
+        # robot's (tipping's tilting platform) keep their colours: tinted in the run's colour they
+        # read as part of the robot (zones looked like footholds, the platform like its body)
+        color = tint if tint is not None and t != _G.mjGEOM_SPHERE and b in robot else _rgb(model.geom_rgba[g])
         if t == _G.mjGEOM_HFIELD:
             _add_hfield(scene, name, model, g, color, pos, quat, window)
         elif t == _G.mjGEOM_BOX:
