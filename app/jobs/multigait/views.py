@@ -167,7 +167,8 @@ def reuse_view(summary: dict) -> list[dict]:
     tab = kit.panel("reuse-table", "Reuse of the evolved gaits", "Sec. V-C: the gaits planned again to a goal 30 mu away on "
                     "new maps (mean ± std over the plans; distance lower is better, coverage higher is better).",
                     table=kit.table(["scenario", "distance to goal (mu, lower better)", "coverage (%, higher better)"], rows))
-    data = [{"type": "bar", "x": [n.replace("_", " ") for n in names], "y": [r[n]["distance_mu"]["mean"] for n in names],
+    # two-line labels: on a phone plotly rotated "column opposite" over the axis title
+    data = [{"type": "bar", "x": [n.replace("_", "<br>") for n in names], "y": [r[n]["distance_mu"]["mean"] for n in names],
              "error_y": {"type": "data", "array": [r[n]["distance_mu"]["std"] for n in names]}, "name": "distance to goal (mu)",
              "marker": {"color": kit.METHOD}}]
     fig = kit.panel("reuse", "Reuse: distance to goal per scenario", "Lower is better; error bars one standard deviation.",
