@@ -619,20 +619,25 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
     return md
 
 
+# the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
+_SPEED_PARTS = ("bench|profile|variants|throughput|cap|check|fast|equal|paper|coarse"
+                "|alt_cmaes_20x36|alt_cmaes_8x90|alt_de_12x60_cut")
+
+
 class SpeedParams(BaseModel):
     parts: str = Field("bench,profile,variants,throughput,cap,check,fast,equal,paper,coarse",
-                       pattern=r"^(bench|profile|variants|throughput|cap|check|fast|equal|paper|coarse)"
-                               r"(,(bench|profile|variants|throughput|cap|check|fast|equal|paper|coarse))*$",
+                       pattern=rf"^({_SPEED_PARTS})(,({_SPEED_PARTS}))*$",
                        description="what to measure: the recovery bench (the issue's targets); the step profile; "
                                    "physics settings tried (CPU time, what "
                                    "they do to the documented answers); raw and evaluator steps/s; the cut walks' "
                                    "speed cap on random walks; cut walks on every documented damage (same answers?); "
                                    "coarse-to-fine's coarse search judged at the default step; the fast preset's time "
                                    "to the target; the equal-quality configuration; the paper DE with cut walks "
-                                   "(checked against Table II)")
+                                   "(checked against Table II); alt_<name>: another configuration of about the "
+                                   "equal-quality budget (speed.ALTERNATIVES)")
     seeds: int = Field(3, ge=1, le=20, description="seeds per damage")
-    damages: str = Field("table2", pattern=r"^(table2|1-6)$", description="table2: the four Table II damages; "
-                                                                           "1-6: legs 1 & 6 only")
+    damages: str = Field("table2", pattern=r"^(table2|1-6|3-4)$", description="table2: the four Table II damages; "
+                                                                              "1-6: legs 1 & 6 only; 3-4: legs 3 & 4 only")
     out: Path = Field(Path("docs/recovery_speed.md"), description="markdown to write")
     raw: Path = Field(Path("docs/recovery_speed.json"), description="every run; runs already there are not run again")
 
@@ -640,7 +645,7 @@ class SpeedParams(BaseModel):
 def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
     from app.jobs.recovery import speed
 
-    damages = SCENARIOS if p.damages == "table2" else [(1, 6)]
+    damages = {"table2": SCENARIOS, "1-6": [(1, 6)], "3-4": [(3, 4)]}[p.damages]
     if "bench" in p.parts.split(","):
         from app.jobs.recovery.bench import bench_recovery
 

@@ -26,6 +26,14 @@ PAPER = {"search": {"population": 30, "generations": 60}}
 # The equal-quality configuration: CMA-ES (the `cma` package behind the same ask/tell
 # interface), 12 per generation, 1 ms, full 10 s walks (docs/recovery_speed.md).
 EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}
+# Other configurations at about the equal-quality budget (730-745 walks), tried where it fell
+# short (legs 3 & 4): a wider and a narrower CMA-ES generation, and the paper's DE itself
+# with a population of 12 and cut walks (part name "alt_<name>").
+ALTERNATIVES = {
+    "cmaes_20x36": {"search": {"optimizer": "cmaes", "population": 20, "generations": 36}},
+    "cmaes_8x90": {"search": {"optimizer": "cmaes", "population": 8, "generations": 90}},
+    "de_12x60_cut": {"search": {"population": 12, "generations": 60, "cut_walks": True}},
+}
 STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER_POS_INERTIA",
           "mjTIMER_POS_COLLISION", "mjTIMER_COL_BROAD", "mjTIMER_COL_NARROW", "mjTIMER_POS_MAKE", "mjTIMER_VELOCITY",
           "mjTIMER_ACTUATION", "mjTIMER_CONSTRAINT", "mjTIMER_ADVANCE")
@@ -320,7 +328,8 @@ PARTS: dict[str, Callable[..., dict]] = {
     "paper": paper_row,
     "fast": lambda lost, seed, docs: _search_row("fast", lost, seed, {"preset": "fast"}),
     "equal": lambda lost, seed, docs: _search_row("equal", lost, seed, EQUAL),
-}
+} | {f"alt_{name}": (lambda cfg, part: lambda lost, seed, docs: _search_row(part, lost, seed, cfg))(cfg, f"alt_{name}")
+     for name, cfg in ALTERNATIVES.items()}
 
 
 def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: Path, docs: Path,
@@ -437,6 +446,33 @@ def coarse_markdown(rows: list[dict]) -> list[str]:
         out.append(f"| {_name(r['lost_legs'])} | {r['seed']} | {r['fitness']:.2f} | {d['fitness']:.2f} | "
                    f"{'yes' if r['target_met'] else 'no'} / {'yes' if d['target_met'] else 'no'} | "
                    f"{d['metrics']['yaw_f_deg']:.1f} | {r['sim_steps']:,} |")
+    return out + [""]
+
+
+def alternatives_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[str]:
+    """Per damage and configuration: F over its seeds against the paper DE's on the same
+    seeds, and its answers meeting the target at the default step and at half of it."""
+    out = ["Other configurations at about the equal-quality budget, on the damages they were run on (the paper DE's "
+           "F: its runs on this page, else docs/table2.json's for that seed; a configuration counts as equal quality "
+           "when its median F over the seeds is at least the paper DE's median over the same seeds and its answers "
+           "meet the target also at half the step):", "",
+           "| damage | configuration | walks | F, median [range] (seeds) | paper DE F on those seeds | "
+           ">= paper, same seed | target met (also at half the step) |", "|---|---|---|---|---|---|---|"]
+    configs = [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
+    for lost in SCENARIOS:
+        paper = _paper_fitness(rows, lost, docs)
+        for part, cfg in configs:
+            got = [r for r in rows if r["part"] == part and tuple(r["lost_legs"]) == lost]
+            if not got or not any(r["part"].startswith("alt_") and tuple(r["lost_legs"]) == lost for r in rows):
+                continue
+            pf = [paper[r["seed"]] for r in got if r["seed"] in paper]
+            wins = sum(r["fitness"] >= paper[r["seed"]] for r in got if r["seed"] in paper)
+            s = cfg["search"]
+            out.append(f"| {_name(lost)} | `{json.dumps(cfg)}` | {s['population'] * (s['generations'] + 1)} | "
+                       f"{_spread([r['fitness'] for r in got], '{:.2f}')} ({len(got)}) | "
+                       f"{_spread(pf, '{:.2f}')} ({len(pf)}) | {wins} of {len(pf)} | "
+                       f"{sum(r['target_met'] for r in got)} ({sum(bool(r['half_step_met']) for r in got)}) of "
+                       f"{len(got)} |")
     return out + [""]
 
 
@@ -639,7 +675,7 @@ def bench_markdown(row: dict) -> list[str]:
 
 
 def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
-    runs = [r for r in rows if r["part"] in ("paper", "fast", "equal")]
+    runs = [r for r in rows if r["part"] in ("paper", "fast", "equal") or r["part"].startswith("alt_")]
     out = [INTRO]
     benches = [r for r in rows if r["part"] == "bench"]
     if benches:
@@ -667,5 +703,7 @@ def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
     coarse = [r for r in rows if r["part"] == "coarse"]
     if coarse:
         out += coarse_markdown(coarse)
+    if any(r["part"].startswith("alt_") for r in rows):
+        out += alternatives_markdown(rows, docs)
     out += ["## Every search run", ""] + runs_markdown(runs)
     return "\n".join(out)

@@ -186,3 +186,23 @@ def test_the_speed_page_renders_from_its_rows():
     assert "| legs 1 & 6 | 12.00 [12.00, 12.00] (1) | 12.50 [12.50, 12.50] (1) | 1 of 1 | 8.00 [8.00, 8.00] (1) | " \
            "1 (1) of 1 | 0.32 |" in md
     assert "(= docs)" in md and "48x fewer" in md
+    assert "Other configurations" not in md  # no alternative run, no table
+    alt = run_row | {"part": "alt_cmaes_8x90", "fitness": 11.0, "identical_to_documented": None,
+                     "half_step_met": False}
+    md = speed.speed_markdown(rows + [alt, alt | {"seed": 1, "fitness": 13.0}], Path("/nonexistent"))
+    assert ('| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 8, "generations": 90}}` | 728 | '
+            "12.00 [11.00, 13.00] (2) | 12.00 [12.00, 12.00] (1) | 0 of 1 | 2 (0) of 2 |") in md
+    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 732 | 12.50 [12.50, 12.50] (1) |" in md
+
+
+def test_every_alternative_configuration_is_a_part_the_command_accepts():
+    from pydantic import ValidationError
+
+    from app.jobs.recovery.experiments import SpeedParams
+    from app.jobs.recovery.speed import ALTERNATIVES, PARTS
+
+    for name in ALTERNATIVES:
+        assert f"alt_{name}" in PARTS
+        assert SpeedParams(parts=f"equal,alt_{name}", damages="3-4").parts.endswith(name)
+    with pytest.raises(ValidationError):
+        SpeedParams(parts="alt_unknown")
