@@ -21,15 +21,12 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
+from app.jobs.recovery import science
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_randomised.json"
 COMMAND = "gaitmend reproduce recovery-randomised --write-docs"
-SCIENCE = ("app/jobs/recovery/evaluate.py", "app/jobs/recovery/closedloop.py", "app/jobs/recovery/gait_controller.py",
-           "app/jobs/recovery/cases.py", "app/jobs/recovery/robust.py", "app/jobs/recovery/metrics.py",
-           "app/jobs/recovery/trajectory.py", "app/jobs/recovery/sequences.py", "app/jobs/recovery/spec.py",
-           "app/jobs/recovery/run.py", "app/jobs/recovery/randomised.py", "app/jobs/loop.py", "app/optim/de.py",
-           "app/robots/hexapod.py", "app/robots/ik.py", "app/sim/perturb.py")
+SCIENCE = science.BASE + ("app/jobs/recovery/randomised.py", "app/optim/de.py")
 KEEP = ("x_f_m", "y_f_m", "yaw_f_deg", "fell")
 # The held-out models every answer is judged on: the held-out stream of a seed no search of
 # this comparison uses (searches: seeds 0 .. seeds-1; their draws: cases.SEARCH_STREAM).
