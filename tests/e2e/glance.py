@@ -187,13 +187,18 @@ def replay_frames(jp, shots: Path, name: str, server=None, job_id: str | None = 
     where = "() => { const s = document.querySelector('[role=slider]'); return s ? [+s.getAttribute('aria-valuenow'), +s.getAttribute('aria-valuemax')] : null; }"
     wanted = {"start": (0.0, 0.12), "middle": (0.4, 0.6), "end": (0.85, 1.0)}
     shares, at, robot = {}, {}, {}
-    for _ in range(600):
+    loops, last = 0, 0.0  # the scene streams in (the ground, then the robot's meshes): a part of the
+    for _ in range(900):  # walk caught before the robot is drawn is tried again on the next loop, up to 3
         pos = frame.evaluate(where)
         if not pos or not pos[1]:
             jp.wait_for_timeout(200)
             continue
         frac = pos[0] / pos[1]
-        tag = next((t for t, (lo, hi) in wanted.items() if t not in shares and lo <= frac <= hi), None)
+        loops, last = loops + (frac < last - 0.5), frac
+        done = {t for t in robot if not tracks or robot[t] > ROBOT_IN_VIEW or loops >= 3}
+        if len(done) == len(wanted):
+            break
+        tag = next((t for t, (lo, hi) in wanted.items() if t not in done and lo <= frac <= hi), None)
         if tag is None:
             jp.wait_for_timeout(50)
             continue
@@ -202,8 +207,6 @@ def replay_frames(jp, shots: Path, name: str, server=None, job_id: str | None = 
         if bb["width"] > 50 and non_background(png) > 0.02:  # drawn (not the first blank frames)
             shares[tag], at[tag] = non_background(png), round(pos[0], 2)
             robot[tag] = colour_share(png, tracks[0]["color"]) if tracks else None
-        if len(shares) == len(wanted):
-            break
     print(f"\nreplay {name}: screenshots at {at} s of the walk; non-background share "
           f"{ {t: round(v, 3) for t, v in shares.items()} }; in the run's colour "
           f"{ {t: v if v is None else round(v, 4) for t, v in robot.items()} }")
