@@ -127,10 +127,12 @@ def cold_draw_ms(new_page, server, job_id: str) -> dict[str, float]:
         plotly_ready: performance.getEntriesByName('gm-plotly')[0].startTime,
         drawn: performance.getEntriesByName('gm-drawn')[0].startTime,
         dom: performance.getEntriesByType('navigation')[0].domContentLoadedEventEnd,
-        plotly: (performance.getEntriesByType('resource').find(r => r.name.includes('plotly.min.js')) || {}).transferSize })""")
+        bundles: Object.fromEntries(performance.getEntriesByType('resource').filter(r => r.name.includes('/vendor/plotly'))
+                   .map(r => [r.name.split('/vendor/')[1].split('?')[0], r.transferSize])) })""")
+    t["plotly"] = sum(t["bundles"].values())
     print(f"\ncold job page {job_id[:8]}: DOMContentLoaded {t['dom']:.0f} ms, verdict {t['verdict']:.0f} ms, "
           f"first screen drawn {t['first']:.0f} ms, plotly ready {t['plotly_ready']:.0f} ms, every plot drawn "
-          f"{t['drawn']:.0f} ms; plotly.min.js over the wire {t['plotly']} bytes")
+          f"{t['drawn']:.0f} ms; plotly over the wire {t['bundles']} bytes")
     return t
 
 

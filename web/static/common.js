@@ -109,22 +109,33 @@ const GM = (() => {
     return `${p.done}/${p.total} (${Math.round(100 * p.fraction)} %)`;
   }
 
-  // Plotly (4.8 MB unpacked) is loaded only by a page that draws a plot, once, after the
-  // page's own content: the server names its versioned URL in the head (gm-plotly).
-  let plotlyLoad = null;
-  function loadPlotly() {
-    if (window.Plotly) return Promise.resolve(window.Plotly);
-    if (!plotlyLoad) {
-      plotlyLoad = new Promise((resolve, reject) => {
-        const meta = document.querySelector('meta[name="gm-plotly"]');
+  // Plotly is loaded only by a page that draws a plot, once, after the page's own content:
+  // its cartesian bundle (scatter, bar, heatmap: 1.5 MB unpacked) unless the page draws other
+  // traces (polar, 3D), then the full one (4.8 MB); the server names both versioned URLs in
+  // the head (gm-plotly-cartesian, gm-plotly). Both are the same plotly.js release.
+  const CARTESIAN = new Set(["scatter", "bar", "heatmap"]);
+  const plotlyLoads = {};
+  let fullPlotly = null; // once the full bundle ran, a cartesian one arriving later does not replace it
+  function loadPlotly(types = []) {
+    const which = types.every((t) => CARTESIAN.has(t || "scatter")) ? "cartesian" : "full";
+    if (fullPlotly) return Promise.resolve(fullPlotly);
+    if (which === "cartesian" && plotlyLoads.full) return plotlyLoads.full;
+    if (!plotlyLoads[which]) {
+      plotlyLoads[which] = new Promise((resolve, reject) => {
+        const meta = document.querySelector(`meta[name="${which === "full" ? "gm-plotly" : "gm-plotly-cartesian"}"]`);
         const s = document.createElement("script");
-        s.src = meta ? meta.content : "/vendor/plotly.min.js";
-        s.onload = () => { performance.mark("gm-plotly"); resolve(window.Plotly); };
-        s.onerror = () => { plotlyLoad = null; reject(new Error("plotly.min.js did not load")); };
+        s.src = meta ? meta.content : `/vendor/plotly${which === "full" ? "" : "-cartesian"}.min.js`;
+        s.onload = () => {
+          if (which === "full") fullPlotly = window.Plotly;
+          else if (fullPlotly) window.Plotly = fullPlotly;
+          performance.mark("gm-plotly");
+          resolve(window.Plotly);
+        };
+        s.onerror = () => { plotlyLoads[which] = null; reject(new Error(`${s.src} did not load`)); };
         document.head.append(s);
       });
     }
-    return plotlyLoad;
+    return plotlyLoads[which];
   }
 
   const narrow = () => window.matchMedia("(max-width: 700px)").matches;
@@ -139,7 +150,7 @@ const GM = (() => {
       legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
       xaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" }, yaxis: { gridcolor: "#e3e8ee", zerolinecolor: "#b9c2cf" },
     };
-    const P = await loadPlotly();
+    const P = await loadPlotly(traces.map((t) => t.type));
     if (div.classList.contains("plot-empty")) { // a placeholder text, not a graph yet
       div.classList.remove("plot-empty");
       div.textContent = "";

@@ -257,7 +257,8 @@
     header(j);
     verdict(meta.verdict, meta.headline || []);
     headline(meta.headline || []);
-    if (j.status === "succeeded") GM.loadPlotly().catch(() => null); // its start-up runs while the page is laid out
+    const types = [...(meta.panels || []), ...(meta.evidence || [])].flatMap((p) => ((p.figure || {}).data || []).map((t) => t.type));
+    if (j.status === "succeeded") GM.loadPlotly(types).catch(() => null); // its start-up runs while the page is laid out
     const history = take("history", `/api/jobs/${jobId}/history`).then(convergence).catch(() => null);
     if (j.status !== "succeeded") { await history; return; }
     const secs = [...GMViews.panels($("panels"), meta.panels || []), ...GMViews.panels($("evidence"), meta.evidence || [])];

@@ -53,20 +53,28 @@ LINK_TTL_S = 3600
 JobId = Annotated[str, PathParam(min_length=1, max_length=64, description="job id")]
 
 
-@functools.lru_cache(maxsize=1)
-def _plotly_js() -> Path:
+# plotly.js as two bundles of one release: the full one from the plotly package (4.8 MB) and
+# its cartesian build (scatter, bar, heatmap: 1.5 MB; web/vendor, scripts/vendor_plotly.sh),
+# which most pages draw with; common.js picks by the traces a page draws.
+PLOTLY_BUNDLES = ("plotly", "plotly-cartesian")
+
+
+@functools.lru_cache(maxsize=2)
+def _plotly_js(name: str = "plotly") -> Path:
+    if name == "plotly-cartesian":
+        return WEB_DIR / "vendor" / "plotly-cartesian.min.js"
     import plotly
 
     return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
 
 
-@functools.lru_cache(maxsize=1)
-def _plotly_gz() -> bytes:
-    """plotly.min.js gzipped once (4.8 MB to about 1.4 MB): compressing it per request would
-    cost a quarter of a second of CPU each time."""
+@functools.lru_cache(maxsize=2)
+def _plotly_gz(name: str = "plotly") -> bytes:
+    """A bundle gzipped once (4.8 MB to about 1.4 MB; the cartesian 1.5 MB to 0.5 MB):
+    compressing it per request would cost a quarter of a second of CPU each time."""
     import gzip
 
-    return gzip.compress(_plotly_js().read_bytes(), compresslevel=6, mtime=0)
+    return gzip.compress(_plotly_js(name).read_bytes(), compresslevel=6, mtime=0)
 
 
 @functools.lru_cache(maxsize=1)
@@ -278,7 +286,8 @@ def render_page(path: Path, title: str, current: str | None) -> str:
     header = (path.parent / "_header.html").read_text().replace("{title}", title).replace("{nav}", nav)
     header = header.replace("{colors}", json.dumps(colors.page_table()).replace("</", "<\\/"))
     page = path.read_text().replace(HEADER_MARK, header.rstrip("\n"), 1)
-    page = page.replace("{plotly}", f"/vendor/plotly.min.js?v={_plotly_version()}")  # head and any preload
+    for name in PLOTLY_BUNDLES:  # the head names both; a page's preload names the one it draws with
+        page = page.replace("{%s}" % name.replace("-", "_"), f"/vendor/{name}.min.js?v={_plotly_version()}")
     return re.sub(r'/static/([A-Za-z0-9_.-]+\.(?:js|css))(?=")', _versioned, page)
 
 
@@ -319,16 +328,18 @@ for _path, _name in (("/", "jobs"), ("/jobs/{job_id}", "job"), ("/compare", "com
     router.add_api_route(_path, _page(_name), include_in_schema=False, methods=["GET"])
 
 
-@router.get("/vendor/plotly.min.js", include_in_schema=False)
-async def plotly_min(request: Request, v: str | None = None):
-    """plotly.min.js from the installed plotly package, gzipped when the browser takes it;
-    cached for a year under its versioned URL (?v=<plotly version>, as the pages name it)."""
+@router.get("/vendor/{name}.min.js", include_in_schema=False)
+async def plotly_min(request: Request, name: str, v: str | None = None):
+    """A plotly.js bundle (``PLOTLY_BUNDLES``), gzipped when the browser takes it; cached for a
+    year under its versioned URL (?v=<plotly version>, as the pages name it)."""
+    if name not in PLOTLY_BUNDLES:
+        raise ApiError(404, f"no vendored script {name!r}; there are {', '.join(PLOTLY_BUNDLES)}", field="name")
     cache = IMMUTABLE if v == _plotly_version() else "public, max-age=86400"
     headers = {"Cache-Control": cache, "Vary": "Accept-Encoding"}
     if "gzip" in request.headers.get("accept-encoding", ""):
-        data = await run_in_threadpool(_plotly_gz)
+        data = await run_in_threadpool(_plotly_gz, name)
         return Response(data, media_type="text/javascript", headers=headers | {"Content-Encoding": "gzip"})
-    return FileResponse(_plotly_js(), media_type="text/javascript", headers=headers)
+    return FileResponse(_plotly_js(name), media_type="text/javascript", headers=headers)
 
 
 async def _link_principal(db: Db, token_id: int | None) -> Principal | None:
