@@ -25,6 +25,7 @@ class MultigaitKind(PackageKind):
     damage_text = staticmethod(present.damage_text)
     headline = staticmethod(present.headline)
     summary_tables = staticmethod(present.summary_tables)
+    page_tables = staticmethod(present.page_tables)
     figures = staticmethod(present.figures)
     replay_style = staticmethod(present.replay_style)
     progress_text = staticmethod(present.progress_text)

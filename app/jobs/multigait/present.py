@@ -139,6 +139,17 @@ def summary_tables(s: dict) -> list[Table]:
     return out
 
 
+def page_tables(s: dict) -> list[Table]:
+    """The job page's one table of the search: first against final generation. The CLI
+    table's notes (tree size, re-planned cost, reuse) and its per-gait table are left out:
+    the page shows them once each, in the headline, the reuse panel and the per-gait
+    trials panel, never again as a raw line under a table."""
+    first = summary_tables(s)[0]
+    unit, better = _unit(s)
+    note = f"{s['cost']} in {unit} ({s['cost_units']}; {better} is better)"
+    return [table("Search: first and final generation", first["columns"][1:], [r[1:] for r in first["rows"]], [note])]
+
+
 def figures(result: JobResult, out: Path) -> list[Path]:
     from app.jobs.multigait import plots as P
 

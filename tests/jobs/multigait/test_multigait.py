@@ -174,6 +174,26 @@ def test_plots(small_run, tmp_path):
         assert f"{n}.png" in names and f"{n}.svg" in names
 
 
+def test_the_page_shows_each_table_once_and_no_raw_line(small_run):
+    """The job page (the kind's views, then its page tables) showed the per-gait table twice
+    and, under the search table, the CLI's raw notes ("re-planned cost matches the search:
+    True", one "reuse <name>: ..." line per scenario, already the reuse panel)."""
+    from app.api.routes.dashboard import _panels_of_tables
+
+    _, res = small_run
+    s = res.summary
+    panels = list(multigait.views(s, res.traces)) + _panels_of_tables(list(multigait.page_tables(s)))
+    gait_rows = [p for p in panels if "table" in p and any("gait" in str(c) for c in p["table"]["columns"][:1])]
+    assert [p["id"] for p in gait_rows] == ["per-gait"], [p["title"] for p in gait_rows]
+    assert len({p["title"] for p in panels}) == len(panels)
+    search = [p for p in panels if p["title"] == "Search: first and final generation"]
+    assert len(search) == 1 and search[0]["table"]["rows"][0][2] == f"{s['result']['final_best']:.2f}"
+    for p in panels:
+        cap = p.get("caption") or ""
+        assert "re-planned" not in cap and "reuse " not in cap.lower() and "True" not in cap and "{" not in cap, cap
+        assert not any(isinstance(v, (dict, list)) for r in (p.get("table") or {}).get("rows", []) for v in r), p["id"]
+
+
 def test_controls_and_robustness_are_computed(small_run):
     spec, res = small_run
     s = res.summary
