@@ -78,11 +78,13 @@ def counts(s: Session, study_ids: list[str]) -> dict[str, dict[str, int]]:
 
 
 def status_of(c: dict[str, int], cancel_requested: bool) -> str:
-    """running while any point is unfinished; then cancelled (if asked), failed (if any
-    point failed) or succeeded."""
+    """running while any point is unfinished; then cancelled (if a point was), failed (if
+    any point failed) or succeeded. A cancel asked for after every point had finished
+    cancelled nothing: the study reads as what its points did ("3 of 3 done" is never
+    "cancelled"). ``cancel_requested`` alone no longer decides it; kept for the callers."""
     if c.get("queued", 0) + c.get("running", 0):
         return "running" if c.get("running", 0) or c.get("succeeded", 0) or c.get("failed", 0) else "queued"
-    if cancel_requested or c.get("cancelled", 0):
+    if c.get("cancelled", 0):
         return "cancelled"
     return "failed" if c.get("failed", 0) else "succeeded"
 

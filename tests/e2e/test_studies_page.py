@@ -40,7 +40,15 @@ def test_study_list_page_and_cancel(page, server):
         page.get_by_role("button", name="Cancel unfinished points").click()
     with server.client("alice") as c:
         c.post(f"/api/studies/{sid}/cancel")
-        assert c.get(f"/api/studies/{sid}").json()["spec"]["name"] == "e2e seeds"
+        st = c.get(f"/api/studies/{sid}").json()
+        assert st["spec"]["name"] == "e2e seeds"
+    # a cancel after every point finished cancelled nothing: the page says what is true
+    assert st["progress"]["done"] == 3 and st["status"] == "succeeded", st
+    page.reload()
+    line = page.locator("#st-body > p").first
+    expect(line).to_contain_text("3 of 3 done")
+    expect(line.locator(".badge")).to_have_text("succeeded")
+    expect(line).not_to_contain_text("cancelled")
 
 
 def test_builtin_select_lists_every_kinds_studies_and_submits_the_chosen_one(page, server):

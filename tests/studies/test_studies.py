@@ -172,6 +172,19 @@ def test_cancel_mid_study_cancels_the_unfinished_points(tmp_path, redis_url, pg_
     assert {f["index"] for f in st["aggregate"]["failed"]} == {j.study_point for j in jobs if j.status == "cancelled"}
 
 
+def test_a_study_reads_as_what_its_points_did_not_as_what_was_asked():
+    """A cancel asked for once every point had finished cancelled nothing: 3 of 3 done is
+    succeeded (the page said "cancelled" beside "3 of 3 done"); a point cancelled makes it
+    cancelled, a failed one failed."""
+    from app.studies.store import status_of
+
+    assert status_of({"succeeded": 3}, cancel_requested=True) == "succeeded"
+    assert status_of({"succeeded": 2, "failed": 1}, cancel_requested=True) == "failed"
+    assert status_of({"succeeded": 2, "cancelled": 1}, cancel_requested=True) == "cancelled"
+    assert status_of({"succeeded": 1, "running": 1}, cancel_requested=True) == "running"
+    assert status_of({"queued": 3}, cancel_requested=False) == "queued"
+
+
 def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study(tmp_path, redis_url, pg_url, workers):
     """Policy (app/studies/fair.py): at most `window` messages per owner in the broker,
     refilled round robin. With one worker (window 2), bob's job submitted after alice's

@@ -12,7 +12,10 @@
   const errBox = $("st-error");
   const id = (location.pathname.match(/^\/studies\/([0-9a-f]+)/) || [])[1];
   const showError = (e) => { errBox.hidden = false; errBox.textContent = (e.body && e.body.detail) || String(e.message || e); };
-  const progress = (p) => `${p.done} of ${p.points} done, ${p.running} running, ${p.failed} failed, ${p.cancelled} cancelled`;
+  // "3 of 3 done": the other counts only where they are not 0 (a finished study never reads
+  // "0 cancelled" beside its badge)
+  const progress = (p) => [`${p.done} of ${p.points} done`,
+    ...["queued", "running", "failed", "cancelled"].filter((k) => p[k]).map((k) => `${p[k]} ${k}`)].join(", ");
   // an override as a person reads it: "seed 2, lost legs 1, 6" (no JSON, no null)
   const valueText = (v) => (v === null || v === undefined ? "default" : Array.isArray(v) ? (v.map(valueText).join(", ") || "none")
     : typeof v === "object" ? JSON.stringify(v) : String(v));
