@@ -115,10 +115,34 @@ def _point_verdicts(kind, points: list[dict], group_by: list[str]) -> dict[str, 
             continue
         values = [p["overrides"].get(g, get_path(p["spec"], g)) for g in group_by]
         try:
-            out.setdefault(json.dumps(values), []).append(kind.verdict(p["summary"]))
+            v = kind.verdict(p["summary"])
+            if (v.get("target") or {}).get("met") is None:
+                v = {**v, "unjudged": unjudged_target(kind.headline(p["summary"]))}
+            out.setdefault(json.dumps(values), []).append(v)
         except (KeyError, TypeError, ValueError):  # a summary of an older release
             continue
     return out
+
+
+def unjudged_target(headline: list[dict]) -> dict | None:
+    """A target the kind states but did not judge this point by (recovery: a walk under
+    3 s, unless it fell): the headline row that carries it, its value saying why in words
+    (the job page's rule, web/static/job.js). None: the kind has no target of its own."""
+    return next((dict(r) for r in headline if r.get("target") and r.get("met") is None
+                 and isinstance(r.get("value"), str)), None)
+
+
+def target_cell(verdicts: list[dict], met: list[int]) -> Any:
+    """The group's target column: k of n points met it; the points not judged by it say
+    why (the target for their walk in the note); "no target" only where the kind has none."""
+    rows = [v["unjudged"] for v in verdicts if v.get("unjudged")]
+    if not rows:
+        return f"{met[0]} of {met[1]}" if met[1] else "no target"
+    words = sorted({str(r["value"]) for r in rows})
+    why = "; ".join(words)
+    text = (f"{met[0]} of {met[1]}; {len(rows)} {why}" if met[1] else
+            why if len(rows) == len(verdicts) else f"{len(rows)} of {len(verdicts)} {why}")
+    return kit.cell(text, text=text, note="; ".join(sorted({str(r["target"]) for r in rows})))
 
 
 def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
@@ -134,7 +158,7 @@ def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
         label = group_label(group_by, json.loads(key))
         met = v["target_met"]
         rob = v["robustness"]
-        base = [label, f"{met[0]} of {met[1]}" if met[1] else "no target",
+        base = [label, target_cell(verdicts, met),
                 f"{rob[0]} of {rob[1]}" if rob else "–"]
         if not v["controls"]:
             rows.append(base + ["–", "–", "–"])

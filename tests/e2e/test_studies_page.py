@@ -128,6 +128,11 @@ def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_pag
     head = page.locator("#panel-aggregate thead")
     expect(head).to_contain_text("forward distance (cm)")
     expect(page.locator("#panel-verdict")).to_contain_text("uniform random search")
+    # 0.5 s walks: recovery's target (rates over the walk) needs 3 s, so the points are not
+    # judged by it, and the page says so and why: never "no target"
+    expect(page.locator("#panel-verdict")).to_contain_text("not judged")
+    expect(page.locator("#panel-verdict")).to_contain_text("needs >= 3 s")
+    expect(page.locator("#panel-verdict")).not_to_contain_text("no target")
     expect(page.locator("#panel-metric-0 .plot[data-rendered='1']")).to_be_attached(timeout=30_000)
     assert "null" not in page.locator("main").inner_text()
     page.screenshot(path=shots / "study-1280.png", full_page=True)

@@ -95,3 +95,25 @@ def test_reproduce_offers_each_kinds_builtin_studies_and_names_a_bad_one():
     r = runner.invoke(cli, ["reproduce", "recovery-study", "tipping_directions"])
     assert r.exit_code == 2
     assert "NAME" in r.output and "recovery_table2" in r.output
+
+
+def test_a_study_of_short_recovery_walks_says_not_judged_not_no_target(tmp_path):
+    """Recovery's target is rates scaled to the walk; a walk under 3 s is not judged unless
+    it fell. The study's verdict said "no target" for such points (the kind has one): it
+    says they were not judged, and the target's words for their walk."""
+    kind = get_kind("recovery")
+    spec = _merge(kind.smoke_spec(), {"sim": {"duration_s": 0.5}})
+    parsed = parse_spec(spec)
+    summary = json.loads(dumps(kind.run(parsed, MemoryContext(tmp_path)).summary))
+    spec = parsed.model_dump(mode="json")  # what a job stores (the robot named)
+    assert kind.verdict(summary)["target"]["met"] is None and not summary["best"]["metrics"]["fell"]
+    study = {"name": "short", "base": spec, "grid": {"search.seed": [0, 1]},
+             "report": {"group_by": [], "metrics": ["headline.primary"]}}
+    rows = [{"index": i, "overrides": {"search.seed": i}, "spec": spec, "status": "succeeded", "summary": summary,
+             "error": None} for i in range(2)]
+    agg = aggregate(rows, [], study["report"]["metrics"])
+    verdict = {p["id"]: p for p in study_views(study, rows, agg)}["verdict"]
+    cells = {r[1]["text"] if isinstance(r[1], dict) else r[1] for r in verdict["table"]["rows"]}
+    assert cells == {"not judged (walk too short)"}, cells
+    note = verdict["table"]["rows"][0][1]["note"]
+    assert "0.5 s walk is too short to judge" in note and ">= 3 s" in note, note
