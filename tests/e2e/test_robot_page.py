@@ -193,7 +193,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     expect(facts).to_contain_text("lost front_left")
     page.goto(f"{server.url}/")
     row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
-    expect(row.locator('td[data-label="Robot"]')).to_have_text("hexapod_other")
+    expect(row.locator('td[data-label="Robot"]')).to_have_text("hexapod_other", timeout=30_000)  # the list polls; a loaded CI machine took over 5 s
 
     # managed from the page: deleted (its job has ended), gone from the list and the API
     page.goto(f"{server.url}/robots/new")
