@@ -203,3 +203,28 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     expect(mine).to_have_count(0)
     with server.client("alice") as c:
         assert c.get(f"/api/robots/{robot_id}").status_code == 404
+
+
+def test_the_leg_map_fits_a_phone(new_page, server, shots, tmp_path):
+    """At 390 px the leg map table was 590 px wide: its caption cut mid-sentence, the joints
+    and the foot behind a sideways scroll, the selects squeezed. On a phone each leg is one
+    block with its fields labelled; on a desktop it stays the table with its column heads."""
+    model = _model(tmp_path)
+    phone = new_page(viewport=glance.PHONE)
+    _check(phone, server, model)
+    table = phone.locator(".legmap-table")
+    expect(phone.locator("#lm-side-0")).to_be_visible()
+    card = phone.locator("#legs-card").bounding_box()
+    for sel in (".legmap-table caption", "#lm-side-0", "#lm-name-0", "#lm-order-0", "#lm-joints-0",
+                ".legmap-table tr[data-leg='0'] td:last-child"):
+        box = phone.locator(sel).first.bounding_box()
+        assert box["x"] >= card["x"] and box["x"] + box["width"] <= card["x"] + card["width"] + 0.5, (sel, box, card)
+    assert table.evaluate("t => t.parentElement.scrollWidth <= t.parentElement.clientWidth")  # no sideways scroll
+    assert phone.locator("#lm-side-0").bounding_box()["width"] >= 70  # a select one reads, not squeezed
+    expect(phone.locator("label[for='lm-side-0']")).to_be_visible()  # the field says what it is
+    phone.locator("#legs-card").screenshot(path=shots / "robot-legmap-390.png")
+    glance.fits_width(phone)
+    desk = new_page()
+    _check(desk, server, model)
+    expect(desk.locator(".legmap-table thead")).to_be_visible()
+    assert desk.locator("label[for='lm-side-0']").bounding_box()["width"] <= 1  # the column head says it

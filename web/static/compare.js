@@ -94,6 +94,10 @@
     card._draw = () => {
       if (!conv) return;
       const traces = [];
+      // on a phone a legend entry ("recovery · lost 1,6 · 52f13fb7: mean of population") is
+      // wider than the plot and plotly cut it: there the series' words go on a second line
+      const twoLines = (div.clientWidth || window.innerWidth) < 600;
+      const sep = twoLines ? ":<br>" : ": ";
       if (conv) {
         const series = conv.series || { best: "best so far" };
         const secondary = Object.keys(series).find((k) => k === "mean");
@@ -102,10 +106,10 @@
           if (!hist.length) continue;
           const x = hist.map((r, k) => (conv.x in r ? r[conv.x] : k));
           const color = colorOf(c.job.id);
-          traces.push({ x, y: hist.map((r) => r.best), name: `${nameOf(c)}: ${series.best || "best"}`, mode: "lines+markers",
+          traces.push({ x, y: hist.map((r) => r.best), name: `${nameOf(c)}${sep}${series.best || "best"}`, mode: "lines+markers",
                         line: { color, width: 3 }, legendgroup: c.job.id });
           if (secondary && hist.some((r) => typeof r[secondary] === "number")) {
-            traces.push({ x, y: hist.map((r) => r[secondary]), name: `${nameOf(c)}: ${series[secondary]}`, mode: "lines",
+            traces.push({ x, y: hist.map((r) => r[secondary]), name: `${nameOf(c)}${sep}${series[secondary]}`, mode: "lines",
                           visible: "legendonly", line: { color, width: 1.5, dash: "dot" }, legendgroup: c.job.id });
           }
         }
@@ -115,7 +119,11 @@
         // the legend above the plot (below it, it sat on the x axis's title)
         plot(div, traces, { xaxis: { title: { text: conv.x }, dtick: maxX <= 12 ? 1 : undefined },
                             yaxis: { title: { text: `${conv.y}${conv.better ? `, ${conv.better} better` : ""}` } },
-                            legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 }, margin: { l: 56, r: 16, t: 24, b: 48 } });
+                            legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
+                            // two-line entries, one a row: the top margin holds them all (else plotly
+                            // scrolled the legend over the plot)
+                            ...(twoLines ? { height: 300 + 36 * traces.length } : {}),
+                            margin: { l: 56, r: 16, t: twoLines ? 12 + 36 * traces.length : 24, b: 48 } });
       } else empty(div, conv ? "No history yet." : "These jobs report no objective per generation; their numbers are in the table.");
     };
     return card;
