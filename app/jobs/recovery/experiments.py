@@ -679,8 +679,15 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
     rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
     md = speed.speed_markdown(rows, Path("docs"))
     p.out.parent.mkdir(parents=True, exist_ok=True)
-    p.out.write_text(md)
+    p.out.write_text(speed.page(md))
     return md
+
+
+def render_speed(datas: list) -> str:
+    """docs/recovery_speed.md's generated section (speed.render: from docs/recovery_speed.json and docs/table2.json)."""
+    from app.jobs.recovery import speed
+
+    return speed.render(datas)
 
 
 EXPERIMENTS = [
@@ -701,7 +708,8 @@ EXPERIMENTS = [
                 ConvergenceParams, _convergence,
                (Section("recovery-convergence", (CONVERGENCE_JSON,), render_convergence_table),)),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
-                        "the paper DE with cut walks checked against Table II", SpeedParams, _speed),
+                        "the paper DE with cut walks checked against Table II", SpeedParams, _speed,
+               (Section("recovery-speed", ("docs/recovery_speed.json", TABLE2_JSON), render_speed),)),
     Experiment("closed-loop", "issue 24: the four Table II answers open and closed loop on the nominal model, the "
                               "7 named cases and held-out random models (evaluations, no search)",
                loop_check.LoopParams, loop_check.run_loop_check,

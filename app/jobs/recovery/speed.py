@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from app.jobs.base import MemoryContext
+from app.jobs.reporting import missing
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
 
@@ -210,11 +211,15 @@ def speed_ratios(lost, n: int = 60, seed: int = 1) -> dict:
 
 # -- searches ------------------------------------------------------------------------------------
 
-def _documented(lost, seed: int, docs: Path) -> dict | None:
-    """docs/table2.json's paper-budget answer for this damage and seed at the default step."""
+def _table2_rows(docs: Path) -> list[dict]:
     path = docs / "table2.json"
+    return json.loads(path.read_text()) if path.exists() else []
+
+
+def _documented(lost, seed: int, table2: list[dict]) -> dict | None:
+    """Table II's (docs/table2.json's rows) paper-budget answer for this damage and seed at the default step."""
     dt = RecoverySpec().sim.timestep_s
-    for r in json.loads(path.read_text()) if path.exists() else []:
+    for r in table2:
         if (tuple(r["lost_legs"]) == tuple(lost) and r["seed"] == seed and r.get("timestep_s") == dt
                 and r.get("generations") == 60 and r.get("population") == 30 and "best_params" in r):
             return r
@@ -244,7 +249,7 @@ def paper_row(lost, seed: int, docs: Path) -> dict:
     """The paper's DE (30 x 60, 10 s walks) with its losing walks cut short; for a seed the
     docs hold (Table II), whether the answer is the full-walk run's, bit for bit."""
     r = _search_row("paper", lost, seed, PAPER | {"search": PAPER["search"] | {"cut_walks": True}})
-    doc = _documented(lost, seed, docs)
+    doc = _documented(lost, seed, _table2_rows(docs))
     r["documented_params"] = None if doc is None else doc["best_params"]
     r["identical_to_documented"] = None if doc is None else doc["best_params"] == r["params"]
     return r
@@ -339,7 +344,7 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
     rows = json.loads(raw.read_text()) if raw.exists() else []
     if "profile" in parts:
         rows = [r for r in rows if r["part"] != "profile"] + [{"part": "profile", "rows": profiles(),
-                                                              "load": os.getloadavg()[0]}]
+                                                              "load": os.getloadavg()[0], "cores": os.cpu_count()}]
         _save(rows, raw)
         log("step profile measured")
     if "check" in parts:
@@ -400,10 +405,12 @@ def _spread(values: list[float], fmt: str = "{:.1f}") -> str:
 
 
 def profile_markdown(block: dict) -> list[str]:
+    """The step profile as measured (the machine's cores where the block recorded them)."""
+    cores = f" on {block['cores']} cores" if block.get("cores") else ""
     cols = ["step", "position", "pos_kinematics", "pos_inertia", "col_broad", "col_narrow", "pos_make", "velocity",
             "actuation", "constraint", "advance"]
     out = [f"Step profile (MuJoCo's timers, us per step with the timers on, single thread, each stage's fastest of "
-           f"7 rounds of 1000 steps; load {block['load']:.1f} on {os.cpu_count()} cores while measured, so compare "
+           f"7 rounds of 1000 steps; load {block['load']:.1f}{cores} while measured, so compare "
            "the shares more than the absolute times). The recovery robot stands in its first pose; the other "
            "built-in robots as their kinds build them, without control (a first look only):", "",
            "| robot | damage | " + " | ".join(cols) + " | contacts | rows | solver iterations |",
@@ -449,7 +456,7 @@ def coarse_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
-def alternatives_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[str]:
+def alternatives_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage and configuration: F over its seeds against the paper DE's on the same
     seeds, and its answers meeting the target at the default step and at half of it."""
     out = ["Other configurations at about the equal-quality budget, on the damages they were run on (the paper DE's "
@@ -461,7 +468,7 @@ def alternatives_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[s
     configs = [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
     rows = [r for r in rows if "lost_legs" in r]  # searches only (not the bench, profile or variants)
     for lost in SCENARIOS:
-        paper = _paper_fitness(rows, lost, docs)
+        paper = _paper_fitness(rows, lost, table2)
         for part, cfg in configs:
             got = [r for r in rows if r["part"] == part and tuple(r["lost_legs"]) == lost]
             if not got or not any(r["part"].startswith("alt_") and tuple(r["lost_legs"]) == lost for r in rows):
@@ -520,11 +527,11 @@ def runs_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
-def _paper_fitness(rows: list[dict], lost, docs: Path) -> dict[int, float]:
+def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
     """The paper DE's final F per seed: this page's runs, else docs/table2.json's (full walks)."""
     out = {r["seed"]: r["fitness"] for r in rows if r["part"] == "paper" and tuple(r["lost_legs"]) == lost}
     for seed in {r["seed"] for r in rows if tuple(r["lost_legs"]) == lost} - set(out):
-        doc = _documented(lost, seed, docs)
+        doc = _documented(lost, seed, table2)
         if doc is not None:
             out[seed] = doc["best_fitness"]
     return out
@@ -542,7 +549,7 @@ def _at_budget(rows: list[dict], lost, eq: list[dict]) -> list[float]:
     return out
 
 
-def summary_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[str]:
+def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage: the paper DE's F against the equal-quality configuration's on the same
     seeds, and the fast preset's time to the target, in steps (machine-independent) and
     seconds (this machine, at its load)."""
@@ -554,7 +561,7 @@ def summary_markdown(rows: list[dict], docs: Path = Path("docs")) -> list[str]:
     for lost in SCENARIOS:
         eq = [r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == lost]
         fast = [r for r in rows if r["part"] == "fast" and tuple(r["lost_legs"]) == lost]
-        paper = _paper_fitness(rows, lost, docs)
+        paper = _paper_fitness(rows, lost, table2)
         if not (eq or fast):
             continue
         wins = sum(r["fitness"] >= paper[r["seed"]] for r in eq if r["seed"] in paper)
@@ -616,9 +623,10 @@ def gains_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
-INTRO = """# Recovery speed (issue 22)
-
-Measured by `gaitmend reproduce recovery-speed` (this page and recovery_speed.json; every
+TITLE = "# Recovery speed (issue 22)"
+JSON, TABLE2_JSON = "docs/recovery_speed.json", "docs/table2.json"
+SECTION, COMMAND = "recovery-speed", "gaitmend reproduce recovery-speed"
+INTRO = """Measured by `gaitmend reproduce recovery-speed` (this page and recovery_speed.json; every
 row is a run of this code, written as it finished). The machine was shared: wall times
 and steps/s carry the load (1-minute load average on its 2 cores) they were measured at;
 simulated steps do not depend on the machine, so the gains are stated in steps first.
@@ -676,6 +684,27 @@ def bench_markdown(row: dict) -> list[str]:
 
 
 def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
+    """The page's generated text from the runs and Table II's rows under ``docs``."""
+    return render_markdown(rows, _table2_rows(docs))
+
+
+def render(datas: list) -> str:
+    """docs/recovery_speed.md's generated section, from docs/recovery_speed.json and docs/table2.json."""
+    rows, table2 = datas
+    if rows is None:
+        return missing(JSON, COMMAND)
+    return render_markdown(rows, table2 or [])
+
+
+def page(md: str) -> str:
+    """The page the command writes: its title, then ``md`` inside the generated-section marker,
+    so `gaitmend docs` and the docs-from-data test re-render it from the JSON."""
+    return f"{TITLE}\n\n<!-- generated: {SECTION} ({COMMAND}) -->\n{md.strip()}\n<!-- /generated -->\n"
+
+
+def render_markdown(rows: list[dict], table2: list[dict]) -> str:
+    """Everything below the title, from the runs (docs/recovery_speed.json) and Table II's rows
+    (docs/table2.json, the paper DE's F where this page has no run of it): nothing is measured here."""
     runs = [r for r in rows if r["part"] in ("paper", "fast", "equal") or r["part"].startswith("alt_")]
     out = [INTRO]
     benches = [r for r in rows if r["part"] == "bench"]
@@ -688,7 +717,7 @@ def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
     out += ["## Equal quality and time to the target", "",
             "Paper DE F: the runs below, else docs/table2.json's full-walk run for that seed. Steps count every walk "
             "the search simulated (a cut walk's steps up to its cut); the paper DE's include the steps its cut walks "
-            "saved, so they are the full-walk search's.", ""] + summary_markdown(runs, docs)
+            "saved, so they are the full-walk search's.", ""] + summary_markdown(runs, table2)
     out += [RULE]
     for part, render in (("cap", cap_markdown), ("check", check_markdown)):
         got = [r for r in rows if r["part"] == part]
@@ -705,6 +734,6 @@ def speed_markdown(rows: list[dict], docs: Path = Path("docs")) -> str:
     if coarse:
         out += coarse_markdown(coarse)
     if any(r["part"].startswith("alt_") for r in rows):
-        out += alternatives_markdown(rows, docs)
+        out += alternatives_markdown(rows, table2)
     out += ["## Every search run", ""] + runs_markdown(runs)
     return "\n".join(out)
