@@ -449,8 +449,11 @@ def _damage_text(d: dict) -> str:
     return ", ".join(parts)
 
 
-def convergence_study(timestep: float, seeds: int = 2, population: int = 16, generations: int = 12,
-                      log: Callable[[str], None] = print) -> dict:
+CONVERGENCE_BUDGET = (16, 12)  # DE population x generations of the convergence searches
+
+
+def convergence_study(timestep: float, seeds: int = 2, population: int = CONVERGENCE_BUDGET[0],
+                      generations: int = CONVERGENCE_BUDGET[1], log: Callable[[str], None] = print) -> dict:
     """Searches the paper's four damages at ``timestep`` (small DE budget, no controls),
     then re-simulates every answer at half the step: the rule's verdict for that step."""
     answers = []
@@ -462,7 +465,8 @@ def convergence_study(timestep: float, seeds: int = 2, population: int = 16, gen
             s = run(spec, MemoryContext()).summary
             answers.append({"lost_legs": list(lost), "seed": seed, "best_params": s["best"]["params"]})
             log(f"{1000 * timestep:g} ms, legs {lost} seed {seed} searched")
-    return convergence_report(answers, timestep) | {"set": "searched"}
+    return convergence_report(answers, timestep) | {"set": "searched", "population": population,
+                                                    "generations": generations}
 
 
 # What each verdict's answers are (a verdict's "set"): the table's words, and the per-answer
@@ -471,10 +475,23 @@ SET_WORDS = {"searched": "searched at the step", "documented": "every answer the
              "paper_damages": "the docs' answers for Table II's four damages"}
 
 
+def _and(items: list) -> str:
+    items = [str(i) for i in items]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
 def which_text(r: dict) -> str:
+    """The heading words of a verdict's answers; a search's budget as the verdict records it
+    (the verdicts written before it was recorded: the command's, CONVERGENCE_BUDGET), its
+    damages and seeds from its answers."""
     words = SET_WORDS.get(r.get("set"), "")
     if r.get("set") == "searched":
-        return "searched at that step (DE 16 x 12, the four Table II damages, seeds 0 and 1)"
+        pop, gens = r.get("population", CONVERGENCE_BUDGET[0]), r.get("generations", CONVERGENCE_BUDGET[1])
+        seeds = sorted({a["seed"] for a in r["per_answer"]})
+        losses = list(dict.fromkeys(tuple(a["lost_legs"]) for a in r["per_answer"]))
+        damages = ("the four Table II damages" if sorted(losses) == sorted(SCENARIOS)
+                   else _and([_name(l).lower() for l in losses]))
+        return f"searched at that step (DE {pop} x {gens}, {damages}, seed{'s' * (len(seeds) > 1)} {_and(seeds)})"
     return f"{words} at that step" if words else ""
 
 
@@ -495,6 +512,8 @@ def convergence_table(reports: list[dict]) -> list[str]:
 
 
 CONVERGENCE_JSON = "docs/recovery_convergence.json"
+CONVERGENCE_COMMAND = "gaitmend reproduce recovery-convergence --timesteps 0.004,0.002,0.001"
+CONVERGENCE_SECTIONS = ("recovery-convergence", "recovery-convergence-answers")  # the table, the per-answer lists
 ROBUST_W20_JSON = "docs/recovery_robust_w20.json"
 ROBUST_W20_COMMAND = ("gaitmend reproduce recovery-robust --weights 1,20,10,100,100 --raw docs/recovery_robust_w20.json "
                       "--out docs/recovery_robust_w20.md")
@@ -502,8 +521,15 @@ ROBUST_W20_COMMAND = ("gaitmend reproduce recovery-robust --weights 1,20,10,100,
 
 def render_convergence_table(datas: list) -> str:
     if datas[0] is None:
-        return missing(CONVERGENCE_JSON, "gaitmend reproduce recovery-convergence --timesteps 0.004,0.002,0.001")
+        return missing(CONVERGENCE_JSON, CONVERGENCE_COMMAND)
     return "\n".join(convergence_table(datas[0])) + "\n"
+
+
+def render_convergence_answers(datas: list) -> str:
+    """docs/recovery_convergence.md's per-answer lists, from docs/recovery_convergence.json."""
+    if datas[0] is None:
+        return missing(CONVERGENCE_JSON, CONVERGENCE_COMMAND)
+    return "\n".join(convergence_answers(datas[0]))
 
 
 def render_robust_w20(datas: list) -> str:
@@ -515,14 +541,28 @@ def render_robust_w20(datas: list) -> str:
 
 
 def convergence_markdown(reports: list[dict]) -> str:
-    out = convergence_table(reports) + [""]
+    return "\n".join(convergence_table(reports) + [""] + convergence_answers(reports))
+
+
+def convergence_page(reports: list[dict]) -> str:
+    """docs/recovery_convergence.md as the command writes it: a title, then the table and the
+    per-answer lists inside their generated-section markers (`gaitmend docs` re-renders them)."""
+    out = "# Timestep convergence of the recovered answers\n"
+    for name, render in zip(CONVERGENCE_SECTIONS, (render_convergence_table, render_convergence_answers)):
+        out += f"\n<!-- generated: {name} ({CONVERGENCE_COMMAND}) -->\n{render([reports]).strip()}\n<!-- /generated -->\n"
+    return out
+
+
+def convergence_answers(reports: list[dict]) -> list[str]:
+    """Per verdict, every answer's x, yaw and y at the step and at half of it."""
+    out = []
     for r in reports:
         out.append(f"Per answer at {1000 * r['timestep_s']:g} ms, {which_text(r)} (x cm, yaw deg: at the step -> at half of it):")
         for a in r["per_answer"]:
             out.append(f"- {_name(tuple(a['lost_legs']))}, seed {a['seed']}: x {a['x_cm'][0]:.1f} -> {a['x_cm'][1]:.1f}, "
                        f"yaw {a['yaw_deg'][0]:.1f} -> {a['yaw_deg'][1]:.1f}, y {a['y_cm'][0]:.1f} -> {a['y_cm'][1]:.1f}")
         out.append("")
-    return "\n".join(out)
+    return out
 
 
 class Table2Params(BaseModel):
@@ -636,10 +676,10 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
             more.append(convergence_report(answers, r["timestep_s"]) | {"set": "documented"})
             paper = [a for a in answers if tuple(a["lost_legs"]) in SCENARIOS]
             more.append(convergence_report(paper, r["timestep_s"]) | {"set": "paper_damages"})
-    md = convergence_markdown(merge(more))
+    reports = merge(more)
     p.out.parent.mkdir(parents=True, exist_ok=True)
-    p.out.write_text(md)
-    return md
+    p.out.write_text(convergence_page(reports))
+    return convergence_markdown(reports)
 
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
@@ -706,7 +746,8 @@ EXPERIMENTS = [
                (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),
     Experiment("convergence", "search at a timestep, re-simulate the answers at half of it: the convergence rule",
                 ConvergenceParams, _convergence,
-               (Section("recovery-convergence", (CONVERGENCE_JSON,), render_convergence_table),)),
+               (Section(CONVERGENCE_SECTIONS[0], (CONVERGENCE_JSON,), render_convergence_table),
+                Section(CONVERGENCE_SECTIONS[1], (CONVERGENCE_JSON,), render_convergence_answers))),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
                         "the paper DE with cut walks checked against Table II", SpeedParams, _speed,
                (Section("recovery-speed", ("docs/recovery_speed.json", TABLE2_JSON), render_speed),)),
