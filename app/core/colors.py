@@ -21,14 +21,28 @@ ROLES: dict[str, str] = {
 PALETTE: list[str] = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"]
 
 
-# the dashboard's convergence plot: history.csv column -> role (other columns: the palette)
-HISTORY_ROLES: dict[str, str] = {"best": "method", "baseline": "baseline", "mean": "mean", "worst": "worst"}
+# the convergence plot (the dashboard's and the bundle's convergence figure): history.csv
+# column -> role (other columns: the palette, from its third colour, in the order drawn) ...
+HISTORY_ROLES: dict[str, str] = {"best": "method", "baseline": "baseline", "mean": "mean", "worst": "worst",
+                                 "random_search_best": "baseline"}
+# ... and its line: (plotly dash, width in px); other columns solid, 2 px
+HISTORY_LINES: dict[str, tuple[str, float]] = {"best": ("solid", 3), "generation_best": ("dot", 2),
+                                               "mean": ("dash", 2), "worst": ("dot", 1.5)}
+
+
+def history_styles(columns: list[str]) -> dict[str, tuple[str, str, float]]:
+    """{column: (colour, dash, width)} of the convergence plot's lines, ``columns`` in the
+    order drawn (the kind's series present in the history): what web/static/job.js draws
+    from ``page_table`` and app/core/plots.history_lines draws in the bundle's figure."""
+    return {c: (hex_color(HISTORY_ROLES.get(c), i + 2), *HISTORY_LINES.get(c, ("solid", 2.0)))
+            for i, c in enumerate(columns)}
 
 
 def page_table() -> dict:
     """The table as the dashboard's pages get it (JSON in every page's head, read by
-    web/static/common.js): roles, palette, and the roles of the history's columns."""
-    return {"roles": dict(ROLES), "palette": list(PALETTE), "history": dict(HISTORY_ROLES)}
+    web/static/common.js): roles, palette, the roles of the history's columns and their lines."""
+    return {"roles": dict(ROLES), "palette": list(PALETTE), "history": dict(HISTORY_ROLES),
+            "history_lines": {k: list(v) for k, v in HISTORY_LINES.items()}}
 
 
 def hex_color(role: str | None, index: int = 0) -> str:

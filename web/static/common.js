@@ -13,6 +13,8 @@ const GM = (() => {
   const PALETTE = TABLE.palette || [];
   // history column -> colour (best, mean, worst ...), by the role the table gives each
   const COLORS = Object.fromEntries(Object.entries(TABLE.history || {}).map(([col, role]) => [col, ROLES[role]]));
+  // ... and its line [dash, width] (the bundle's convergence figure draws the same: colors.history_styles)
+  const HISTORY_LINES = TABLE.history_lines || {};
 
   const token = () => localStorage.getItem(TOKEN_KEY) || "";
   const authHeaders = () => (token() ? { Authorization: `Bearer ${token()}` } : {});
@@ -236,5 +238,5 @@ const GM = (() => {
 
   document.addEventListener("DOMContentLoaded", initAuth);
   return { api, events, el, num, age, badge, progressText, plot, empty, download, thumbnail, token, authHeaders,
-           ApiError, FINAL, COLORS, PALETTE, ROLES, loadPlotly, duration, date, narrow };
+           ApiError, FINAL, COLORS, HISTORY_LINES, PALETTE, ROLES, loadPlotly, duration, date, narrow };
 })();

@@ -94,7 +94,7 @@
       return;
     }
     const x = rows.map((r, i) => (xKey in r ? r[xKey] : i));
-    const style = { best: ["solid", 3], generation_best: ["dot", 2], mean: ["dash", 2], worst: ["dot", 1.5] };
+    const style = GM.HISTORY_LINES; // the colour table's: the bundle's convergence figure draws the same lines
     const traces = keys.map((k, i) => ({
       x, y: rows.map((r) => r[k]), name: names[k], mode: "lines+markers",
       line: { color: COLORS[k] || GM.PALETTE[(i + 2) % GM.PALETTE.length], width: (style[k] || ["solid", 2])[1],

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.plots import _save, plt
+from app.core.plots import _save, history_lines, plt
 from app.robots.quadruped import LEGS
 
 from app.core.colors import hex_color  # noqa: E402
@@ -106,14 +106,11 @@ def gait_diagram(summary: dict, out: Path) -> list[Path]:
     return _save(fig, out, "gait_diagram")
 
 
-def convergence(history: list[dict], out: Path) -> list[Path]:
+def convergence(history: list[dict], out: Path, series: dict[str, str] | None = None) -> list[Path]:
+    """``series``: the page's (present.history_axis), drawn in its colours and lines."""
     fig, ax = plt.subplots(figsize=(6, 3.5))
     if history:
-        g = [r["generation"] for r in history]
-        ax.plot(g, [r["best"] for r in history], "-", color=hex_color("method"), label="GA")
-        if "random_search_best" in history[0]:
-            ax.plot(g, [r["random_search_best"] for r in history], "--", color=hex_color("baseline"),
-                    label="random search (same budget)")
+        history_lines(ax, history, series or {"best": "GA: best so far"})
         ax.set_yscale("log")
         ax.legend()
     else:
@@ -161,10 +158,10 @@ def physics(traces: dict, speed: float, out: Path) -> list[Path]:
     return _save(fig, out, "physics")
 
 
-def all_plots(result, out: Path) -> list[Path]:
+def all_plots(result, out: Path, series: dict[str, str] | None = None) -> list[Path]:
     s, tr = result.summary, result.traces
     speed = s["task"]["speed_m_s"]
-    files = gait_diagram(s, out) + convergence(result.history, out) + residuals(s, out)
+    files = gait_diagram(s, out) + convergence(result.history, out, series) + residuals(s, out)
     if "forces" in tr:
         files += forces(tr, out) + wrench(tr, out) + body(tr, speed, out)
     files += physics(tr, speed, out)

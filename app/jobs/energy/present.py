@@ -175,7 +175,7 @@ def summary_tables(s: dict) -> list[Table]:
 def figures(result: JobResult, out_dir: Path) -> list[Path]:
     from app.jobs.energy.plots import all_plots
 
-    return all_plots(result, Path(out_dir))
+    return all_plots(result, Path(out_dir), history_axis({})["series"])  # the convergence figure draws the page's series
 
 
 def replay_style(trace_names: list[str]) -> list[ReplayTrack]:

@@ -13,17 +13,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-from app.core.plots import _save  # noqa: E402
+from app.core.plots import _save, history_lines  # noqa: E402
 
 COLOURS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
 
 
-def convergence(history: list[dict], cost: str, out: Path, control: list[dict] | None = None) -> list[Path]:
-    g = [r["generation"] for r in history]
+def convergence(history: list[dict], cost: str, out: Path, control: list[dict] | None = None,
+                series: dict[str, str] | None = None) -> list[Path]:
+    """``series``: the page's (present.HISTORY_SERIES), drawn in its colours and lines."""
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.plot(g, [r["best"] for r in history], "-", label="best so far")
-    ax.plot(g, [r["generation_best"] for r in history], ":", label="best of generation")
-    ax.plot(g, [r["mean"] for r in history], "--", label="generation mean")
+    history_lines(ax, history, series or {"best": "best so far"})
     if control:  # the random search at the same budget, same evaluator
         cg = [r["generation"] for r in control]
         ax.plot(cg, [r["best"] for r in control], "-", color="0.45", label="random search: best so far")
@@ -144,10 +143,10 @@ def reuse(summary: dict, out: Path) -> list[Path]:
     return _save(fig, out, "reuse")
 
 
-def all_plots(result, out) -> list[Path]:
+def all_plots(result, out, series: dict[str, str] | None = None) -> list[Path]:
     out = Path(out)
     s = result.summary
-    files = convergence(result.history, s["cost"], out, s.get("control_history"))
+    files = convergence(result.history, s["cost"], out, s.get("control_history"), series)
     files += gait_traces(result.traces, out)
     files += gait_stats(s["per_gait"], out)
     files += tree_map(s, result.traces.get("tree", s["tree"]), out)

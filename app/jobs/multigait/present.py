@@ -20,6 +20,9 @@ HISTORY_COLUMNS = {
     "at_bounds": "PSO: share of the swarm's coordinates on a wall of the box",
     "spread": "PSO: mean per-coordinate standard deviation of the swarm over the box width (uniform: 0.289)",
 }
+# the convergence plot's series (the page's, views.history_axis, and the bundle's figure)
+HISTORY_SERIES = {"best": "best so far", "generation_best": "best of generation", "mean": "mean of generation",
+                  "worst": "worst of generation"}
 TRACES = {
     "plan": "the plan from the root of the best tree, executed in full simulation gait after gait",
     "tree": "the best RRT-MP tree: node positions, parents, gaits and swept paths (not a time series)",
@@ -153,7 +156,7 @@ def page_tables(s: dict) -> list[Table]:
 def figures(result: JobResult, out: Path) -> list[Path]:
     from app.jobs.multigait import plots as P
 
-    return P.all_plots(result, out)
+    return P.all_plots(result, out, HISTORY_SERIES)
 
 
 def replay_style(names: list[str]) -> list[ReplayTrack]:

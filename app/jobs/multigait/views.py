@@ -210,11 +210,10 @@ def history_axis(spec: dict) -> dict:
         y, better = "coverage (% of map cells)", "higher"
     else:
         y, better = "distance to goal (mu)", "lower"
-    from app.jobs.multigait.present import HISTORY_COLUMNS
+    from app.jobs.multigait.present import HISTORY_COLUMNS, HISTORY_SERIES
 
     return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": y, "better": better,
-            "series": {"best": "best so far", "generation_best": "best of generation", "mean": "mean of generation",
-                       "worst": "worst of generation"}}
+            "series": dict(HISTORY_SERIES)}
 
 
 # form groups the dashboard opens first: shape (robot), stuck modules, map, cost, budget

@@ -7,14 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.plots import _save, plt
+from app.core.plots import _save, history_lines, plt
 
 
 def convergence(history: list[dict], out: Path) -> list[Path]:
-    g = [r["generation"] for r in history]
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    for key, style in (("best", "-"), ("mean", "--"), ("worst", ":")):
-        ax.plot(g, [r[key] for r in history], style, label=key)
+    history_lines(ax, history, {"best": "best", "mean": "mean", "worst": "worst"})  # as the page draws them
     ax.set_xlabel("generation")
     ax.set_ylabel("objective F (Eq. 5)")
     ax.set_title("Convergence")

@@ -260,3 +260,31 @@ def test_cancel_in_the_control_then_resume_gives_the_same_result(small_run):
     resumed = multigait.run(spec, Ctx(ckpt=ctx._ckpt))
     assert resumed.summary["controls"] == full.summary["controls"]
     assert resumed.summary["control_history"] == full.summary["control_history"]
+
+
+def test_the_bundles_convergence_figure_draws_the_pages_colours(tmp_path):
+    """The convergence PNG/SVG used matplotlib's default colours (tab:blue, orange, green)
+    where the page draws best in the method's blue, the mean grey, the worst red: both now
+    take each series' colour, dash and width from app/core/colors.history_styles, the table
+    the page reads (page_table's history and history_lines)."""
+    import re
+
+    from app.core.colors import history_styles, page_table
+    from app.jobs.multigait.plots import convergence
+    from app.jobs.multigait.views import history_axis
+
+    history = [{"generation": g, "best": 2.0 + g, "generation_best": 1.5 + g, "mean": 1.0 + g, "worst": 0.5 + g}
+               for g in range(4)]
+    page = history_axis({"cost": "coverage"})["series"]
+    svg = next(p for p in convergence(history, "coverage", tmp_path, series=page) if p.suffix == ".svg").read_text()
+    strokes = set(re.findall(r"stroke: (#[0-9a-f]{6})", svg))
+    series = list(page)
+    styles = history_styles(series)
+    assert {c for c, _, _ in styles.values()} <= strokes, (styles, strokes)
+    assert not strokes & {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728"}, strokes  # matplotlib's own cycle
+    # the page's side of the same table (web/static/common.js reads it; job.js colours by it)
+    table = page_table()
+    for i, k in enumerate(series):
+        role = table["history"].get(k)
+        colour = table["roles"][role] if role else table["palette"][(i + 2) % len(table["palette"])]
+        assert colour == styles[k][0] and list(styles[k][1:]) == table["history_lines"].get(k, ["solid", 2.0]), k
