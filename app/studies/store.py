@@ -77,11 +77,11 @@ def counts(s: Session, study_ids: list[str]) -> dict[str, dict[str, int]]:
     return out
 
 
-def status_of(c: dict[str, int], cancel_requested: bool) -> str:
+def status_of(c: dict[str, int]) -> str:
     """running while any point is unfinished; then cancelled (if a point was), failed (if
     any point failed) or succeeded. A cancel asked for after every point had finished
     cancelled nothing: the study reads as what its points did ("3 of 3 done" is never
-    "cancelled"). ``cancel_requested`` alone no longer decides it; kept for the callers."""
+    "cancelled"), so the study's cancel flag does not enter it."""
     if c.get("queued", 0) + c.get("running", 0):
         return "running" if c.get("running", 0) or c.get("succeeded", 0) or c.get("failed", 0) else "queued"
     if c.get("cancelled", 0):

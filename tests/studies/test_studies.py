@@ -178,11 +178,11 @@ def test_a_study_reads_as_what_its_points_did_not_as_what_was_asked():
     cancelled, a failed one failed."""
     from app.studies.store import status_of
 
-    assert status_of({"succeeded": 3}, cancel_requested=True) == "succeeded"
-    assert status_of({"succeeded": 2, "failed": 1}, cancel_requested=True) == "failed"
-    assert status_of({"succeeded": 2, "cancelled": 1}, cancel_requested=True) == "cancelled"
-    assert status_of({"succeeded": 1, "running": 1}, cancel_requested=True) == "running"
-    assert status_of({"queued": 3}, cancel_requested=False) == "queued"
+    assert status_of({"succeeded": 3}) == "succeeded"
+    assert status_of({"succeeded": 2, "failed": 1}) == "failed"
+    assert status_of({"succeeded": 2, "cancelled": 1}) == "cancelled"
+    assert status_of({"succeeded": 1, "running": 1}) == "running"
+    assert status_of({"queued": 3}) == "queued"
 
 
 def test_fair_dispatch_another_owners_single_job_does_not_wait_for_a_whole_study(tmp_path, redis_url, pg_url, workers):

@@ -27,7 +27,7 @@ StudyId = Annotated[str, PathParam(min_length=1, max_length=64, description="stu
 
 def _out(study, c: dict[str, int], jobs=None) -> dict[str, Any]:
     out = {"id": study.id, "name": study.name, "owner": study.owner, "created_at": study.created_at.isoformat(),
-           "status": store.status_of(c, study.cancel_requested), "progress": store.progress(c, study.points),
+           "status": store.status_of(c), "progress": store.progress(c, study.points),
            "links": {"self": f"/api/studies/{study.id}", "bundle": f"/api/studies/{study.id}/bundle",
                      "page": f"/studies/{study.id}", "views": f"/api/studies/{study.id}/views"}}
     if jobs is not None:
