@@ -238,6 +238,58 @@ def render_table2(datas: list) -> str:
     return table_markdown([r for r in _paper_budget(rows or []) if r["seed"] < 10], 60, 30, peers)
 
 
+def _misses(m: dict) -> str:
+    """What of the target a walk's metrics miss, with the figure ("lateral -9.5 cm")."""
+    from app.jobs.recovery.metrics import target_checks
+
+    fig = {"forward": f"forward {100 * m['y_f_m']:.1f} cm", "lateral": f"lateral {100 * m['x_f_m']:.1f} cm",
+           "yaw": f"yaw {m['yaw_f_deg']:.1f} deg", "upright": "fell"}
+    return ", ".join(fig[k] for k, ok in target_checks(m).items() if not ok)
+
+
+def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
+    dmg = [d for d in SCENARIOS if d in fine]
+    low = lambda d: _name(d).replace(" lost", "").lower()  # noqa: E731
+    met = [d for d in dmg if fine[d]["target_met"]]
+    missed2 = [f"{low(d)} ({_misses(coarse[d]['best'])})" for d in dmg if d in coarse and not coarse[d]["target_met"]]
+    cases = lambda rows: ", ".join(f"{r['robustness']['met']}" for r in rows)  # noqa: E731
+    out = [f"- {len(met)} of {len(dmg)} damages meet the target on the nominal model at 1 ms"
+           + (f"; at 2 ms {'; '.join(missed2)} missed it" if missed2 else "") + ". Under the "
+           f"{fine[dmg[0]]['robustness']['total']} robustness cases (the step halved and quartered among them) the "
+           f"answers keep it in {cases([fine[d] for d in dmg])} cases"
+           + (f" (at 2 ms: {cases([coarse[d] for d in dmg if d in coarse])})" if coarse else "") + "."]
+    steps = [d for d in dmg if all(fine[d]["robustness"]["cases"][c]["target_met"] for c in ("dt_half", "dt_quarter"))]
+    broke = {c: [d for d in dmg if not fine[d]["robustness"]["cases"][c]["target_met"]]
+             for c in fine[dmg[0]]["robustness"]["cases"]}
+    worst = sorted((c for c in broke if broke[c]), key=lambda c: -len(broke[c]))[:2]
+    first = fine[dmg[0]]["robustness"]["cases"]
+    out.append(f"- {len(steps)} of {len(dmg)} answers keep it at half and a quarter of the step; the cases that break "
+               "most of them are " + " and ".join(f"{c} ({len(broke[c])} of {len(dmg)})" for c in worst)
+               + f" ({low(dmg[0])} there: " + "; ".join(f"{_misses(first[c])} at {c}" for c in worst) + ").")
+    rs = [d for d in dmg if fine[d]["random_search"]]
+    rs_met = [d for d in rs if fine[d]["random_search"]["target_met"]]
+    less = [d for d in rs if fine[d]["random_search"]["metrics"]["y_f_m"] < fine[d]["best"]["y_f_m"]]
+    fwd = lambda ds, key: " / ".join(f"{100 * key(fine[d])['y_f_m']:.1f}" for d in ds)  # noqa: E731
+    out.append(f"- The random search at the same budget meets the target in {len(rs_met)} of {len(rs)} damages"
+               + (f" (not for {', '.join(low(d) for d in rs if d not in rs_met)})" if len(rs_met) < len(rs) else "")
+               + f" and walks less far in {len(less)} of {len(rs)} ({fwd(rs, lambda r: r['random_search']['metrics'])} "
+               f"cm against DE's {fwd(rs, lambda r: r['best'])}, in the order of Table II).")
+    base = [low(d) for d in dmg if fine[d]["baseline_target_met"]]
+    out.append(f"- The nominal tripod (no recovery) already meets the target with {', '.join(base)} lost."
+               if base else "- The nominal tripod (no recovery) meets the target on none of them.")
+    return out
+
+
+def render_table2_seed0(datas: list) -> str:
+    """docs/recovery.md's 'what seed 0 shows': Table II's seed-0 answers at 1 ms (beside the
+    2 ms ones), their perturbations and the random-search control, from docs/table2.json."""
+    rows = [r for r in datas[0] or [] if r.get("version") == ROW_VERSION and r["seed"] == 0
+            and r.get("generations") == 60 and r.get("population") == 30]
+    fine = {tuple(r["lost_legs"]): r for r in rows if r["timestep_s"] == 0.001}
+    coarse = {tuple(r["lost_legs"]): r for r in rows if r["timestep_s"] == 0.002}
+    return "\n".join(_seed0_bullets(fine, coarse)) if fine else "*No seed-0 rows at 1 ms in docs/table2.json yet.*"
+
+
 def table2_page(md: str) -> str:
     """The page `gaitmend reproduce recovery` writes: its table inside the generated-section
     marker, so `gaitmend docs` and the docs-from-data test re-render it from the JSON."""
@@ -764,7 +816,8 @@ def render_speed(datas: list) -> str:
 EXPERIMENTS = [
     Experiment("table2", "Paper 000's Table II scenarios (legs 1&6, 3&4, 1, 4 lost) over seeds, with the "
                          "random-search control and the robustness block; writes the table", Table2Params, _table2,
-               (Section(TABLE2_SECTION, (TABLE2_JSON, PEERS_JSON), render_table2),)),
+               (Section(TABLE2_SECTION, (TABLE2_JSON, PEERS_JSON), render_table2),
+                Section("recovery-table2-seed0", (TABLE2_JSON,), render_table2_seed0))),
     Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
                         "docs/table2_peers.json; the Table II page pairs them with our DE",
