@@ -14,7 +14,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import loop_check, peers_check, randomised_check
+from app.jobs.recovery import loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
@@ -824,7 +824,8 @@ EXPERIMENTS = [
                peers_check.PeersParams, peers_check.run_peers),
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust,
-               tuple(Section(name, (path,), render) for path, (name, _, _, render) in ROBUST_PAGES.items())),
+               tuple(Section(name, (path,), render) for path, (name, _, _, render) in ROBUST_PAGES.items())
+               + (Section("recovery-robust-w20-verdict", (ROBUST_W20_JSON,), prose.render_robust_w20_verdict),)),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
                             "already meets the target?", BaselinesParams, _baselines,
                (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),
