@@ -825,7 +825,8 @@ EXPERIMENTS = [
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust,
                tuple(Section(name, (path,), render) for path, (name, _, _, render) in ROBUST_PAGES.items())
-               + (Section("recovery-robust-w20-verdict", (ROBUST_W20_JSON,), prose.render_robust_w20_verdict),)),
+               + (Section("recovery-robust-w20-verdict", (ROBUST_W20_JSON,), prose.render_robust_w20_verdict),
+                  Section("recovery-robust-pilot", (ROBUST_JSON, ROBUST_W20_JSON), prose.render_robust_pilot))),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
                             "already meets the target?", BaselinesParams, _baselines,
                (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),

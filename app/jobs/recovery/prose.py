@@ -110,3 +110,52 @@ def render_robust_w20_verdict(datas: list) -> str:
                   f"({paper_cands} candidates, about {paper_cands / cands:.0f} x the time), and the mean instead of "
                   "the worst over the models (`--aggregate mean`)."))
     return "\n".join(out)
+
+
+def _ms(step: float) -> str:
+    return f"{1000 * step:g} ms"
+
+
+def _most_drift(by: dict) -> tuple[tuple, str, float]:
+    """(loss, case, lateral cm) of the robust answer that drifts most under a model it was scored on."""
+    return max(((k, c, 100 * d["robust"]["robustness"]["cases"][c]["x_f_m"]) for k, d in by.items()
+                for c in d["robust"]["robust_models"]), key=lambda t: abs(t[2]))
+
+
+def render_robust_pilot(datas: list) -> str:
+    """docs/recovery.md's 2 ms pilot of the robust comparison: at the paper's weights
+    (docs/recovery_robust.json, as its page renders them) and with drift weighted up
+    (docs/recovery_robust_w20.json's rows off the default step), then the same losses at the default step."""
+    paper, step = list(RecoverySpec().objective.weights), RecoverySpec().sim.timestep_s
+    plain = [r for r in datas[0] or [] if r.get("weights", paper) == paper]
+    if not plain:
+        return "*No rows at the paper's weights in docs/recovery_robust.json yet.*"
+    pilot = min(r["timestep_s"] for r in plain)
+    by = pairs([r for r in plain if r["timestep_s"] == pilot])
+    r = next(iter(by.values()))["robust"]
+    n, rb = _totals(by, "nominal"), _totals(by, "robust")
+    k, case, x = _most_drift(by)
+    out = [f"**The {_ms(pilot)} pilot** (earlier; DE {r['population']} x {r['generations']}, seed {r['seed']}; "
+           "[recovery_robust.md](recovery_robust.md)):",
+           f"- **With the paper's weights**, robust search did {'not help either' if rb[1] <= n[1] else 'help'}: "
+           f"{n[1]} of {n[2]} perturbed re-runs kept the target for the nominal answers, and {rb[1]} of {rb[2]} for "
+           f"the robust answers, over {len(by)} damages. The robust answer for {loss(k)} drifted {x:.1f} cm under "
+           f"{case}, a model it was scored on (the largest drift of a robust answer on its own models)."]
+    w20 = [r for r in datas[1] or [] if r["timestep_s"] != step]
+    coarse = pairs(w20)
+    if coarse:
+        w = w20[0]["weights"]
+        cn, cr = _totals(coarse, "nominal"), _totals(coarse, "robust")
+        fine = pairs([r for r in datas[1] if r["timestep_s"] == step and tuple(r["lost_legs"]) in coarse])
+        fn, fr = _totals(fine, "nominal"), _totals(fine, "robust")
+        at = [r for r in datas[1] if r["timestep_s"] == step]
+        full_n, full = _totals(pairs(at), "nominal"), _totals(pairs(at), "robust")
+        out += [f"- **With drift weighted {w[1] / paper[1]:g} x** (weights {', '.join(f'{v:g}' for v in w)}; "
+                f"`docs/recovery_robust_w20.json`'s {_ms(w20[0]['timestep_s'])} rows), on {len(coarse)} damages: "
+                f"{cn[1]} of {cn[2]} for nominal answers, {cr[1]} of {cr[2]} for robust answers.", "",
+                ("That gain does not carry over" if cr[1] > cn[1] and full[1] <= full_n[1] else "Compare")
+                + f" to {_ms(step)} and all {len(pairs(at))} losses (above). On the pilot's own {len(fine)} damages "
+                f"at {_ms(step)} it is "
+                + (f"{fn[1]} of {fn[2]} for both." if fn[1] == fr[1] else
+                   f"{fn[1]} of {fn[2]} for the nominal answers and {fr[1]} of {fr[2]} for the robust ones.")]
+    return "\n".join(out)
