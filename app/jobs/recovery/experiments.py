@@ -817,7 +817,9 @@ EXPERIMENTS = [
     Experiment("table2", "Paper 000's Table II scenarios (legs 1&6, 3&4, 1, 4 lost) over seeds, with the "
                          "random-search control and the robustness block; writes the table", Table2Params, _table2,
                (Section(TABLE2_SECTION, (TABLE2_JSON, PEERS_JSON), render_table2),
-                Section("recovery-table2-seed0", (TABLE2_JSON,), render_table2_seed0))),
+                Section("recovery-table2-seed0", (TABLE2_JSON,), render_table2_seed0),
+                Section("recovery-default-result", (TABLE2_JSON,),
+                        lambda datas: prose.render_default_result(datas, ROW_VERSION)))),
     Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
                         "docs/table2_peers.json; the Table II page pairs them with our DE",

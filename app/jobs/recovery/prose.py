@@ -159,3 +159,21 @@ def render_robust_pilot(datas: list) -> str:
                 + (f"{fn[1]} of {fn[2]} for both." if fn[1] == fr[1] else
                    f"{fn[1]} of {fn[2]} for the nominal answers and {fr[1]} of {fr[2]} for the robust ones.")]
     return "\n".join(out)
+
+
+def render_default_result(datas: list, version: int) -> str:
+    """docs/recovery.md's 'default result before/after': the default job (the default spec's
+    damage, seed and budget) at every step docs/table2.json holds it, coarsest first."""
+    spec = RecoverySpec()
+    rows = sorted((r for r in datas[0] or [] if r.get("version") == version
+                   and r["lost_legs"] == list(spec.damage.lost_legs) and r["seed"] == spec.search.seed
+                   and r["generations"] == spec.search.generations and r["population"] == spec.search.population),
+                  key=lambda r: -r["timestep_s"])
+    if not rows:
+        return "*No row of the default job in docs/table2.json yet.*"
+    out = ["| step | x (cm) | y (cm) | yaw (deg) | target met | perturbed re-runs meeting it |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        m = r["best"]
+        out.append(f"| {_ms(r['timestep_s'])} | {100 * m['x_f_m']:.1f} | {100 * m['y_f_m']:.1f} | {m['yaw_f_deg']:.1f} | "
+                   f"{'yes' if r['target_met'] else '**no**'} | {r['robustness']['met']}/{r['robustness']['total']} |")
+    return "\n".join(out)
