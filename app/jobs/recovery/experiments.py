@@ -835,7 +835,9 @@ EXPERIMENTS = [
     Experiment("convergence", "search at a timestep, re-simulate the answers at half of it: the convergence rule",
                 ConvergenceParams, _convergence,
                (Section(CONVERGENCE_SECTIONS[0], (CONVERGENCE_JSON,), render_convergence_table),
-                Section(CONVERGENCE_SECTIONS[1], (CONVERGENCE_JSON,), render_convergence_answers))),
+                Section(CONVERGENCE_SECTIONS[1], (CONVERGENCE_JSON,), render_convergence_answers),
+                Section("recovery-convergence-verdict", (CONVERGENCE_JSON, ROBUST_W20_JSON),
+                        prose.render_convergence_verdict))),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
                         "the paper DE with cut walks checked against Table II", SpeedParams, _speed,
                (Section("recovery-speed", ("docs/recovery_speed.json", TABLE2_JSON), render_speed),)),

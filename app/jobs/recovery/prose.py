@@ -177,3 +177,84 @@ def render_default_result(datas: list, version: int) -> str:
         out.append(f"| {_ms(r['timestep_s'])} | {100 * m['x_f_m']:.1f} | {100 * m['y_f_m']:.1f} | {m['yaw_f_deg']:.1f} | "
                    f"{'yes' if r['target_met'] else '**no**'} | {r['robustness']['met']}/{r['robustness']['total']} |")
     return "\n".join(out)
+
+
+def _moves(a: dict) -> tuple[float, float, float]:
+    """How far halving the step moved one answer: forward (relative), drift (cm), yaw (deg)."""
+    return (abs(a["y_cm"][1] - a["y_cm"][0]) / max(abs(a["y_cm"][0]), 1e-9), abs(a["x_cm"][1] - a["x_cm"][0]),
+            abs(a["yaw_deg"][1] - a["yaw_deg"][0]))
+
+
+def _outside(a: dict) -> bool:
+    from app.jobs.recovery.convergence import RULE
+
+    f, dx, dyaw = _moves(a)
+    return f >= RULE["forward_rel"] or dx >= 100 * RULE["lateral_m"] or dyaw >= RULE["yaw_deg"]
+
+
+def _answer_moves(a: dict, half: str, ys: bool = False) -> str:
+    f, dx, dyaw = _moves(a)
+    y = f"{a['y_cm'][0]:.1f} -> {a['y_cm'][1]:.1f} cm, " if ys else ""
+    return f"{y}{100 * f:.1f} % forward, {dx:.1f} cm of drift and {dyaw:.1f} deg of yaw at {half}"
+
+
+def _coarse_verdicts(reports: list[dict], paper: set, step: float) -> list[str]:
+    """One sentence per coarser step that fails the rule: its worst answer (largest forward move)."""
+    out = []
+    for r in sorted((r for r in reports if r["timestep_s"] > step and not r["passes"]), key=lambda r: -r["timestep_s"]):
+        a = max(r["per_answer"], key=lambda a: _moves(a)[0])
+        own = " (one of Table II's damages)" if tuple(a["lost_legs"]) in paper else ""
+        out.append(f"{_ms(r['timestep_s'])} fails it: its worst answer, {loss(a['lost_legs'])}{own}, seed {a['seed']}, "
+                   f"moved {_answer_moves(a, _ms(r['timestep_s'] / 2))}; {100 * r['share_within']:.0f} % of its "
+                   f"{r['answers']} answers stayed within the drift and yaw bands.")
+    return out
+
+
+def render_convergence_verdict(datas: list) -> str:
+    """docs/recovery.md's reading of the convergence table (docs/recovery_convergence.json):
+    why the default step is the default, and the documented answers it does not converge on
+    (their target and perturbed re-runs from docs/recovery_robust_w20.json's nominal rows)."""
+    reports, step = datas[0] or [], RecoverySpec().sim.timestep_s
+    at = {r.get("set"): r for r in reports if r["timestep_s"] == step}
+    if "paper_damages" not in at:
+        return "*No verdict at the default step in docs/recovery_convergence.json yet.*"
+    p, half = at["paper_damages"], _ms(step / 2)
+    paper = {tuple(a["lost_legs"]) for a in p["per_answer"]}
+    coarse = [r for r in reports if r["timestep_s"] > step]
+    falls = all(r["median_lateral_m"] < c["median_lateral_m"] and r["median_yaw_deg"] < c["median_yaw_deg"]
+                for r in at.values() for c in coarse if c.get("set") == "documented")
+    out = [f"**The default step is {_ms(step)}.** " + " ".join(_coarse_verdicts(reports, paper, step)) + " "
+           + f"{_ms(step)} {'passes on every answer' if p['passes'] else 'fails'} for the paper's four damages"
+           + f" (the table's row of {p['answers']} answers: the paper-budget Table II rows at {_ms(step)}, every seed "
+           "run so far, and those searched at that step; its largest forward change, drift and yaw are the row's)"
+           + (f", and the drift and yaw medians fall from the coarser step's row of every documented answer to the "
+              f"{_ms(step)} rows (their first figures)." if falls else ".")]
+    doc = at.get("documented")
+    if doc:
+        out += ["", _documented(doc, p, half, datas[1] or [], step)]
+    return "\n".join(out)
+
+
+def _documented(doc: dict, p: dict, half: str, w20: list[dict], step: float) -> str:
+    """The default step over every documented answer: those the rule does not hold for."""
+    from app.jobs.recovery.convergence import RULE
+
+    fwd = [a for a in doc["per_answer"] if _moves(a)[0] >= RULE["forward_rel"]]
+    band = [a for a in doc["per_answer"] if _outside(a) and a not in fwd]
+    nominal = {tuple(r["lost_legs"]): r for r in w20 if r["timestep_s"] == step and r["mode"] == "nominal"}
+    fate = lambda a: ("" if tuple(a["lost_legs"]) not in nominal else  # noqa: E731
+                      f"; it {'meets' if nominal[tuple(a['lost_legs'])]['target_met'] else 'misses'} the target, and "
+                      f"keeps it in {nominal[tuple(a['lost_legs'])]['robustness']['met']} of "
+                      f"{nominal[tuple(a['lost_legs'])]['robustness']['total']} perturbed re-runs")
+    head = (f"**{_ms(step)} {'passes' if doc['passes'] else 'does not pass'} over every documented answer.** Of "
+            f"{doc['answers']} answers (the {p['answers']} above and {doc['answers'] - p['answers']} nominal answers "
+            "of the drift-weighted robust comparison on the other losses, a reduced budget)")
+    if not fwd and not band:
+        return head + f", every one stays within the rule's bands at {half}."
+    out = head + (f", {len(fwd)} move {100 * RULE['forward_rel']:g} % or more forward at {half}: " + "; ".join(
+        f"{loss(a['lost_legs'])} ({_answer_moves(a, half, ys=True)}{fate(a)})" for a in fwd) + "." if fwd else ".")
+    if band:
+        out += (" Outside the drift and yaw bands but within the forward one: " + "; ".join(
+            f"{loss(a['lost_legs'])} ({_answer_moves(a, half)}{fate(a)})" for a in band)
+            + f" ({100 * doc['share_within']:.0f} % of the answers stay within those bands).")
+    return out
