@@ -42,9 +42,10 @@ def test_convergence_rule_on_the_documented_answers():
     (Table II, the robust comparison's nominal answers, the convergence searches),
     re-simulated here at the step and at half of it: the docs' verdict and numbers are what
     the code gives (docs/recovery.md, "Timestep"). At 1 ms the answers for the paper's four
-    damages pass the rule; over all 27 two answers of short, rocking two-leg walks (legs 3 &
-    6, legs 5 & 6) move 5.8 % and 6.1 % forward, so the whole set fails its forward
-    criterion, and this test says so."""
+    damages pass the rule; over every documented answer (34 when this was written; the count
+    grows with Table II's seeds) two answers of short, rocking two-leg walks (legs 3 & 6,
+    legs 5 & 6) move 5.8 % and 6.1 % forward, so the whole set fails its forward criterion,
+    and this test says so."""
     from pathlib import Path
 
     import numpy as np
