@@ -1,6 +1,6 @@
 """Frames per second of the 3D replay in headless Chromium with software WebGL (issue 25):
 one scene per run (what the bundle holds now) against every run side by side with viser's
-default lights (what it held before). Not a test (it measures, it judges nothing); run by hand:
+default lights and environment map (what it held before). Not a test (it measures, it judges nothing); run by hand:
 
     python tests/e2e/replay_fps.py OUT/<job-id>/ [...]      # unpacked bundles (`gaitmend run --out OUT`)
 
@@ -34,7 +34,8 @@ COUNT = """() => new Promise((done) => { let n = 0; const t0 = performance.now()
 
 def scenes(bundle: Path, out: Path) -> list[str]:
     """The bundle's runs as recorded now (one scene each) and side by side with viser's
-    default lights (dynamic shadows), as recorded before issue 25; returns the file names."""
+    default lights (dynamic shadows) and environment map, as recorded before issue 25;
+    returns the file names."""
     import mujoco
     import numpy as np
     import viser._scene_api as scene_api
@@ -51,12 +52,16 @@ def scenes(bundle: Path, out: Path) -> list[str]:
     for path, data in record_scenes(model, traces, tracks).items():
         names.append(f"{bundle.name}-one-{path.replace('/', '_')}")
         (out / names[-1]).write_bytes(data)
-    lights = scene_api.SceneApi.configure_default_lights
-    scene_api.SceneApi.configure_default_lights = lambda self, *a, **k: None  # viser's default: shadows on
+    # viser's defaults: shadows on, the default environment map, no hemisphere light
+    saved = {k: getattr(scene_api.SceneApi, k) for k in ("configure_default_lights", "configure_environment_map",
+                                                          "add_light_hemisphere")}
+    for k in saved:
+        setattr(scene_api.SceneApi, k, lambda self, *a, **kw: None)
     try:
         data = record(model, {t.name: traces[t.name] for t in tracks}, tracks=tracks)
     finally:
-        scene_api.SceneApi.configure_default_lights = lights
+        for k, f in saved.items():
+            setattr(scene_api.SceneApi, k, f)
     names.append(f"{bundle.name}-side-by-side-shadows.viser")
     (out / names[-1]).write_bytes(data)
     return names

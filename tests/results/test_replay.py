@@ -71,8 +71,8 @@ def _messages(data: bytes) -> list[dict]:
 
 def test_one_scene_per_track_each_robot_alone(traces):
     """The bundle's replay.viser holds the first track's robot alone, replay/<name>.viser each
-    other's; no dynamic shadows (what a software renderer plays smoothly); README rows name
-    the runs."""
+    other's; no dynamic shadows and no environment map (what a software renderer plays
+    smoothly); README rows name the runs."""
     from app.jobs.base import ReplayTrack
     from app.results.replay import record_scenes, scene_rows
 
@@ -88,5 +88,10 @@ def test_one_scene_per_track_each_robot_alone(traces):
         assert not any(n.startswith(f"/world/{other}/") for n in names), path
         lights = [m for m in msgs if m.get("type") == "EnableLightsMessage"]
         assert lights and lights[-1]["cast_shadow"] is False, lights
+        # nor the client's default environment map (per-pixel image-based lighting): a
+        # hemisphere light shades the faces instead
+        env = [m for m in msgs if m.get("type") == "EnvironmentMapMessage"]
+        assert env and env[-1]["hdri_data"] is None, env
+        assert any(m.get("type") == "HemisphereLightMessage" for m in msgs), path
     rows = scene_rows(tracks)
     assert set(rows) == set(scenes) and "nominal tripod alone" in rows["replay/base_line.viser"]
