@@ -94,7 +94,8 @@ def test_render_only_reads_the_files_and_runs_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(experiments, "run", lambda *a: pytest.fail("render-only simulated"))
     p = experiments.Table2Params(seeds=10, raw=raw, peers=tmp_path / "none.json", out=out, render_only=True)
     md = experiments._table2(p, lambda m: None)
-    assert out.read_text() == md and json.loads(raw.read_text()) == rows
+    assert out.read_text() == experiments.table2_page(md) and json.loads(raw.read_text()) == rows
+    assert f"<!-- generated: {experiments.TABLE2_SECTION} " in out.read_text()  # `gaitmend docs` re-renders it
     # the paper's before and after beside ours: quoted numbers, N/A where its robot fell
     assert "| fell (N/A) | -9.3 / 28.1 / -19.5 |" in md and "| -2.3 / 1.5 / 2.4 | 10.1 / 52.7 / 5.8 |" in md
     assert "| 14.6 / 26.6 / 64.0 | 9.4 / 66.9 / 13.0 |" in md
