@@ -52,10 +52,16 @@ def sections_in(text: str) -> list[tuple[str, str, str]]:
     return [(m["name"], m["command"], m["body"]) for m in MARKER.finditer(text)]
 
 
+def marked(name: str, command: str, body: str) -> str:
+    """A generated section as a page holds it (``MARKER``): ``body``, its own lines, between
+    the opening marker naming the section and its command, and the closing one."""
+    lines = body.strip("\n") + "\n" if body.strip("\n") else ""
+    return f"<!-- generated: {name} ({command}) -->\n{lines}<!-- /generated -->"
+
+
 def regenerate(text: str, render: Callable[[str], str]) -> str:
     """``text`` with the body of every generated section replaced by ``render(name)``."""
-    return MARKER.sub(lambda m: f"<!-- generated: {m['name']} ({m['command']}) -->\n{render(m['name'])}<!-- /generated -->",
-                      text)
+    return MARKER.sub(lambda m: marked(m["name"], m["command"], render(m["name"])), text)
 
 
 # -- markdown helpers the renderers share -----------------------------------------------------

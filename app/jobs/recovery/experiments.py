@@ -15,7 +15,7 @@ from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery import loop_check, peers_check, prose, randomised_check
-from app.jobs.reporting import Section, missing
+from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
 from app.jobs.recovery.metrics import TARGET
@@ -224,11 +224,12 @@ TABLE2_JSON, PEERS_JSON = "docs/table2.json", "docs/table2_peers.json"
 TABLE2_SECTION = "recovery-table2"
 
 
-def _paper_budget(rows: list[dict], generations: int = 60, population: int = 30) -> list[dict]:
-    """Table II's rows of this budget at the default step, of the current row format."""
+def _paper_budget(rows: list[dict], generations: int = 60, population: int = 30, any_step: bool = False) -> list[dict]:
+    """Table II's rows of this budget, of the current row format, at the default step (every
+    step with ``any_step``)."""
     dt = RecoverySpec().sim.timestep_s
     return [r for r in rows if r.get("version") == ROW_VERSION and r.get("generations") == generations
-            and r.get("population") == population and r.get("timestep_s") == dt]
+            and r.get("population") == population and (any_step or r.get("timestep_s") == dt)]
 
 
 def render_table2(datas: list) -> str:
@@ -238,20 +239,10 @@ def render_table2(datas: list) -> str:
     return table_markdown([r for r in _paper_budget(rows or []) if r["seed"] < 10], 60, 30, peers)
 
 
-def _misses(m: dict) -> str:
-    """What of the target a walk's metrics miss, with the figure ("lateral -9.5 cm")."""
-    from app.jobs.recovery.metrics import target_checks
-
-    fig = {"forward": f"forward {100 * m['y_f_m']:.1f} cm", "lateral": f"lateral {100 * m['x_f_m']:.1f} cm",
-           "yaw": f"yaw {m['yaw_f_deg']:.1f} deg", "upright": "fell"}
-    return ", ".join(fig[k] for k, ok in target_checks(m).items() if not ok)
-
-
 def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
     dmg = [d for d in SCENARIOS if d in fine]
-    low = lambda d: _name(d).replace(" lost", "").lower()  # noqa: E731
     met = [d for d in dmg if fine[d]["target_met"]]
-    missed2 = [f"{low(d)} ({_misses(coarse[d]['best'])})" for d in dmg if d in coarse and not coarse[d]["target_met"]]
+    missed2 = [f"{prose.loss(d)} ({prose.misses(coarse[d]['best'])})" for d in dmg if d in coarse and not coarse[d]["target_met"]]
     cases = lambda rows: ", ".join(f"{r['robustness']['met']}" for r in rows)  # noqa: E731
     out = [f"- {len(met)} of {len(dmg)} damages meet the target on the nominal model at 1 ms"
            + (f"; at 2 ms {'; '.join(missed2)} missed it" if missed2 else "") + ". Under the "
@@ -265,16 +256,16 @@ def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
     first = fine[dmg[0]]["robustness"]["cases"]
     out.append(f"- {len(steps)} of {len(dmg)} answers keep it at half and a quarter of the step; the cases that break "
                "most of them are " + " and ".join(f"{c} ({len(broke[c])} of {len(dmg)})" for c in worst)
-               + f" ({low(dmg[0])} there: " + "; ".join(f"{_misses(first[c])} at {c}" for c in worst) + ").")
+               + f" ({prose.loss(dmg[0])} there: " + "; ".join(f"{prose.misses(first[c])} at {c}" for c in worst) + ").")
     rs = [d for d in dmg if fine[d]["random_search"]]
     rs_met = [d for d in rs if fine[d]["random_search"]["target_met"]]
     less = [d for d in rs if fine[d]["random_search"]["metrics"]["y_f_m"] < fine[d]["best"]["y_f_m"]]
     fwd = lambda ds, key: " / ".join(f"{100 * key(fine[d])['y_f_m']:.1f}" for d in ds)  # noqa: E731
     out.append(f"- The random search at the same budget meets the target in {len(rs_met)} of {len(rs)} damages"
-               + (f" (not for {', '.join(low(d) for d in rs if d not in rs_met)})" if len(rs_met) < len(rs) else "")
+               + (f" (not for {', '.join(prose.loss(d) for d in rs if d not in rs_met)})" if len(rs_met) < len(rs) else "")
                + f" and walks less far in {len(less)} of {len(rs)} ({fwd(rs, lambda r: r['random_search']['metrics'])} "
                f"cm against DE's {fwd(rs, lambda r: r['best'])}, in the order of Table II).")
-    base = [low(d) for d in dmg if fine[d]["baseline_target_met"]]
+    base = [prose.loss(d) for d in dmg if fine[d]["baseline_target_met"]]
     out.append(f"- The nominal tripod (no recovery) already meets the target with {', '.join(base)} lost."
                if base else "- The nominal tripod (no recovery) meets the target on none of them.")
     return out
@@ -283,8 +274,7 @@ def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
 def render_table2_seed0(datas: list) -> str:
     """docs/recovery.md's 'what seed 0 shows': Table II's seed-0 answers at 1 ms (beside the
     2 ms ones), their perturbations and the random-search control, from docs/table2.json."""
-    rows = [r for r in datas[0] or [] if r.get("version") == ROW_VERSION and r["seed"] == 0
-            and r.get("generations") == 60 and r.get("population") == 30]
+    rows = [r for r in _paper_budget(datas[0] or [], any_step=True) if r["seed"] == 0]
     fine = {tuple(r["lost_legs"]): r for r in rows if r["timestep_s"] == 0.001}
     coarse = {tuple(r["lost_legs"]): r for r in rows if r["timestep_s"] == 0.002}
     return "\n".join(_seed0_bullets(fine, coarse)) if fine else "*No seed-0 rows at 1 ms in docs/table2.json yet.*"
@@ -293,8 +283,8 @@ def render_table2_seed0(datas: list) -> str:
 def table2_page(md: str) -> str:
     """The page `gaitmend reproduce recovery` writes: its table inside the generated-section
     marker, so `gaitmend docs` and the docs-from-data test re-render it from the JSON."""
-    return (f"# Paper 000's Table II, simulated\n\n<!-- generated: {TABLE2_SECTION} (gaitmend reproduce recovery "
-            f"--write-docs) -->\n{md.strip()}\n<!-- /generated -->\n")
+    return (f"# Paper 000's Table II, simulated\n\n"
+            f"{marked(TABLE2_SECTION, 'gaitmend reproduce recovery --write-docs', md)}\n")
 
 
 def run_table2(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
@@ -621,7 +611,7 @@ def convergence_page(reports: list[dict]) -> str:
     per-answer lists inside their generated-section markers (`gaitmend docs` re-renders them)."""
     out = "# Timestep convergence of the recovered answers\n"
     for name, render in zip(CONVERGENCE_SECTIONS, (render_convergence_table, render_convergence_answers)):
-        out += f"\n<!-- generated: {name} ({CONVERGENCE_COMMAND}) -->\n{render([reports]).strip()}\n<!-- /generated -->\n"
+        out += f"\n{marked(name, CONVERGENCE_COMMAND, render([reports]))}\n"
     return out
 
 
@@ -708,7 +698,7 @@ def robust_page(raw: Path, md: str) -> str:
     for path, (name, command, title, render) in ROBUST_PAGES.items():
         if raw.resolve() == Path(path).resolve():
             body = render([json.loads(raw.read_text())]).strip("\n")
-            return f"{title}\n\n<!-- generated: {name} ({command}) -->\n{body}\n<!-- /generated -->\n"
+            return f"{title}\n\n{marked(name, command, body)}\n"
     return md
 
 
@@ -723,7 +713,7 @@ def _baselines(p: BaselinesParams, log: Callable[[str], None]) -> str:
         path.parent.mkdir(parents=True, exist_ok=True)
     p.raw.write_text(json.dumps(data, indent=1) + "\n")
     md = render_baselines([data]).strip("\n") + "\n"
-    p.out.write_text(f"<!-- generated: recovery-baselines ({BASELINES_COMMAND}) -->\n{md}<!-- /generated -->\n")
+    p.out.write_text(marked("recovery-baselines", BASELINES_COMMAND, md) + "\n")
     return md
 
 

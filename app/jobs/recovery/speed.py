@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from app.jobs.base import MemoryContext
-from app.jobs.reporting import missing
+from app.jobs.reporting import marked, missing
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
 
@@ -699,7 +699,7 @@ def render(datas: list) -> str:
 def page(md: str) -> str:
     """The page the command writes: its title, then ``md`` inside the generated-section marker,
     so `gaitmend docs` and the docs-from-data test re-render it from the JSON."""
-    return f"{TITLE}\n\n<!-- generated: {SECTION} ({COMMAND}) -->\n{md.strip()}\n<!-- /generated -->\n"
+    return f"{TITLE}\n\n{marked(SECTION, COMMAND, md)}\n"
 
 
 def render_markdown(rows: list[dict], table2: list[dict]) -> str:
