@@ -5,8 +5,13 @@
   their mean with a confidence interval, the test named, the seed count and the effect
   size. The interval: Student's t on the differences below 10 pairs (a bootstrap of so few
   values is too narrow), scipy's BCa bootstrap from 10 on. The test: Wilcoxon's
-  signed-rank, two-sided, exact where scipy can be (no ties, no zeros). The verdict follows
-  the interval alone: one that includes zero is "not shown", never a finding either way.
+  signed-rank, two-sided, zero differences dropped, exact where it can be (scipy's exact
+  distribution without ties; with ties, all 2^n sign flips up to 16 pairs), the normal
+  approximation beyond. The verdict needs both: a difference is "shown" only when the
+  interval excludes zero AND the test rejects at the same level (p < 1 - confidence); else
+  it is "not shown", never a finding either way, with the reason in words when the two
+  disagree (e.g. 4 pairs: the t interval may exclude zero while the exact test cannot give
+  p below 2/2^4 = 0.125).
 - ``detectable``: the smallest true mean difference that a paired two-sided t-test at
   level alpha finds with the given power, from the observed spread and the pair count:
   what a null result can and cannot exclude (the power statement of a "not shown").
@@ -24,19 +29,67 @@ import numpy as np
 
 CONFIDENCE = 0.95
 BOOTSTRAP_FROM = 10  # pairs; below this the t interval
+EXACT_UP_TO = 50  # non-zero pairs; without ties, scipy's exact signed-rank distribution up to this many
+TIES_EXACT_UP_TO = 16  # with ties, the exact signed-rank test over all 2^n sign flips up to this many
 NOT_SHOWN = "not shown"
 
 
-def verdict(ci: Sequence[float] | None, names: tuple[str, str] = ("method", "control")) -> str:
-    """"not shown" unless the whole interval lies on one side of zero; else which side is
-    better, shown."""
-    if ci is None or ci[0] is None or ci[1] is None:
-        return NOT_SHOWN
-    if ci[0] > 0:
-        return f"{names[0]} better (shown)"
-    if ci[1] < 0:
-        return f"{names[1]} better (shown)"
-    return NOT_SHOWN
+def alpha_of(confidence: float = CONFIDENCE) -> float:
+    """The test's level that goes with a ``confidence`` interval (0.95 -> 0.05, rounded so
+    that 1 - 0.95 is 0.05)."""
+    return round(1.0 - confidence, 12)
+
+
+def fewest_pairs(confidence: float = CONFIDENCE) -> int:
+    """The fewest pairs whose exact two-sided signed-rank test can reject at the level that
+    goes with ``confidence``: its smallest p with n pairs (no ties, no zeros) is 2 / 2**n."""
+    n = 1
+    while 2.0 / 2 ** n >= alpha_of(confidence):
+        n += 1
+    return n
+
+
+def decision(ci: Sequence[float] | None, p: float | None, min_p: float | None = None,
+             confidence: float = CONFIDENCE, test: str = "Wilcoxon", interval: str | None = None,
+             n: int | None = None) -> tuple[int, str]:
+    """(+1: the method shown better, -1: the control shown better, 0: not shown; why, in
+    words). Shown only when the interval lies on one side of zero AND the test's ``p`` is
+    below 1 - ``confidence``; ``min_p``: the smallest p the test can give with these pairs;
+    ``interval``: what the words call the interval (default "95 % interval"); ``n``: the
+    pair count, to say when the test's pairs are fewer (zero differences dropped)."""
+    alpha = alpha_of(confidence)
+    has_ci = ci is not None and ci[0] is not None and ci[1] is not None
+    side = (1 if ci[0] > 0 else -1 if ci[1] < 0 else 0) if has_ci else 0
+    rejects = p is not None and p < alpha
+    conf = interval or f"{round(100 * confidence)} % interval"
+    if side and rejects:
+        return side, f"the {conf} excludes 0 and {test} p = {p:.3g} < {alpha:g}"
+    if side and p is None:
+        return 0, f"the {conf} excludes 0, but there is no test"
+    if side and min_p is not None and min_p >= alpha:
+        k = round(math.log2(2.0 / min_p))
+        pairs = f"{k} pairs" if n is None or n == k else f"{k} non-zero pairs"
+        return 0, f"the {conf} excludes 0, but {pairs} cannot give {test} p < {alpha:g}"
+    if side:
+        return 0, f"the {conf} excludes 0, but {test} p = {p:.3g} >= {alpha:g}"
+    if rejects:
+        return 0, f"{test} p = {p:.3g} < {alpha:g}, but the {conf} includes 0"
+    return 0, f"the {conf} includes 0" if has_ci else "no interval"
+
+
+def verdict(ci: Sequence[float] | None, p: float | None, min_p: float | None = None,
+            names: tuple[str, str] = ("method", "control"), confidence: float = CONFIDENCE,
+            n: int | None = None) -> str:
+    """"<name> better (shown)" when ``decision`` shows a side; else "not shown", followed by
+    the reason in brackets when the interval and the test disagree (the interval excludes 0
+    but the test does not reject, or the other way round)."""
+    side, why = decision(ci, p, min_p, confidence, interval="interval", n=n)
+    if side:
+        return f"{names[0] if side > 0 else names[1]} better (shown)"
+    has_ci = ci is not None and ci[0] is not None and ci[1] is not None
+    excludes = has_ci and (ci[0] > 0 or ci[1] < 0)
+    rejects = p is not None and p < alpha_of(confidence)
+    return f"{NOT_SHOWN} ({why.removeprefix('the ')})" if excludes or rejects else NOT_SHOWN
 
 
 def _interval(d: np.ndarray, confidence: float, seed: int) -> tuple[list[float] | None, str]:
@@ -57,17 +110,39 @@ def _interval(d: np.ndarray, confidence: float, seed: int) -> tuple[list[float] 
         "BCa bootstrap of the mean difference, 9999 resamples (scipy.stats.bootstrap)"
 
 
+def _signflip_p(nz: np.ndarray) -> float:
+    """The exact two-sided signed-rank p of non-zero differences with ties: the sum of the
+    positive differences' mid-ranks against its distribution over all 2^n sign flips (each
+    equally likely under the null); symmetric, so as extreme = as far from its mean."""
+    from scipy.stats import rankdata
+
+    r2 = np.rint(2 * rankdata(np.abs(nz))).astype(np.int64)  # mid-ranks doubled: integers
+    n = len(r2)
+    t = ((np.arange(2 ** n, dtype=np.int64)[:, None] >> np.arange(n)) & 1) @ r2
+    total = int(r2.sum())
+    obs = abs(2 * int(r2[nz > 0].sum()) - total)
+    return float(np.count_nonzero(np.abs(2 * t - total) >= obs)) / 2 ** n
+
+
 def _wilcoxon(d: np.ndarray) -> tuple[float | None, str, float | None]:
-    """(p, test name, the smallest p the exact test can give with these pairs)."""
+    """(p, test name, the smallest p the exact test can give with these pairs). Exact where
+    it can be: scipy's exact distribution without ties (up to ``EXACT_UP_TO`` pairs); with ties, over
+    all 2^n sign flips (up to ``TIES_EXACT_UP_TO`` pairs), as the normal approximation is no
+    guide with few pairs (5 tied pairs, all positive: 0.041 against the exact 0.0625); the
+    normal approximation beyond."""
     from scipy import stats
 
     nz = d[d != 0]
-    if len(nz) == 0:
+    n = len(nz)
+    if n == 0:
         return 1.0, "Wilcoxon signed-rank, two-sided (every difference zero)", None
-    exact = len(np.unique(np.abs(nz))) == len(nz) and len(nz) <= 50
+    ties = len(np.unique(np.abs(nz))) < n
+    if ties and n <= TIES_EXACT_UP_TO:
+        return _signflip_p(nz), "Wilcoxon signed-rank, two-sided, exact over all 2^n sign flips (ties)", 2.0 / 2 ** n
+    exact = not ties and n <= EXACT_UP_TO
     r = stats.wilcoxon(nz, alternative="two-sided", method="exact" if exact else "approx")
     name = "Wilcoxon signed-rank, two-sided, " + ("exact" if exact else "normal approximation") + " (scipy.stats.wilcoxon)"
-    return float(r.pvalue), name, (2.0 / 2 ** len(nz) if exact else None)
+    return float(r.pvalue), name, (2.0 / 2 ** n if exact else None)
 
 
 def paired(method: Sequence[float], control: Sequence[float], higher_is_better: bool = True,
@@ -91,7 +166,8 @@ def paired(method: Sequence[float], control: Sequence[float], higher_is_better: 
             "median_diff": float(np.median(d)) if n else None, "sd_diff": sd,
             "confidence": confidence, "ci": ci, "ci_method": ci_method, "test": test, "p": p, "min_p": min_p,
             "effect_size": dz, "effect_size_name": "Cohen's d_z (mean / sd of the paired differences)",
-            "verdict": verdict(ci, names)}
+            "shown": {1: "method", -1: "control", 0: None}[decision(ci, p, min_p, confidence)[0]],
+            "verdict": verdict(ci, p, min_p, names, confidence, n)}
 
 
 def detectable(sd: float, n: int, alpha: float = 0.05, power: float = 0.8) -> float | None:
@@ -173,6 +249,9 @@ def rate_text(r: dict[str, Any], digits: int = 2) -> str:
 
 PAIRED_NOTE = ("Paired differences are oriented so that a positive one favours the method; the interval is "
                f"{round(100 * CONFIDENCE)} % (Student t below {BOOTSTRAP_FROM} pairs, BCa bootstrap from "
-               f"{BOOTSTRAP_FROM}, scipy); the test is Wilcoxon's signed-rank (two-sided); d_z is Cohen's effect size "
-               "of paired data (mean / sd of the differences). A difference whose interval includes zero is "
-               "**not shown**, never a finding either way.")
+               f"{BOOTSTRAP_FROM}, scipy); the test is Wilcoxon's signed-rank (two-sided, zero differences dropped, "
+               f"exact up to {TIES_EXACT_UP_TO} pairs with ties and {EXACT_UP_TO} without); d_z is Cohen's effect size of paired "
+               "data (mean / sd of the differences). A difference is **shown** only when the interval excludes zero "
+               f"and the test rejects at the same level (p < {alpha_of():g}); otherwise it is **not shown**, never a "
+               "finding either way, and the verdict says in brackets when the two disagree. The exact test's smallest "
+               f"p with n non-zero differences is 2/2^n, so with fewer than {fewest_pairs()} no difference is shown.")

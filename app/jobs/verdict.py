@@ -15,13 +15,13 @@ A verdict has three parts:
   held-out ones when the records say which.
 
 ``study_verdict`` pools the verdicts of a study's points over seeds: the paired difference
-per control with its 95 % t interval; one the interval does not support is "not shown".
+per control with its 95 % interval and Wilcoxon p (app/jobs/stats.py's ``paired``); beat or
+lost only when the interval excludes 0 and the test rejects at 0.05, else "not shown".
 """
 
 from __future__ import annotations
 
 import math
-import statistics
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -286,16 +286,21 @@ def brief(v: Mapping[str, Any]) -> dict[str, Any]:
 # -- over a study's seeds -------------------------------------------------------------------------------
 
 def pooled(diffs: Sequence[float]) -> dict[str, Any]:
-    """Mean paired difference (method better > 0) with its 95 % t interval over n seeds."""
+    """Mean paired difference (method better > 0) over n seeds, through app/jobs/stats.py's
+    ``paired``: its 95 % interval (Student t below 10 seeds, BCa bootstrap from 10) and
+    Wilcoxon's signed-rank p; "beat" / "lost" only when the interval excludes 0 and p < 0.05
+    (stats.decision), else "not shown", with the reason in ``why``."""
+    from app.jobs import stats
+
     n = len(diffs)
-    mean = statistics.fmean(diffs) if n else None
+    r = stats.paired([float(d) for d in diffs], [0.0] * n)
     if n < 2:
-        return {"n": n, "mean": mean, "interval": None, "outcome": "not shown", "why": "one seed: no interval"}
-    h = t95(n - 1) * statistics.stdev(diffs) / math.sqrt(n)
-    lo, hi = mean - h, mean + h
-    outcome = "beat" if lo > 0 else "lost" if hi < 0 else "not shown"
-    return {"n": n, "mean": mean, "interval": [lo, hi], "outcome": outcome,
-            "why": "the 95 % interval excludes 0" if outcome != "not shown" else "the 95 % interval includes 0"}
+        why = "one seed: no interval" if n else "no seeds"
+        return {"n": n, "mean": r["mean_diff"], "interval": None, "interval_method": r["ci_method"], "p": r["p"],
+                "test": r["test"], "outcome": "not shown", "why": why}
+    side, why = stats.decision(r["ci"], r["p"], r["min_p"], r["confidence"], n=n)
+    return {"n": n, "mean": r["mean_diff"], "interval": r["ci"], "interval_method": r["ci_method"], "p": r["p"],
+            "test": r["test"], "outcome": {1: "beat", -1: "lost", 0: "not shown"}[side], "why": why}
 
 
 def study_verdict(verdicts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:

@@ -147,8 +147,10 @@ def target_cell(verdicts: list[dict], met: list[int]) -> Any:
 
 def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
     """The method against each control pooled over each group's points (seeds): the mean
-    paired difference with its 95 % t interval, beat / lost only when the interval
-    excludes 0, else "not shown"; target met and robustness counted over the points."""
+    paired difference with its 95 % interval and Wilcoxon p (app/jobs/verdict.py's
+    ``pooled``), beat / lost only when the interval excludes 0 and p < 0.05, else "not
+    shown" with the reason in the cell's note; target met and robustness counted over the
+    points."""
     from app.jobs.verdict import fmt, study_verdict
 
     groups = _point_verdicts(kind, points, group_by)
@@ -166,16 +168,18 @@ def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
             mean, ci = c["mean"], c["interval"]
             diff = "–" if mean is None else f"{fmt(mean, c['unit'])} ({c['on']}, {c['better']} is better)"
             inter = "one seed: no interval" if ci is None else f"{fmt(ci[0], c['unit'])} to {fmt(ci[1], c['unit'])}"
-            word = {"beat": "beat", "lost": "lost", "not shown": "not shown (tied)"}[c["outcome"]]
+            p = "" if c["p"] is None or ci is None else f"; Wilcoxon p = {c['p']:.3g}"
+            word = c["outcome"]
             rows.append(base + [c["label"], kit.cell(word, better=True if c["outcome"] == "beat" else
                                                      False if c["outcome"] == "lost" else None, text=word,
-                                                     note=f"{c['n']} seed(s): {c['why']}"), f"{diff}; 95 % interval {inter}"])
+                                                     note=f"{c['n']} seed(s): {c['why']}"), f"{diff}; 95 % interval {inter}{p}"])
     if not rows:
         return None
     cap = ("Did the method work over the seeds? Per group: the points meeting the target, the robustness re-runs "
            "meeting it, and the method against each control at the same budget as the mean paired difference over "
-           "the points (positive: the method is better) with its 95 % t interval; a difference the interval does not "
-           "support is 'not shown', never a finding either way.")
+           "the points (positive: the method is better) with its 95 % interval (Student t below 10 seeds, BCa "
+           "bootstrap from 10) and Wilcoxon's signed-rank p; beat or lost only when the interval excludes 0 and "
+           "p < 0.05, else 'not shown' (the reason in the cell's note), never a finding either way.")
     return kit.panel("verdict", "Verdict over the seeds", cap,
                      table=kit.table(["group", "target met", "robustness met", "control", "outcome",
                                       "method minus control"], rows))

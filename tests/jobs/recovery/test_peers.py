@@ -55,13 +55,19 @@ def test_each_peer_run_is_appended_then_skipped_and_the_page_pairs_it(tmp_path, 
     assert "F: mean difference [95 % CI]" in md and "forward (cm): mean difference [95 % CI]" in md
 
 
-def test_ours_against_a_control_is_shown_only_when_the_interval_excludes_zero():
+def test_ours_against_a_control_is_shown_only_when_the_interval_and_the_test_agree():
     ours = {((1,), s): {"fitness": f, "forward_cm": 60.0} for s, f in enumerate([10, 12, 11, 13, 12])}
     clear = {((1,), s): {"fitness": f, "forward_cm": 60.0} for s, f in enumerate([1, 2, 2, 3, 1])}
     r = peers_check.compare(ours, clear, "fitness", ("our DE", "random search"))
-    # differences 9, 10, 9, 10, 11: mean 9.8, sd 0.84, t(4) interval 9.8 -+ 1.04
+    # differences 9, 10, 9, 10, 11: mean 9.8, sd 0.84, t(4) interval 9.8 -+ 1.04, but the exact
+    # signed-rank test of 5 pairs cannot go below 2/2^5 = 0.0625: not shown
     assert r["n"] == 5 and r["wins"] == 5 and r["median_diff"] == 10.0
-    assert r["ci"] == pytest.approx([8.76, 10.84], abs=0.01) and r["verdict"] == "our DE better (shown)"
+    assert r["ci"] == pytest.approx([8.76, 10.84], abs=0.01) and r["p"] == pytest.approx(0.0625)
+    assert r["verdict"] == "not shown (interval excludes 0, but 5 pairs cannot give Wilcoxon p < 0.05)"
+    more = {((1,), s): {"fitness": 10.0 + s % 3, "forward_cm": 60.0} for s in range(6)}
+    r = peers_check.compare(more, {k: {"fitness": 1.0, "forward_cm": 60.0} for k in more}, "fitness",
+                            ("our DE", "random search"))
+    assert r["n"] == 6 and r["p"] == pytest.approx(2 / 2 ** 6) and r["verdict"] == "our DE better (shown)"
     close = {((1,), s): {"fitness": f, "forward_cm": 60.0} for s, f in enumerate([7, 14, 10, 18, 11.5])}
     r = peers_check.compare(ours, close, "fitness", ("our DE", "random search"))
     # differences +3, -2, +1, -5, +0.5: mean -0.5, the interval straddles 0
