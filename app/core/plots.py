@@ -38,3 +38,31 @@ def history_lines(ax, history: list[dict], series: dict[str, str], x: str = "gen
         pts = [(r.get(x, i), r[k]) for i, r in enumerate(history) if num(r.get(k))]
         ax.plot([p[0] for p in pts], [p[1] for p in pts], DASHES.get(dash, "-"), color=color, lw=0.75 * width,
                 marker="o", ms=3, label=series[k])
+
+
+def axis_title(axis: dict) -> str:
+    """The convergence plot's y title as the page writes it (web/static/job.js: the kind's
+    ``history_axis`` y, then ", <better> better" when it says which way is better)."""
+    return f"{axis['y']}, {axis['better']} better" if axis.get("better") else axis["y"]
+
+
+def convergence(history: list[dict], axis: dict, out: Path, title: str = "Convergence", log: bool = False,
+                empty: str = "no history") -> list[Path]:
+    """The bundle's convergence figure: the page's convergence plot drawn from the same
+    description, the kind's ``history_axis`` (its series and their labels, its x column, its
+    y title and direction), so the figure and the page cannot name or pick different lines.
+    ``log``: a log y axis; ``empty``: the note drawn when the history holds none of the series."""
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    x = axis.get("x") or "generation"
+    history_lines(ax, history, axis["series"], x)
+    if ax.get_lines():
+        if log:
+            ax.set_yscale("log")
+        ax.legend(fontsize=8)
+    else:
+        ax.text(0.5, 0.5, empty, ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlabel(x)
+    ax.set_ylabel(axis_title(axis))
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "convergence")

@@ -33,7 +33,7 @@ class RecoveryKind(PackageKind):
     replay_style = staticmethod(present.replay_style)
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(kind_views.views)
-    history_axis = staticmethod(kind_views.history_axis)
+    history_axis = staticmethod(present.history_axis)  # the page's and the bundle figure's
     study_views = staticmethod(kind_views.study_views)
     metric_names = staticmethod(kind_views.metric_names)  # controls and robustness in cm and deg
     page_tables = staticmethod(kind_views.page_tables)

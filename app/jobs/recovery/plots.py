@@ -7,18 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.plots import _save, history_lines, plt
+from app.core import plots
+from app.core.plots import _save, plt
 
 
-def convergence(history: list[dict], out: Path) -> list[Path]:
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    history_lines(ax, history, {"best": "best", "mean": "mean", "worst": "worst"})  # as the page draws them
-    ax.set_xlabel("generation")
-    ax.set_ylabel("objective F (Eq. 5)")
-    ax.set_title("Convergence")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    return _save(fig, out, "convergence")
+def convergence(history: list[dict], axis: dict, out: Path) -> list[Path]:
+    """Fig. 3: the page's convergence plot, ``axis`` the kind's ``history_axis`` (its series,
+    labels and y title; present.history_axis)."""
+    return plots.convergence(history, axis, out)
 
 
 def _three_rows(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, str]] | None, rows, title: str,

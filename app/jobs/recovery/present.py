@@ -22,6 +22,9 @@ HISTORY_COLUMNS = {
     "target_met": "1 once the best so far meets the recovery target, confirmed at half the step (stop.at_target)",
     "evaluations": "candidates evaluated so far (with the target's confirmation walks)",
 }
+# the convergence plot, the page's (history_axis, drawn by web/static/job.js) and the bundle's
+# figure (plots.convergence): which history columns, under which labels
+HISTORY_SERIES = {"best": "best so far", "mean": "mean of population", "worst": "worst of population"}
 TRACES = {"best": "the recovered gait (best found)", "baseline": "the nominal tripod on the damaged robot"}
 FIGURES = {
     "convergence": "best, mean and worst F per generation (paper Fig. 3)",
@@ -30,6 +33,12 @@ FIGURES = {
     "gait_diagram_*": "gait diagram: per leg the planned swing (grey) above the measured contact (swing dark, support "
                       "light, in the run's colour, as on the page)",
 }
+
+
+def history_axis(spec: dict) -> dict:
+    """What the convergence plot draws, on the page and in the bundle's figure."""
+    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": "fitness F (Eq. 5)",
+            "better": "higher", "series": dict(HISTORY_SERIES)}
 
 
 def damage_text(spec) -> str:
@@ -187,7 +196,7 @@ def figures(result: JobResult, out: Path) -> list[Path]:
     from app.jobs.recovery.gaitplan import plan_of
 
     style = {t.name: (t.label, t.color) for t in replay_style(list(result.traces))}
-    files = P.convergence(result.history, out)
+    files = P.convergence(result.history, history_axis({}), out)
     files += P.orientation(result.traces, out, style)
     files += P.com_position(result.traces, out, style)
     for name, tr in result.traces.items():

@@ -11,7 +11,7 @@ import numpy as np
 from app.jobs import viewkit as kit
 from app.jobs.recovery.metrics import basis_text, judged, target_checks, target_met, target_text_of, walk_of
 from app.jobs.recovery.gaitplan import GAIT_SCHEME, faded, plan_of, planned_swings
-from app.jobs.recovery.present import HISTORY_COLUMNS, met_word, replay_style
+from app.jobs.recovery.present import met_word, replay_style
 
 # labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
 RUNS = {t.name: (t.label, t.color) for t in replay_style(["best", "baseline"])}
@@ -198,11 +198,6 @@ def views(summary: dict, traces: Mapping) -> list[dict]:
                            "cm", "Centre of mass against time (Fig. 5): y is the walking direction, x the sideways drift."))
     out.append(gait_diagram(summary, traces))
     return [v for v in out if v]
-
-
-def history_axis(spec: dict) -> dict:
-    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": "fitness F (Eq. 5)",
-            "better": "higher", "series": {"best": "best so far", "mean": "mean of population", "worst": "worst of population"}}
 
 
 # The shared controls and robustness tables (app/jobs/viewkit.py) in Table II's units and words
