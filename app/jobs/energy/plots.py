@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.plots import _save, history_lines, plt
+from app.core import plots
+from app.core.plots import _save, plt
 from app.robots.quadruped import LEGS
 
 from app.core.colors import hex_color  # noqa: E402
@@ -106,20 +107,11 @@ def gait_diagram(summary: dict, out: Path) -> list[Path]:
     return _save(fig, out, "gait_diagram")
 
 
-def convergence(history: list[dict], out: Path, series: dict[str, str] | None = None) -> list[Path]:
-    """``series``: the page's (present.history_axis), drawn in its colours and lines."""
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    if history:
-        history_lines(ax, history, series or {"best": "GA: best so far"})
-        ax.set_yscale("log")
-        ax.legend()
-    else:
-        ax.text(0.5, 0.5, "no search (search.optimizer = none)", ha="center", va="center", transform=ax.transAxes)
-    ax.set_xlabel("generation")
-    ax.set_ylabel("best J (Eq. 11)")
-    ax.grid(alpha=0.3)
-    ax.set_title("Convergence")
-    return _save(fig, out, "convergence")
+def convergence(history: list[dict], axis: dict, out: Path) -> list[Path]:
+    """J per generation, ``axis`` the kind's ``history_axis`` (present.history_axis: the
+    page's series, labels and y title), on a log axis (infeasible candidates carry a
+    penalty >= 1e4)."""
+    return plots.convergence(history, axis, out, log=True, empty="no search (search.optimizer = none)")
 
 
 def residuals(summary: dict, out: Path) -> list[Path]:
@@ -158,10 +150,11 @@ def physics(traces: dict, speed: float, out: Path) -> list[Path]:
     return _save(fig, out, "physics")
 
 
-def all_plots(result, out: Path, series: dict[str, str] | None = None) -> list[Path]:
+def all_plots(result, out: Path, axis: dict) -> list[Path]:
+    """``axis``: the kind's ``history_axis``, which the convergence figure draws as the page does."""
     s, tr = result.summary, result.traces
     speed = s["task"]["speed_m_s"]
-    files = gait_diagram(s, out) + convergence(result.history, out, series) + residuals(s, out)
+    files = gait_diagram(s, out) + convergence(result.history, axis, out) + residuals(s, out)
     if "forces" in tr:
         files += forces(tr, out) + wrench(tr, out) + body(tr, speed, out)
     files += physics(tr, speed, out)

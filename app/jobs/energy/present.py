@@ -42,7 +42,8 @@ FIGURES = {
     "wrench": "the contacts' force and moment on the trunk and the residual of the full equations (Eq. 9)",
     "body_motion": "trunk motion over a period: NLP, NLP forces in the full equations, final (Fig. 4)",
     "gait_diagram": "contact phases of the four legs over two periods",
-    "convergence": "best J per generation: GA and random search at the same budget",
+    "convergence": "J per generation (log scale): the GA's best so far and best of each generation, the random "
+                   "search's best so far at the same budget",
     "residuals": "RMS residual per axis and stage (log scale)",
     "physics": "trunk drift and height in the MuJoCo play-back",
 }
@@ -59,6 +60,7 @@ def _f(v, fmt="{:.3g}"):
 
 
 def history_axis(spec: dict) -> dict:
+    """What the convergence plot draws, on the page and in the bundle's figure (plots.convergence)."""
     return {"x": "generation", "x_note": HISTORY_COLUMNS["generation"], "y": "J (Eq. 11)", "better": "lower",
             "series": {"best": "GA: best so far", "generation_best": "GA: best of the generation",
                        "random_search_best": "random search (same budget): best so far"}}
@@ -175,7 +177,7 @@ def summary_tables(s: dict) -> list[Table]:
 def figures(result: JobResult, out_dir: Path) -> list[Path]:
     from app.jobs.energy.plots import all_plots
 
-    return all_plots(result, Path(out_dir), history_axis({})["series"])  # the convergence figure draws the page's series
+    return all_plots(result, Path(out_dir), history_axis({}))  # the convergence figure draws the page's plot
 
 
 def replay_style(trace_names: list[str]) -> list[ReplayTrack]:
