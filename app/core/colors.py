@@ -23,11 +23,13 @@ PALETTE: list[str] = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0
 
 # the convergence plot (the dashboard's and the bundle's convergence figure): history.csv
 # column -> role (other columns: the palette, from its third colour, in the order drawn) ...
+# (a random-search control's columns take the control's colour, its mean dashed as the search's mean)
 HISTORY_ROLES: dict[str, str] = {"best": "method", "baseline": "baseline", "mean": "mean", "worst": "worst",
-                                 "random_search_best": "baseline"}
+                                 "random_search_best": "baseline", "random_search_mean": "baseline"}
 # ... and its line: (plotly dash, width in px); other columns solid, 2 px
 HISTORY_LINES: dict[str, tuple[str, float]] = {"best": ("solid", 3), "generation_best": ("dot", 2),
-                                               "mean": ("dash", 2), "worst": ("dot", 1.5)}
+                                               "mean": ("dash", 2), "worst": ("dot", 1.5),
+                                               "random_search_mean": ("dash", 2)}
 
 
 def history_styles(columns: list[str]) -> dict[str, tuple[str, str, float]]:

@@ -104,8 +104,10 @@ def test_multigait_map_has_obstacles_tree_by_gait_plan_and_start():
 
 
 def test_multigait_axis_units_and_direction_follow_the_cost():
-    assert mg.history_axis({"cost": "coverage"})["better"] == "higher"
-    dist = mg.history_axis({"cost": "distance"})
+    from app.jobs.multigait.present import history_axis
+
+    assert history_axis({"cost": "coverage"})["better"] == "higher"
+    dist = history_axis({"cost": "distance"})
     assert dist["better"] == "lower" and "mu" in dist["y"] and "F" not in dist["y"]
 
 

@@ -30,7 +30,7 @@ class MultigaitKind(PackageKind):
     replay_style = staticmethod(present.replay_style)
     progress_text = staticmethod(present.progress_text)
     views = staticmethod(kind_views.views)
-    history_axis = staticmethod(kind_views.history_axis)
+    history_axis = staticmethod(present.history_axis)  # the page's and the bundle figure's
     verdict = staticmethod(present.verdict)
     verdict_scores = staticmethod(present.verdict_scores)
     metric_names = staticmethod(present.metric_names)

@@ -13,26 +13,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-from app.core.plots import _save, history_lines  # noqa: E402
+from app.core import plots  # noqa: E402
+from app.core.plots import _save  # noqa: E402
 
 COLOURS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
 
 
-def convergence(history: list[dict], cost: str, out: Path, control: list[dict] | None = None,
-                series: dict[str, str] | None = None) -> list[Path]:
-    """``series``: the page's (present.HISTORY_SERIES), drawn in its colours and lines."""
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    history_lines(ax, history, series or {"best": "best so far"})
-    if control:  # the random search at the same budget, same evaluator
-        cg = [r["generation"] for r in control]
-        ax.plot(cg, [r["best"] for r in control], "-", color="0.45", label="random search: best so far")
-        ax.plot(cg, [r["mean"] for r in control], "--", color="0.65", label="random search: generation mean")
-    ax.set_xlabel("generation")
-    ax.set_ylabel("coverage (% of cells)" if cost == "coverage" else "distance to goal (mu)")
-    ax.set_title(f"{cost}-based cost per generation")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    return _save(fig, out, "convergence")
+def convergence(history: list[dict], axis: dict, out: Path) -> list[Path]:
+    """Cost per generation (Tables I-II), ``axis`` the kind's ``history_axis`` (present.history_axis):
+    the page's series and labels, the search's beside its random-search control's."""
+    return plots.convergence(history, axis, out, title=f"{axis['y']} per generation")
 
 
 def gait_traces(traces: dict, out: Path) -> list[Path]:
@@ -143,10 +133,11 @@ def reuse(summary: dict, out: Path) -> list[Path]:
     return _save(fig, out, "reuse")
 
 
-def all_plots(result, out, series: dict[str, str] | None = None) -> list[Path]:
+def all_plots(result, out, axis: dict) -> list[Path]:
+    """``axis``: the kind's ``history_axis``, which the convergence figure draws as the page does."""
     out = Path(out)
     s = result.summary
-    files = convergence(result.history, s["cost"], out, s.get("control_history"), series)
+    files = convergence(result.history, axis, out)
     files += gait_traces(result.traces, out)
     files += gait_stats(s["per_gait"], out)
     files += tree_map(s, result.traces.get("tree", s["tree"]), out)

@@ -19,18 +19,23 @@ HISTORY_COLUMNS = {
     "evaluations": "gait sets evaluated so far",
     "at_bounds": "PSO: share of the swarm's coordinates on a wall of the box",
     "spread": "PSO: mean per-coordinate standard deviation of the swarm over the box width (uniform: 0.289)",
+    "random_search_best": "the equal-budget random search's best cost so far (same generation size, evaluator and "
+                          "planner draws; controls.random_search)",
+    "random_search_mean": "the random search's mean cost in this generation",
 }
-# the convergence plot's series (the page's, views.history_axis, and the bundle's figure)
+# the convergence plot's series, the page's (history_axis, drawn by web/static/job.js) and the
+# bundle's figure (plots.convergence): the search's, then its random-search control's
 HISTORY_SERIES = {"best": "best so far", "generation_best": "best of generation", "mean": "mean of generation",
-                  "worst": "worst of generation"}
+                  "worst": "worst of generation", "random_search_best": "random search (same budget): best so far",
+                  "random_search_mean": "random search: mean of generation"}
 TRACES = {
     "plan": "the plan from the root of the best tree, executed in full simulation gait after gait",
     "tree": "the best RRT-MP tree: node positions, parents, gaits and swept paths (not a time series)",
     "composition": "composed vs. fully simulated positions of replayed tree nodes (indexed by node, not time)",
 }
 FIGURES = {
-    "convergence": "best-so-far, generation best and generation mean cost per generation (Tables I-II), beside the "
-                   "random search at the same budget",
+    "convergence": "cost per generation (Tables I-II): the search's best so far, generation best, mean and worst, "
+                   "beside the random search's best so far and generation mean at the same budget",
     "gait_traces": "the path of each evolved gait from the same start (Figs. 4, 5, 8)",
     "gait_distance_rotation": "distance and rotation per gait (Fig. 7)",
     "tree_map": "the best tree over the map, coloured by gait, with start, goal and plan (Figs. 6, 10)",
@@ -153,10 +158,21 @@ def page_tables(s: dict) -> list[Table]:
     return [table("Search: first and final generation", first["columns"][1:], [r[1:] for r in first["rows"]], [note])]
 
 
+def history_axis(spec: dict) -> dict:
+    """What the convergence plot draws, on the page and in the bundle's figure: the cost in its
+    units and direction, the search's series and its random-search control's."""
+    if spec.get("cost", "coverage") == "coverage":
+        y, better = "coverage (% of map cells)", "higher"
+    else:
+        y, better = "distance to goal (mu)", "lower"
+    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": y, "better": better,
+            "series": dict(HISTORY_SERIES)}
+
+
 def figures(result: JobResult, out: Path) -> list[Path]:
     from app.jobs.multigait import plots as P
 
-    return P.all_plots(result, out, HISTORY_SERIES)
+    return P.all_plots(result, out, history_axis({"cost": result.summary["cost"]}))
 
 
 def replay_style(names: list[str]) -> list[ReplayTrack]:

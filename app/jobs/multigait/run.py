@@ -289,7 +289,7 @@ def robustness(job: Job, best: Best) -> dict | None:
 def summarize(job: Job, found: Searches, a: Analysis) -> JobResult:
     spec, s, sim, best, control = job.spec, job.spec.search, job.sim, a.best, found.control
     used = job.used({"search": found.search.evaluations, "random_search": control.evaluations if control else 0})
-    history = found.search.history
+    history = with_control(found.search.history, control)
     tree = best.tree
     summary = {
         "kind": "multigait",
@@ -330,6 +330,14 @@ def summarize(job: Job, found: Searches, a: Analysis) -> JobResult:
                       "gait": tree["gait"], "paths_mu": tree["paths"]}
     return JobResult(summary=summary, history=history, traces=traces, model_xml=sim.spec.to_xml(),
                      evaluations=summary["timing"]["evaluations"], sim_steps=sim.sim_steps)
+
+
+def with_control(history: list[dict], control: SearchResult | None) -> list[dict]:
+    """The search's history with its random-search control's best so far and generation mean
+    beside each generation (present.HISTORY_SERIES: the page and the bundle's figure draw both)."""
+    by_gen = {r["generation"]: r for r in control.history} if control else {}
+    return [r | ({"random_search_best": c["best"], "random_search_mean": c["mean"]}
+                 if (c := by_gen.get(r["generation"])) else {}) for r in history]
 
 
 def result_block(job: Job, search: SearchResult, a: Analysis) -> dict:

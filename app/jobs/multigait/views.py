@@ -205,16 +205,5 @@ def views(summary: dict, traces: Mapping) -> list[dict]:
     return out
 
 
-def history_axis(spec: dict) -> dict:
-    if spec.get("cost", "coverage") == "coverage":
-        y, better = "coverage (% of map cells)", "higher"
-    else:
-        y, better = "distance to goal (mu)", "lower"
-    from app.jobs.multigait.present import HISTORY_COLUMNS, HISTORY_SERIES
-
-    return {"x": "generation", "x_note": HISTORY_COLUMNS.get("generation"), "y": y, "better": better,
-            "series": dict(HISTORY_SERIES)}
-
-
 # form groups the dashboard opens first: shape (robot), stuck modules, map, cost, budget
 FORM_OPEN = ["damage", "search"]

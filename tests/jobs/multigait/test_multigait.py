@@ -10,6 +10,7 @@ import pytest
 from app.jobs.multigait import KIND as multigait
 from app.jobs.base import Cancelled, SpecError
 from app.jobs.registry import parse_spec
+from tests.results.convergence_page import figure_plot, page_plot, saved_figures  # noqa: F401 (fixture)
 
 SMALL = {"kind": "multigait", "robot": "lizard", "search": {"particles": 6, "generations": 4, "seed": 3},
          "planner": {"iterations": 40}, "gait_duration_s": 8.0, "reuse": {"plans": 3, "iterations": 30},
@@ -271,12 +272,13 @@ def test_the_bundles_convergence_figure_draws_the_pages_colours(tmp_path):
 
     from app.core.colors import history_styles, page_table
     from app.jobs.multigait.plots import convergence
-    from app.jobs.multigait.views import history_axis
+    from app.jobs.multigait.present import history_axis
 
-    history = [{"generation": g, "best": 2.0 + g, "generation_best": 1.5 + g, "mean": 1.0 + g, "worst": 0.5 + g}
-               for g in range(4)]
-    page = history_axis({"cost": "coverage"})["series"]
-    svg = next(p for p in convergence(history, "coverage", tmp_path, series=page) if p.suffix == ".svg").read_text()
+    history = [{"generation": g, "best": 2.0 + g, "generation_best": 1.5 + g, "mean": 1.0 + g, "worst": 0.5 + g,
+                "random_search_best": 1.8 + g, "random_search_mean": 0.9 + g} for g in range(4)]
+    axis = history_axis({"cost": "coverage"})
+    page = axis["series"]
+    svg = next(p for p in convergence(history, axis, tmp_path) if p.suffix == ".svg").read_text()
     strokes = set(re.findall(r"stroke: (#[0-9a-f]{6})", svg))
     series = list(page)
     styles = history_styles(series)
@@ -288,3 +290,23 @@ def test_the_bundles_convergence_figure_draws_the_pages_colours(tmp_path):
         role = table["history"].get(k)
         colour = table["roles"][role] if role else table["palette"][(i + 2) % len(table["palette"])]
         assert colour == styles[k][0] and list(styles[k][1:]) == table["history_lines"].get(k, ["solid", 2.0]), k
+
+
+def test_the_page_and_the_figure_draw_the_search_beside_its_random_search(small_run, tmp_path, saved_figures):
+    """The bundle's convergence figure drew the random-search control (from the summary's
+    control_history) where the page, which plots the history, could not: the control's best
+    so far and generation mean now ride in the history beside the search's own columns, and
+    the page and the figure draw the same six series from one description
+    (present.history_axis, the /views "convergence")."""
+    from app.jobs.registry import get_kind
+
+    spec, res = small_run
+    for row, control in zip(res.history, res.summary["control_history"], strict=True):
+        assert row["generation"] == control["generation"]
+        assert (row["random_search_best"], row["random_search_mean"]) == (control["best"], control["mean"])
+    kind = get_kind("multigait")
+    kind.figures(res, tmp_path)
+    page = page_plot(kind.history_axis(spec.model_dump()), res.history)
+    assert [t[0] for t in page["traces"]] == list(kind.history_axis({})["series"].values())  # all six
+    assert any("random search" in t[0] for t in page["traces"])
+    assert figure_plot(saved_figures["convergence.png"]) == page
