@@ -17,7 +17,9 @@ from app.jobs.base import SpecError
 from app.jobs.registry import parse_spec
 
 cli = typer.Typer(add_completion=False, no_args_is_help=True, help="Gait recovery for damaged legged robots.")
-err = Console(stderr=True)
+# stderr as stdout: in a terminal rich fits its width; in a pipe or a log a message is one line,
+# never broken inside a path or a number (a long data folder used to split "sqlite:///...")
+err = Console(stderr=True) if sys.stderr.isatty() else Console(stderr=True, width=100_000, soft_wrap=True)
 
 
 def out_console() -> Console:

@@ -134,6 +134,20 @@ def test_public_bind_needs_a_token(tmp_path, served):
     assert r.returncode == 1 and f"no token named 'alice' in {db}" in " ".join(r.stderr.split())
 
 
+def test_an_error_is_one_line_in_a_pipe_whatever_its_length(tmp_path):
+    """A message to a pipe or a log is never broken inside a path: rich wrapped stderr at 80
+    columns, so a long data folder split "sqlite:///..." over two lines (seen under pytest-xdist,
+    whose temporary folders are longer)."""
+    deep = tmp_path / ("a-long-folder-name-" * 12)
+    deep.mkdir()
+    env = deployment(deep)
+    r = gaitmend(env, "token", "list")
+    where = f"sqlite:///{(deep / 'data' / 'gaitmend.db').resolve()}"
+    assert len(where) > 240 and r.returncode == 2, r.stderr  # beyond the COLUMNS=240 the tests set
+    line = next(ln for ln in r.stderr.splitlines() if "no gaitmend database" in ln)
+    assert where in line, r.stderr
+
+
 def test_bad_settings_and_db_commands(tmp_path):
     env = deployment(tmp_path)
     r = gaitmend(env | {"GAITMEND_LEASE_S": "0"}, "db", "upgrade")
