@@ -64,7 +64,10 @@ def test_convergence_rule_on_the_documented_answers():
     for got, want in zip(rep["per_answer"], documented["per_answer"]):
         assert got["lost_legs"] == want["lost_legs"]
         for k in ("x_cm", "y_cm", "yaw_deg"):
-            assert got[k] == pytest.approx(want[k], abs=1e-6)
+            # bit-identical on one machine; another CPU (its SIMD paths in MuJoCo and numpy) moves a
+            # 10 s contact-rich walk by ~1e-6 relative (1.3e-5 deg of yaw on an AVX-512 EPYC against
+            # the machine that wrote the JSON): far below the one decimal the docs print
+            assert got[k] == pytest.approx(want[k], rel=1e-5, abs=1e-4)
     # the paper's four damages (Table II) pass the rule at the default step
     paper = [a for a in rep["per_answer"] if tuple(a["lost_legs"]) in reproduce.SCENARIOS]
     assert len(paper) >= 8
