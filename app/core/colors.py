@@ -16,6 +16,11 @@ ROLES: dict[str, str] = {
     "worst": "#b91c1c",  # population worst in convergence plots
     "threshold": "#808080",  # limits and targets drawn as lines
     "support": "#1f4e79",  # feet on the ground in gait diagrams
+    "event": "#b45309",  # a moment the method acts on, drawn as a vertical line: tipping detected
+    "failure": "#dc2626",  # what the method is there to avoid: a foothold in a forbidden zone, the body stopped
+    "forbidden": "#111111",  # a forbidden zone (freegait's minefield)
+    "safe_area": "#b8bec7",  # the safe area around a forbidden zone
+    "zero": "#18202b",  # the zero line of a margin
 }
 # further traces (gait 1, 2, 3 ...) in order; the dashboard's palette
 PALETTE: list[str] = ["#0b5cad", "#c2410c", "#15803d", "#7e22ce", "#b45309", "#0e7490", "#be185d", "#4d7c0f"]
