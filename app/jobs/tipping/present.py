@@ -9,6 +9,7 @@ from pathlib import Path
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 from app.jobs.evidence import CaseResult, ControlRow, controls_of, robustness_of
 from app.jobs.tipping.evidence import target_of
+from app.jobs.tipping.views import RUN_TRACKS  # the runs' names and colours, as the page and the figures draw them
 from app.jobs.verdict import score
 
 HISTORY_COLUMNS = {
@@ -31,9 +32,13 @@ HISTORY_COLUMNS = {
 TRACES = {"recovery": "the run with tipping recovery on",
           "no_recovery": "the same scenario with recovery off (the control)"}
 FIGURES = {
-    "margin_timeline": "FASM stability margin against time with the threshold, detection and landing marked (Fig. 6)",
-    "foot_forces": "foot normal forces per leg against time",
-    "tilt": "platform and body tilt against time",
+    "margin_timeline": "FASM stability margin against time with the threshold, detection and landing marked, each run's "
+                       "line ending at a cross where it tipped over, clipped to [-45, 90] deg (Fig. 6); beneath it SSM "
+                       "and NESM and the critical support edge (the job page's margin plot)",
+    "foot_forces": "foot normal forces per leg against time (legs 4-6 dashed), dotted: the QP's force for the foot "
+                   "while it runs (the job page's force plot)",
+    "tilt": "body tilt relative to the ground (clipped to +-90 deg) and the platform's tilt against time (the job "
+            "page's tilt plot)",
     "sweep_success": "recovery success rate per downhill direction (polar)",
 }
 
@@ -180,8 +185,7 @@ def figures(result: JobResult, out: Path) -> list[Path]:
 
 
 def replay_style(names: list[str]) -> list[ReplayTrack]:
-    known = {"recovery": ReplayTrack("recovery", "with recovery", "method", 0),
-             "no_recovery": ReplayTrack("no_recovery", "without recovery", "baseline", 1)}
+    known = {n: ReplayTrack(n, label, role, order) for n, (label, role, order) in RUN_TRACKS.items()}
     return [known.get(n, ReplayTrack(n, n, None, 2 + i)) for i, n in enumerate(names)]
 
 

@@ -1,8 +1,13 @@
 """Dashboard views of the tipping kind (paper 002): the FASM margin against time with the
-threshold, detection and landing marked, with and without recovery (SSM and NESM one click
-away in the legend); foot normal forces per leg; body and platform tilt; the direction
-sweep as a polar success rate; the adjustments and runs as tables. Legs are numbered as in
-the paper, from 1."""
+threshold, detection and landing marked, with and without recovery, SSM and NESM beneath
+it and the critical support edge below them; foot normal forces per leg (with the QP's);
+body and platform tilt; the direction sweep as a polar success rate; the adjustments and
+runs as tables. Legs are numbered as in the paper, from 1.
+
+The margin, force and tilt plots are described once here (``margin_runs``,
+``margin_events``, ``force_runs``, ``tilt_lines`` and the titles and colours beside them):
+the page's panels and the bundle's figures (app/jobs/tipping/plots.py) both draw from these,
+so a referee reading the zip sees what the job page shows (issue 25)."""
 
 from __future__ import annotations
 
@@ -10,13 +15,33 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from app.core.colors import ROLES, hex_color
 from app.jobs import viewkit as kit
 from app.jobs.tipping.evidence import target_of
-from app.jobs.tipping.present import replay_style
+from app.jobs.tipping.scenario import edge_name
 
-# labels and colours as the replay shows them (present.replay_style, app/core/colors.py roles)
-RUNS = {t.name: (t.label, t.color) for t in sorted(replay_style(["no_recovery", "recovery"]), key=lambda t: -t.order)}
+# the two runs of a scenario: trace name -> (label, colour role, replay order); the replay
+# (present.replay_style), the page and the bundle's figures name and colour them from this
+RUN_TRACKS = {"recovery": ("with recovery", "method", 0), "no_recovery": ("without recovery", "baseline", 1)}
+# label and colour per run, in the order drawn (the control first)
+RUNS = {n: (label, hex_color(role, order)) for n, (label, role, order) in
+        sorted(RUN_TRACKS.items(), key=lambda kv: -kv[1][2])}
 CLIP = (-45.0, 90.0)  # once the robot has gone over, the margin is meaningless (-180 deg)
+TILT_CLIP = 90.0  # body tilt beyond +-90 deg: the robot is on its side or back
+TIME = "time (s)"
+# the margin plot: its title, its three rows' axis titles (FASM, SSM / NESM, critical edge)
+MARGIN_TITLE = "Stability margin against time"
+MARGIN_AXES = ("FASM margin (°)", "SSM / NESM (m)", "critical edge")
+EXTRA = (("ssm_m", "SSM", "dot"), ("nesm_m", "NESM", "dashdot"))  # trace key, name, dash (in the run's colour)
+DETECTED = (ROLES["event"], "dash")  # the tipping judgment fired (colour, dash)
+LANDED = (ROLES["reference"], "dot")  # the adjustment leg landed
+TILT_TITLE, TILT_AXIS = "Platform and body tilt", "tilt (°)"
+FORCES_TITLE = "Foot normal forces per leg"
+# six legs, six hues far apart (the palette's two oranges and two greens read as one colour
+# for legs 2/5 and 3/6); legs 4-6 dashed as well, for readers who do not tell hues apart;
+# the QP's force for a foot dotted and thin in its leg's colour
+LEG_COLORS = [kit.PALETTE[i] for i in (0, 1, 2, 3, 6, 7)]
+QP_LINE = ("dot", 1.0)
 
 
 def _run_order(traces: Mapping) -> list[str]:
@@ -27,117 +52,193 @@ def _style(name: str, i: int) -> tuple[str, str]:
     return RUNS.get(name, (name.replace("_", " "), kit.PALETTE[(i + 2) % len(kit.PALETTE)]))
 
 
-def margin_view(summary: dict, traces: Mapping) -> dict:
-    thr = float(summary.get("threshold_deg", 20.0))
+def threshold_label(thr: float) -> str:
+    return f"threshold {thr:g}°"
+
+
+def margin_runs(summary: dict, traces: Mapping) -> list[dict]:
+    """What the margin plot draws of each run: name, label and colour; its times from the
+    end of the drop onto the feet (1 s) to where it tipped over (after the fall the margin
+    means nothing); FASM clipped to CLIP; SSM and NESM {name: (values, dash)} where the trace
+    has them; the critical edge's name (Table II) per time; when it tipped over (None: it
+    did not)."""
     runs = summary.get("runs", {})
-    data, shapes, notes = [], [], []
+    out = []
     for i, name in enumerate(_run_order(traces)):
-        tr = traces[name]
+        tr, r = traces[name], runs.get(name, {})
         t = np.asarray(tr["time_s"], dtype=float)
         keep = t >= 1.0  # the first second is the drop onto the feet
-        r = runs.get(name, {})
-        if r.get("tipped") and r.get("tipped_at_s") is not None:
-            keep &= t <= r["tipped_at_s"]  # after the fall the margin means nothing
-        t = t[keep]
-        step = kit.stride(len(t))
+        tipped = r["tipped_at_s"] if r.get("tipped") and r.get("tipped_at_s") is not None else None
+        if tipped is not None:
+            keep &= t <= tipped
         label, color = _style(name, i)
-        m = np.clip(np.asarray(tr["fasm_deg"], dtype=float)[keep], *CLIP)
-        x = kit.series(t, step, digits=3)
-        data.append(kit.line(x, kit.series(m, step, digits=3), f"FASM {label}", color, legendgroup=name,
+        extra = {nice: (np.asarray(tr[key], dtype=float)[keep], dash) for key, nice, dash in EXTRA if key in tr}
+        edges = [edge_name(int(a), int(b)) for a, b in zip(np.asarray(tr["edge_leg_a"])[keep],
+                                                            np.asarray(tr["edge_leg_b"])[keep])] if "edge_leg_a" in tr else []
+        out.append({"name": name, "label": label, "color": color, "t": t[keep], "extra": extra, "edges": edges,
+                    "fasm": np.clip(np.asarray(tr["fasm_deg"], dtype=float)[keep], *CLIP), "tipped_at_s": tipped})
+    return out
+
+
+def margin_events(summary: dict) -> list[tuple[float, str, str, str]]:
+    """The vertical lines of the margin plot: (time, text, colour, dash) of the detection
+    and of each adjustment leg's landing, in the run with recovery."""
+    rec = summary.get("runs", {}).get("recovery", {})
+    out = []
+    if rec.get("detection_time_s") is not None:
+        out.append((float(rec["detection_time_s"]), f"detected {rec['detection_time_s']:.2f} s", *DETECTED))
+    for a in rec.get("adjustments", []) or []:
+        if a.get("land_time_s") is not None:
+            out.append((float(a["land_time_s"]), f"leg {a['leg']} lands", *LANDED))
+    return out
+
+
+def threshold_span(traces: Mapping) -> list[float]:
+    """The threshold line's times: from 1 s to the end of the longest run."""
+    return [1.0, max([float(np.asarray(traces[n]["time_s"])[-1]) for n in _run_order(traces)] or [1.0])]
+
+
+def margin_caption(thr: float) -> str:
+    return (f"Force-angle stability margin (Eq. 3-9) of the critical support edge; below the {thr:g}° threshold the "
+            "robot is judged to be tipping. The dashed vertical line is the detection, dotted lines the adjustment "
+            "leg landing; the cross marks where the robot tipped over (its lines end there). Margins are clipped to "
+            f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. Beneath: the support-stability (SSM) and energy (NESM) margins of the "
+            "same polygon, and the edge the margin is measured about.")
+
+
+def _margin_traces(runs: list[dict]) -> list[dict]:
+    data = []
+    for r in runs:
+        step = kit.stride(len(r["t"]))
+        label, color, name = r["label"], r["color"], r["name"]
+        x = kit.series(r["t"], step, digits=3)
+        data.append(kit.line(x, kit.series(r["fasm"], step, digits=3), f"FASM {label}", color, legendgroup=name,
                              hovertemplate="%{y:.1f}°<extra>FASM " + label + "</extra>"))
-        for key, nice, dash in (("ssm_m", "SSM", "dot"), ("nesm_m", "NESM", "dashdot")):
-            if key in tr:
-                data.append(kit.line(x, kit.series(np.asarray(tr[key])[keep], step, digits=4), f"{nice} {label} (m)", color,
-                                     dash=dash, width=1.5, yaxis="y2", visible="legendonly", legendgroup=name))
-        if r.get("tipped") and r.get("tipped_at_s") is not None:
+        for nice, (v, dash) in r["extra"].items():
+            data.append(kit.line(x, kit.series(v, step, digits=4), f"{nice} {label} (m)", color, dash=dash, width=1.5,
+                                 yaxis="y2", legendgroup=name))
+        if r["edges"]:
+            data.append({"type": "scatter", "mode": "markers", "x": x, "y": r["edges"][::step], "yaxis": "y3",
+                         "name": f"critical edge {label}", "legendgroup": name, "showlegend": False,
+                         "marker": {"color": color, "size": 3}, "hovertemplate": "%{y}<extra>" + label + "</extra>"})
+        if r["tipped_at_s"] is not None:
             data.append({"type": "scatter", "mode": "markers", "x": [r["tipped_at_s"]], "y": [CLIP[0]],
                          "name": f"tipped over ({label})", "marker": {"symbol": "x", "size": 14, "color": color},
                          "hovertemplate": "tipped over at %{x:.2f} s<extra></extra>"})
+    return data
+
+
+def margin_view(summary: dict, traces: Mapping) -> dict:
+    thr = float(summary.get("threshold_deg", 20.0))
+    data = _margin_traces(margin_runs(summary, traces))
     # the threshold as a trace too, so it has a legend entry and hover text
-    t_all = [float(np.asarray(traces[n]["time_s"])[-1]) for n in _run_order(traces)] or [1.0]
-    data.append(kit.line([1.0, max(t_all)], [thr, thr], f"threshold {thr:g}°", kit.TARGET, dash="dash",
+    data.append(kit.line(threshold_span(traces), [thr, thr], threshold_label(thr), kit.TARGET, dash="dash",
                          hoverinfo="skip"))
-    shapes.append({"type": "line", "xref": "paper", "x0": 0, "x1": 1, "y0": 0, "y1": 0, "yref": "y",
-                   "line": {"color": "#18202b", "width": 1}})
-    rec = runs.get("recovery", {})
-    if rec.get("detection_time_s") is not None:
-        s, n = kit.vline(rec["detection_time_s"], f"detected {rec['detection_time_s']:.2f} s", "#b45309", dash="dash")
+    shapes = [{"type": "line", "xref": "paper", "x0": 0, "x1": 1, "y0": 0, "y1": 0, "yref": "y",
+               "line": {"color": ROLES["zero"], "width": 1}}]
+    notes = []
+    for x, text, color, dash in margin_events(summary):
+        s, n = kit.vline(x, text, color, dash=dash)
+        if dash == LANDED[1]:
+            n["yanchor"], n["y"] = "top", 0.97
         shapes.append(s)
         notes.append(n)
-    for a in rec.get("adjustments", []) or []:
-        if a.get("land_time_s") is not None:
-            s, n = kit.vline(a["land_time_s"], f"leg {a['leg']} lands", "#15803d")
-            n["yanchor"], n["y"] = "top", 0.97
-            shapes.append(s)
-            notes.append(n)
-    layout = {"xaxis": kit.axis("time (s)"), "yaxis": kit.axis("FASM margin (°)", range=[CLIP[0] - 5, CLIP[1]]),
-              "yaxis2": kit.axis("SSM / NESM (m)", overlaying="y", side="right", showgrid=False),
-              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 64, "t": 36, "b": 44}}
-    cap = (f"Force-angle stability margin (Eq. 3-9) of the critical support edge; below the {thr:g}° threshold the "
-           "robot is judged to be tipping. The dashed vertical line is the detection, dotted lines the adjustment "
-           "leg landing; the cross marks where the robot tipped over (its line ends there). Margins are clipped to "
-           f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. SSM and NESM: click their legend entries.")
-    return kit.panel("margin", "Stability margin against time", cap, kit.figure(data, layout), height=430)
+    fasm, extra, edge = MARGIN_AXES
+    layout = {"xaxis": kit.axis(TIME, anchor="free", position=0.0),
+              "yaxis": kit.axis(fasm, range=[CLIP[0] - 5, CLIP[1]], domain=[0.44, 1.0]),
+              "yaxis2": kit.axis(extra, domain=[0.23, 0.39], anchor="x"),
+              "yaxis3": kit.axis(edge, domain=[0.0, 0.18], anchor="x", type="category"),
+              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 24, "t": 36, "b": 44}}
+    return kit.panel("margin", MARGIN_TITLE, margin_caption(thr), kit.figure(data, layout), height=560)
 
 
-# six legs, six hues far apart (the palette's two oranges and two greens read as one colour
-# for legs 2/5 and 3/6); legs 4-6 dashed as well, for readers who do not tell hues apart
-LEG_COLORS = [kit.PALETTE[i] for i in (0, 1, 2, 3, 6, 7)]
+def force_runs(traces: Mapping) -> list[dict]:
+    """What the force plot draws of each run with foot forces: its title (the run's label,
+    and what the dotted lines are when the QP ran), times, each leg's F_z in kN and, per
+    leg the QP gave a force, that force in kN (NaN where the QP did not run)."""
+    out = []
+    for p, name in enumerate(n for n in _run_order(traces) if "foot_fz_n" in traces[n]):
+        tr = traces[name]
+        fz = np.asarray(tr["foot_fz_n"], dtype=float) / 1e3
+        qp = {}
+        if "qp_fz_n" in tr:
+            q = np.asarray(tr["qp_fz_n"], dtype=float)
+            qp = {leg: np.where(q[:, leg] != 0, q[:, leg] / 1e3, np.nan) for leg in range(q.shape[1]) if np.any(q[:, leg])}
+        label = _style(name, p)[0]
+        out.append({"name": name, "label": label, "title": label + ("; dotted: the QP's force" if qp else ""),
+                    "t": np.asarray(tr["time_s"], dtype=float), "fz": fz, "qp": qp})
+    return out
+
+
+def leg_line(leg: int) -> tuple[str, str, float]:
+    """(colour, dash, width) of a leg's measured force (legs from 0)."""
+    return LEG_COLORS[leg % len(LEG_COLORS)], "solid" if leg < 3 else "dash", 1.5
+
+
+def force_axis(label: str) -> str:
+    return f"F_z {label} (kN)"
 
 
 def forces_view(traces: Mapping) -> dict | None:
-    names = [n for n in _run_order(traces) if "foot_fz_n" in traces[n]]
-    if not names:
+    runs = force_runs(traces)
+    if not runs:
         return None
-    doms = kit.stacked(len(names), gap=0.12)
-    data, layout, notes = [], {"hovermode": "x unified", "annotations": []}, []
-    for p, name in enumerate(names):
-        tr = traces[name]
-        t = np.asarray(tr["time_s"], dtype=float)
-        fz = np.asarray(tr["foot_fz_n"], dtype=float)
-        step = kit.stride(len(t))
+    doms = kit.stacked(len(runs), gap=0.12)
+    data, layout, notes = [], {"hovermode": "x unified"}, []
+    for p, r in enumerate(runs):
+        step = kit.stride(len(r["t"]))
         ax = "" if p == 0 else str(p + 1)
-        label, _ = _style(name, p)
-        for leg in range(fz.shape[1]):
-            data.append(kit.line(kit.series(t, step, digits=3), kit.series(fz[:, leg], step, scale=1e-3, digits=3),
-                                 f"leg {leg + 1}", LEG_COLORS[leg % len(LEG_COLORS)], width=1.5,
-                                 dash="solid" if leg < 3 else "dash", xaxis=f"x{ax}", yaxis=f"y{ax}",
-                                 legendgroup=f"leg{leg + 1}", showlegend=p == 0))
-        layout[f"yaxis{ax}"] = kit.axis(f"F_z {label} (kN)", domain=doms[p], anchor=f"x{ax}")
-        layout[f"xaxis{ax}"] = kit.axis("time (s)" if p == len(names) - 1 else "", anchor=f"y{ax}",
-                                        matches="x" if p else None, showticklabels=p == len(names) - 1)
+        x = kit.series(r["t"], step, digits=3)
+        for leg in range(r["fz"].shape[1]):
+            color, dash, width = leg_line(leg)
+            data.append(kit.line(x, kit.series(r["fz"][:, leg], step, digits=3), f"leg {leg + 1}", color, width=width,
+                                 dash=dash, xaxis=f"x{ax}", yaxis=f"y{ax}", legendgroup=f"leg{leg + 1}", showlegend=p == 0))
+            if leg in r["qp"]:
+                data.append(kit.line(x, kit.series(r["qp"][leg], step, digits=3), f"leg {leg + 1}: QP", color,
+                                     dash=QP_LINE[0], width=QP_LINE[1], xaxis=f"x{ax}", yaxis=f"y{ax}",
+                                     legendgroup=f"leg{leg + 1}", showlegend=False))
+        layout[f"yaxis{ax}"] = kit.axis(force_axis(r["label"]), domain=doms[p], anchor=f"x{ax}")
+        layout[f"xaxis{ax}"] = kit.axis(TIME if p == len(runs) - 1 else "", anchor=f"y{ax}",
+                                        matches="x" if p else None, showticklabels=p == len(runs) - 1)
         notes.append({"xref": "paper", "x": 0, "yref": "paper", "y": doms[p][1], "yanchor": "bottom", "xanchor": "left",
-                      "text": f"<b>{label}</b>", "showarrow": False})
+                      "text": f"<b>{r['title']}</b>", "showarrow": False})
     layout["annotations"] = notes
-    cap = "Normal force of each foot on the ground (legs numbered as in the paper, 1-6); a foot in the air carries none."
-    return kit.panel("forces", "Foot normal forces per leg", cap, kit.figure(data, layout), height=200 * len(names) + 120)
+    cap = ("Normal force of each foot on the ground (legs numbered as in the paper, 1-6; legs 4-6 dashed); a foot in "
+           "the air carries none. Dotted, in the leg's colour: the force the QP (Eq. 16-24) asks of that foot while it runs.")
+    return kit.panel("forces", FORCES_TITLE, cap, kit.figure(data, layout), height=200 * len(runs) + 120)
 
 
-def tilt_view(traces: Mapping) -> dict | None:
+def tilt_lines(traces: Mapping) -> list[dict]:
+    """The tilt plot's lines: per run the body's tilt relative to the ground, clipped to
+    +-TILT_CLIP, in the run's colour; then the platform's tilt from the run that lasted
+    longest (a run that fell ends early), grey and dashed. Each {name, color, dash, t, y}."""
     names = _run_order(traces)
-    data = []
+    out = []
     for i, name in enumerate(names):
         tr = traces[name]
-        if "tilt_rel_deg" not in tr:
-            continue
-        t = np.asarray(tr["time_s"], dtype=float)
-        step = kit.stride(len(t))
-        label, color = _style(name, i)
-        data.append(kit.line(kit.series(t, step, digits=3), kit.series(np.clip(tr["tilt_rel_deg"], -90, 90), step, digits=3),
-                             f"body vs ground, {label}", color))
-    # the platform's tilt from the run that lasted longest (a run that fell ends early)
+        if "tilt_rel_deg" in tr:
+            label, color = _style(name, i)
+            out.append({"name": f"body vs ground, {label}", "color": color, "dash": "solid", "t": tr["time_s"],
+                        "y": np.clip(np.asarray(tr["tilt_rel_deg"], dtype=float), -TILT_CLIP, TILT_CLIP)})
     tilted = [n for n in names if "platform_tilt_deg" in traces[n] and np.any(traces[n]["platform_tilt_deg"])]
     if tilted:
         tr = traces[max(tilted, key=lambda n: float(np.asarray(traces[n]["time_s"])[-1]))]
-        t = np.asarray(tr["time_s"], dtype=float)
-        step = kit.stride(len(t))
-        data.append(kit.line(kit.series(t, step, digits=3), kit.series(tr["platform_tilt_deg"], step, digits=3),
-                             "platform tilt", kit.NEUTRAL, dash="dash"))
+        out.append({"name": "platform tilt", "color": kit.NEUTRAL, "dash": "dash", "t": tr["time_s"],
+                    "y": np.asarray(tr["platform_tilt_deg"], dtype=float)})
+    return out
+
+
+def tilt_view(traces: Mapping) -> dict | None:
+    data = []
+    for ln in tilt_lines(traces):
+        step = kit.stride(len(ln["t"]))
+        data.append(kit.line(kit.series(ln["t"], step, digits=3), kit.series(ln["y"], step, digits=3), ln["name"],
+                             ln["color"], dash=ln["dash"]))
     if not data:
         return None
-    layout = {"xaxis": kit.axis("time (s)"), "yaxis": kit.axis("tilt (°)"), "hovermode": "x unified"}
-    return kit.panel("tilt", "Platform and body tilt", "Body tilt relative to the ground it stands on, clipped to ±90°.",
-                     kit.figure(data, layout), height=320)
+    layout = {"xaxis": kit.axis(TIME), "yaxis": kit.axis(TILT_AXIS), "hovermode": "x unified"}
+    return kit.panel("tilt", TILT_TITLE, f"Body tilt relative to the ground it stands on, clipped to ±{TILT_CLIP:g}°; "
+                     "the platform's tilt dashed.", kit.figure(data, layout), height=320)
 
 
 def sweep_view(sweep: dict) -> dict:
