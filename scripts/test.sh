@@ -35,9 +35,28 @@ fi
 # The suite writes nothing into the checkout (tests/conftest.py fails the run if it does);
 # bytecode caches go to a temporary folder too.
 export PYTHONPYCACHEPREFIX="${TMPDIR:-/tmp}/gaitmend-pycache"
+# Two parts. Most tests wait on processes they start (workers, servers, a browser), so they
+# run on two pytest-xdist workers, a whole file per worker (a file's module fixtures run
+# once). The tests marked `serial` (fault injection against the real services, with
+# wall-clock bounds: tests/faults) then run alone. GAITMEND_TEST_WORKERS=0 runs everything
+# in one process; a `-m` of the caller's runs its selection once, in parallel.
+WORKERS=${GAITMEND_TEST_WORKERS:-2}
+own_m=0
+for a in "$@"; do case "$a" in -m|-m*) own_m=1 ;; esac; done
 set +e
-python -m pytest "$@"
-rc=$?
+if [ "$WORKERS" = "0" ]; then
+  python -m pytest "$@"; rc=$?
+elif [ "$own_m" = "1" ]; then
+  python -m pytest -n "$WORKERS" --dist loadfile "$@"; rc=$?
+else
+  python -m pytest -n "$WORKERS" --dist loadfile -m "not serial" "$@"; rc1=$?
+  python -m pytest -m serial "$@"; rc2=$?
+  # exit 5: that part collected nothing (a selection of the caller's can leave one part empty)
+  if [ "$rc1" -eq 5 ] && [ "$rc2" -eq 5 ]; then rc=5
+  elif [ "$rc1" -ne 0 ] && [ "$rc1" -ne 5 ]; then rc=$rc1
+  elif [ "$rc2" -ne 0 ] && [ "$rc2" -ne 5 ]; then rc=$rc2
+  else rc=0; fi
+fi
 set -e
 # Exit 5 means pytest collected nothing: a broken checkout, so say so and fail.
 if [ "$rc" -eq 5 ]; then

@@ -65,6 +65,17 @@ def redis_url():
         r.delete(*keys)
 
 
+# -- which tests run alone -----------------------------------------------------------------------
+
+def pytest_collection_modifyitems(config, items):
+    """The fault-injection tests (tests/faults) bound how fast jobs move after a fault in wall
+    time, against real services: scripts/test.sh runs them after the parallel part, alone."""
+    faults = ROOT / "tests" / "faults"
+    for item in items:
+        if faults in Path(str(item.fspath)).parents:
+            item.add_marker(pytest.mark.serial)
+
+
 # -- the suite writes nothing into the checkout (issue 16.11) ----------------------------------
 
 def _untracked() -> set[str] | None:
