@@ -96,5 +96,6 @@ def figure_panel(fig: Figure, title: str | None = None) -> dict:
         xs.add(ax.get_xlabel())
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()] + ([fig._suptitle.get_text()] if fig._suptitle else [])
     return {"title": title if title in titles else titles, "series": {k: sorted(v) for k, v in series.items()},
-            "legend": sorted(legend), "vlines": sorted(vlines), "hlines": sorted(hlines), "spans": sorted(spans),
+            "legend": sorted(legend), "vlines": sorted(vlines), "hlines": sorted(hlines),
+            "spans": sorted(set(spans)),  # one page span (yref paper) shades every row of the figure
             "notes": sorted(notes), "x": sorted(xs - {""})}

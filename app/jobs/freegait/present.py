@@ -6,8 +6,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from app.jobs.base import HeadlineRow, JobResult, ReplayTrack, Table, headline_row, table
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.freegait.spec import TARGET, target_parts
@@ -35,9 +33,12 @@ TRACES = {"walk": "the planner's walk (per 0.1 s control period: pose, leg phase
           "unaware": "the same route with the forbidden zones ignored (control, Fig. 9a)",
           "aware": "the same route with the forbidden zones known (control)"}
 FIGURES = {
-    "minefield": "top view: footholds over the forbidden zones and safe areas, walk and control (Fig. 9)",
-    "margins": "stability margin SM and robot kinematic margin K_R against time, body stops shaded (Fig. 8b-c)",
-    "gait_diagram": "support (bar) and transfer of each leg against time (Fig. 8a)",
+    "minefield": "top view: footholds over the forbidden zones and safe areas (Fig. 9), the walk and its control "
+                 "(zones ignored) each in its own panel (the job page draws both on one map, the control behind "
+                 "its legend entries); names and colours as on the page",
+    "margins": "stability margin SM with SM_min and robot kinematic margin K_R against time, body stops shaded "
+               "(Fig. 8b-c; the job page's margins plot)",
+    "gait_diagram": "support (bar) and transfer of each leg against time, tripod 1 blue, tripod 2 orange (Fig. 8a)",
 }
 PHASE_NAMES = ("support", "subphase 1", "subphase 2", "subphase 3")
 
@@ -147,85 +148,11 @@ def replay_style(trace_names: list[str]) -> list[ReplayTrack]:
     return out
 
 
-# -- bundle figures ----------------------------------------------------------------------------
-
-def _draw_zones(ax, s: dict) -> None:
-    from app.core.plots import plt  # matplotlib only when drawing (the CLI starts faster)
-    f = s["field"]
-    for x, y in s.get("zones", []):
-        ax.add_patch(plt.Circle((x, y), f["safe_radius_m"], color="0.75", zorder=1))
-        ax.add_patch(plt.Circle((x, y), f["zone_radius_m"], color="k", zorder=2))
-
-
-def minefield_figure(s: dict, traces: dict, out: Path) -> list[Path]:
-    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
-    ctl = s.get("control_footholds")
-    panels = [("walk", s.get("footholds_list") or [])] + ([(ctl["name"], ctl["footholds"])] if ctl else [])
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.8 * len(panels)), squeeze=False, constrained_layout=True)
-    for ax, (name, feet) in zip(axes[:, 0], panels):
-        _draw_zones(ax, s)
-        if name in traces:
-            p = np.asarray(traces[name]["pos"])
-            ax.plot(p[:, 0], p[:, 1], color="tab:blue", lw=1, label="body centre")
-        xy = np.array([[f["x"], f["y"]] for f in feet]) if feet else np.zeros((0, 2))
-        bad = np.array([f["in_zone"] for f in feet], dtype=bool) if feet else np.zeros(0, bool)
-        ax.scatter(xy[~bad, 0], xy[~bad, 1], s=18, facecolors="none", edgecolors="tab:blue", zorder=3, label="foothold")
-        if bad.any():
-            ax.scatter(xy[bad, 0], xy[bad, 1], s=40, marker="x", color="tab:red", zorder=4, label="foothold in a zone")
-        lo = xy.min(axis=0) - 0.3 if len(xy) else np.array([-1, -1])
-        hi = xy.max(axis=0) + 0.3 if len(xy) else np.array([1, 1])
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
-        ax.set_aspect("equal")
-        ax.set_title(f"{name}: {int(bad.sum())} of {len(feet)} footholds in forbidden zones")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        ax.legend(loc="upper right", fontsize=7)
-    return _save(fig, out, "minefield")
-
-
-def margins_figure(s: dict, traces: dict, out: Path) -> list[Path]:
-    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
-    tr = traces["walk"]
-    t = np.asarray(tr["time_s"])
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
-    a1.plot(t, tr["sm_m"], color="tab:blue", lw=1)
-    a1.axhline(s.get("sm_min_m", 0.05), color="tab:red", ls="--", lw=1, label="SM_min")
-    a1.set_ylabel("SM (m)")
-    a1.legend(fontsize=7)
-    a2.plot(t, tr["k_r_m"], color="tab:green", lw=1)
-    a2.axhline(0.0, color="k", lw=0.8)
-    a2.set_ylabel("K_R (m)")
-    a2.set_xlabel("time (s)")
-    stop = np.asarray(tr["stop"]) > 0
-    for ax in (a1, a2):
-        ax.fill_between(t, 0, 1, where=stop, transform=ax.get_xaxis_transform(), color="tab:red", alpha=0.12, lw=0)
-    return _save(fig, out, "margins")
-
-
-def gait_diagram_figure(traces: dict, out: Path) -> list[Path]:
-    from app.core.plots import _save, plt  # matplotlib only when drawing (the CLI starts faster)
-    tr = traces["walk"]
-    t = np.asarray(tr["time_s"])
-    ph = np.asarray(tr["phase"])
-    fig, ax = plt.subplots(figsize=(8, 2.8))
-    dt = float(t[1] - t[0]) if len(t) > 1 else 0.1
-    for leg in range(6):
-        sup = ph[:, leg] == 0
-        edges = np.flatnonzero(np.diff(np.r_[0, sup.astype(int), 0]))
-        for a, b in zip(edges[::2], edges[1::2]):
-            ax.plot([t[a], t[b - 1] + dt], [leg + 1, leg + 1], color="k", lw=5, solid_capstyle="butt")
-    ax.set_yticks(range(1, 7))
-    ax.set_yticklabels([f"leg {i}" for i in range(1, 7)])
-    ax.invert_yaxis()
-    ax.set_xlabel("time (s)")
-    ax.set_title("support phase (bar) and transfer (gap) per leg")
-    return _save(fig, out, "gait_diagram")
-
-
 def figures(result: JobResult, out: Path) -> list[Path]:
+    from app.jobs.freegait import plots as P  # matplotlib only when drawing (the CLI starts faster)
+
     s, tr = result.summary, result.traces
-    files = minefield_figure(s, tr, out)
-    files += margins_figure(s, tr, out)
-    files += gait_diagram_figure(tr, out)
+    files = P.minefield_figure(s, tr, out)
+    files += P.margins_figure(s, tr, out)
+    files += P.gait_diagram_figure(tr, out)
     return files
