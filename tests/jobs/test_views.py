@@ -47,9 +47,8 @@ def test_tipping_margin_has_threshold_detection_and_stops_at_the_fall():
     assert max(without["x"]) <= 12.0 and min(without["y"]) > -180  # the line ends where the robot fell
     notes = [a["text"] for a in margin["layout"]["annotations"]]
     assert any(n.startswith("detected 5.00 s") for n in notes) and any("leg 6 lands" in n for n in notes)
-    # SSM and NESM in their own row beneath the FASM (as the bundle's figure draws them, issue 25)
-    extra = {d["name"] for d in margin["data"] if d.get("yaxis") == "y2" and d.get("visible", True) is True}
-    assert {"SSM with recovery (m)", "NESM with recovery (m)"} <= extra
+    hidden = [d["name"] for d in margin["data"] if d.get("visible") == "legendonly"]
+    assert {"SSM with recovery (m)", "NESM with recovery (m)"} <= set(hidden)
     forces = next(v for v in views if v["id"] == "forces")["figure"]
     legend = [d["name"] for d in forces["data"] if d.get("showlegend", True)]
     assert legend == [f"leg {i}" for i in range(1, 7)]  # numbered as the paper, from 1

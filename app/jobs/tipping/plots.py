@@ -4,7 +4,9 @@ leg with the QP's; platform and body tilt; the recovery success rate per tilt di
 
 The first three draw the job page's panels from the same description (views.margin_runs,
 margin_events, force_runs, tilt_lines and their titles and colours), so the figures and the
-page name, colour, clip and cut the same lines (issue 25)."""
+page name, colour, clip and cut the same lines (issue 25). The page keeps SSM and NESM behind
+their legend entries on a right-hand axis; a figure cannot hide a line until clicked, so it
+draws them in a row of their own between the FASM and the critical edge."""
 
 from __future__ import annotations
 

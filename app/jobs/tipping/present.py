@@ -34,7 +34,8 @@ TRACES = {"recovery": "the run with tipping recovery on",
 FIGURES = {
     "margin_timeline": "FASM stability margin against time with the threshold, detection and landing marked, each run's "
                        "line ending at a cross where it tipped over, clipped to [-45, 90] deg (Fig. 6); beneath it SSM "
-                       "and NESM and the critical support edge (the job page's margin plot)",
+                       "and NESM (on the job page behind their legend entries: a figure cannot hide them until "
+                       "clicked) and the critical support edge; otherwise the job page's margin plot",
     "foot_forces": "foot normal forces per leg against time (legs 4-6 dashed), dotted: the QP's force for the foot "
                    "while it runs (the job page's force plot)",
     "tilt": "body tilt relative to the ground (clipped to +-90 deg) and the platform's tilt against time (the job "

@@ -1,8 +1,8 @@
 """Dashboard views of the tipping kind (paper 002): the FASM margin against time with the
-threshold, detection and landing marked, with and without recovery, SSM and NESM beneath
-it and the critical support edge below them; foot normal forces per leg (with the QP's);
-body and platform tilt; the direction sweep as a polar success rate; the adjustments and
-runs as tables. Legs are numbered as in the paper, from 1.
+threshold, detection and landing marked, with and without recovery (SSM and NESM one click
+away in the legend), the critical support edge beneath it; foot normal forces per leg (with
+the QP's); body and platform tilt; the direction sweep as a polar success rate; the
+adjustments and runs as tables. Legs are numbered as in the paper, from 1.
 
 The margin, force and tilt plots are described once here (``margin_runs``,
 ``margin_events``, ``force_runs``, ``tilt_lines`` and the titles and colours beside them):
@@ -102,8 +102,8 @@ def margin_caption(thr: float) -> str:
     return (f"Force-angle stability margin (Eq. 3-9) of the critical support edge; below the {thr:g}° threshold the "
             "robot is judged to be tipping. The dashed vertical line is the detection, dotted lines the adjustment "
             "leg landing; the cross marks where the robot tipped over (its lines end there). Margins are clipped to "
-            f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. Beneath: the support-stability (SSM) and energy (NESM) margins of the "
-            "same polygon, and the edge the margin is measured about.")
+            f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. Beneath: the edge the margin is measured about. SSM and NESM of the same "
+            "polygon (right axis): click their legend entries (the bundle's figure draws them in a row of their own).")
 
 
 def _margin_traces(runs: list[dict]) -> list[dict]:
@@ -116,7 +116,7 @@ def _margin_traces(runs: list[dict]) -> list[dict]:
                              hovertemplate="%{y:.1f}°<extra>FASM " + label + "</extra>"))
         for nice, (v, dash) in r["extra"].items():
             data.append(kit.line(x, kit.series(v, step, digits=4), f"{nice} {label} (m)", color, dash=dash, width=1.5,
-                                 yaxis="y2", legendgroup=name))
+                                 yaxis="y2", visible="legendonly", legendgroup=name))
         if r["edges"]:
             data.append({"type": "scatter", "mode": "markers", "x": x, "y": r["edges"][::step], "yaxis": "y3",
                          "name": f"critical edge {label}", "legendgroup": name, "showlegend": False,
@@ -145,11 +145,11 @@ def margin_view(summary: dict, traces: Mapping) -> dict:
         notes.append(n)
     fasm, extra, edge = MARGIN_AXES
     layout = {"xaxis": kit.axis(TIME, anchor="free", position=0.0),
-              "yaxis": kit.axis(fasm, range=[CLIP[0] - 5, CLIP[1]], domain=[0.44, 1.0]),
-              "yaxis2": kit.axis(extra, domain=[0.23, 0.39], anchor="x"),
-              "yaxis3": kit.axis(edge, domain=[0.0, 0.18], anchor="x", type="category"),
-              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 24, "t": 36, "b": 44}}
-    return kit.panel("margin", MARGIN_TITLE, margin_caption(thr), kit.figure(data, layout), height=560)
+              "yaxis": kit.axis(fasm, range=[CLIP[0] - 5, CLIP[1]], domain=[0.3, 1.0]),
+              "yaxis2": kit.axis(extra, overlaying="y", side="right", showgrid=False),
+              "yaxis3": kit.axis(edge, domain=[0.0, 0.2], anchor="x", type="category"),
+              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 64, "t": 36, "b": 44}}
+    return kit.panel("margin", MARGIN_TITLE, margin_caption(thr), kit.figure(data, layout), height=520)
 
 
 def force_runs(traces: Mapping) -> list[dict]:
