@@ -15,6 +15,8 @@
 - ``detectable``: the smallest true mean difference that a paired two-sided t-test at
   level alpha finds with the given power, from the observed spread and the pair count:
   what a null result can and cannot exclude (the power statement of a "not shown").
+- ``pairs_needed``: the pairs that ``detectable`` says find a given difference, never fewer
+  than ``fewest_pairs`` (the signed-rank test cannot reject with fewer).
 - ``success_rate``: a success count with its Clopper-Pearson interval
   (``scipy.stats.binomtest(...).proportion_ci(method="exact")``).
 """
@@ -195,17 +197,22 @@ def detectable(sd: float, n: int, alpha: float = 0.05, power: float = 0.8) -> fl
 
 
 def pairs_needed(effect: float, sd: float, alpha: float = 0.05, power: float = 0.8, most: int = 10_000) -> int | None:
-    """How many pairs a two-sided paired t-test at ``alpha`` needs to find a true mean
-    difference ``effect`` with probability ``power`` when the differences spread ``sd``
-    (None: more than ``most``, or no effect)."""
+    """How many pairs it takes to show a true mean difference ``effect`` with probability
+    ``power`` when the differences spread ``sd`` (None: more than ``most``, or no effect):
+    the pairs a two-sided paired t-test at ``alpha`` needs, and never fewer than
+    ``fewest_pairs`` at that level, below which the signed-rank test that the verdict also
+    needs cannot reject, however large the difference (a t-test alone may need only 2)."""
     if not effect or sd is None:
         return None
-    ok = lambda n: detectable(sd, n, alpha, power) <= abs(effect)  # noqa: E731 (falls as n grows)
+    floor = fewest_pairs(1.0 - alpha)
+    if floor > most:
+        return None
+    ok = lambda n: n >= floor and detectable(sd, n, alpha, power) <= abs(effect)  # noqa: E731 (falls as n grows)
     lo, hi = 1, 2
     while not ok(hi):
-        lo, hi = hi, hi * 2
-        if hi > most:
+        if hi >= most:
             return None
+        lo, hi = hi, min(2 * hi, most)
     while hi - lo > 1:  # bisection: ok(hi), not ok(lo)
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if ok(mid) else (mid, hi)

@@ -123,6 +123,31 @@ def test_pairs_needed():
     assert stats.pairs_needed(0.0, 1.0) is None
 
 
+def test_pairs_needed_is_never_fewer_than_the_signed_rank_test_can_reject_with():
+    # a large effect: the t-test alone finds it with 2-3 pairs, but below fewest_pairs the
+    # signed-rank test (which the "shown" rule also needs) cannot give p < alpha at all
+    assert stats.detectable(1.0, 3) <= 10.0
+    assert stats.pairs_needed(10.0, 1.0) == stats.fewest_pairs() == 6
+    assert stats.pairs_needed(-10.0, 1.0) == 6 and stats.pairs_needed(1.0, 0.0) == 6  # no spread at all
+    assert stats.pairs_needed(10.0, 1.0, alpha=0.1) == stats.fewest_pairs(0.9) == 5
+    assert stats.pairs_needed(10.0, 1.0, alpha=0.01) == stats.fewest_pairs(0.99) == 8
+    # with the floor met, six pairs of that effect are shown by the rule itself
+    assert stats.paired([10.0, 10.5, 9.5, 10.2, 9.8, 10.1], [0.0] * 6)["shown"] == "method"
+    assert stats.pairs_needed(10.0, 1.0, most=5) is None  # the floor is over the most asked for
+    # above the floor the t-test's count stands, as before
+    n = stats.pairs_needed(1.0, 2.0)
+    assert n > 6 and stats.detectable(2.0, n - 1) > 1.0
+
+
+def test_pairs_needed_between_a_power_of_two_and_most_is_counted():
+    # 787 pairs: the search must not jump from 512 to 1024 and call it "more than 1000"
+    n = stats.pairs_needed(0.1, 1.0, most=1000)
+    assert 512 < n <= 1000
+    assert stats.detectable(1.0, n) <= 0.1 < stats.detectable(1.0, n - 1)
+    assert n == stats.pairs_needed(0.1, 1.0)
+    assert stats.pairs_needed(0.1, 1.0, most=n - 1) is None and stats.pairs_needed(0.1, 1.0, most=n) == n
+
+
 def test_success_rate_is_clopper_pearson():
     r = stats.success_rate(0, 20)
     assert r["ci"][0] == 0.0 and r["ci"][1] == pytest.approx(1 - 0.025 ** (1 / 20))  # the exact upper bound for k = 0

@@ -1,0 +1,68 @@
+"""app/jobs/multigait/experiments.py's generated words: the generation-mean sentence says
+what the paired verdict shows (a rise, a fall, or neither), and the seeds-needed column of
+the PSO-against-random table is never below the pairs the signed-rank test can reject with."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from app.jobs import stats
+from app.jobs.multigait import experiments as ex
+from app.jobs.multigait.compare import METRICS
+
+
+def _run(first: float, last: float, best: float = 20.0) -> dict:
+    """One paper-budget run whose swarm mean is ``first`` over the first WINDOW
+    generations and ``last`` over the last WINDOW."""
+    hist = [{"mean": first} for _ in range(ex.WINDOW)] + [{"mean": last} for _ in range(ex.WINDOW)]
+    return {"history": hist, "result": {"final_best": best}}
+
+
+def _claim(pairs: list[tuple[float, float]]) -> str:
+    return ex.render_mean_claim([[_run(a, b) for a, b in pairs]])
+
+
+def test_a_shown_rise_says_the_mean_does_rise():
+    text = _claim([(4.0, 4.0 + 0.5 + 0.1 * i) for i in range(7)])
+    assert "(shown)**" in text and "**does rise**, by about 0.8 points" in text
+    assert "the best's 5x" in text  # 20 % against the first generations' 4.0 %
+
+
+def test_a_rise_that_is_not_shown_is_not_called_one():
+    # four runs, every one up: the t interval excludes 0, but 4 pairs cannot give p < 0.05
+    four = _claim([(4.0, 5.0), (4.0, 5.2), (4.0, 4.9), (4.0, 5.1)])
+    assert stats.fewest_pairs() > 4
+    assert "not shown (interval excludes 0" in four
+    assert "does rise" not in four and "**not shown** either way" in four
+    mixed = _claim([(4.0, 4.0 + d) for d in (0.3, -0.4, 0.2, -0.1, 0.5, -0.3, 0.1, -0.2)])
+    assert "does rise" not in mixed and "**not shown** either way" in mixed
+
+
+def test_a_shown_fall_says_it_falls():
+    text = _claim([(5.0, 4.0 - 0.1 * i) for i in range(7)])
+    assert "**falls**, by about 1.3 points" in text and "does rise" not in text and "toward worse" in text
+
+
+def _compare_rows(diff: float, n: int) -> list[dict]:
+    rows = []
+    for seed in range(n):
+        for arm, add in (("random", 0.0), ("paper", diff), ("constriction", diff)):
+            rows.append({"arm": arm, "seed": seed, "particles": 20, "generations": 20, "evaluations": 400,
+                         **{key: 10.0 + add + 0.3 * ((seed * 7) % 5) * (arm != "random") for key, _ in METRICS}})
+    return rows
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_seeds_needed_is_never_below_what_the_signed_rank_test_can_reject_with(n):
+    text = ex.render_compare_stats([_compare_rows(10.0, n)])
+    floor = stats.fewest_pairs()
+    assert f"at least {floor}: the signed-rank test cannot reject with fewer" in text
+    needed = [int(line.rsplit("|", 2)[1]) for line in text.splitlines() if re.match(r"\| (paper|constriction) vs", line)]
+    assert len(needed) == 2 * len(METRICS)
+    assert needed == [floor] * len(needed)  # a 10-point difference with a spread under 1: the t-test alone needs 2-3
+    # fewer seeds than the floor: no advantage is excluded, however large
+    assert f"at this budget and {n} seeds no true advantage of PSO is excluded, however large" in text
+    six = ex.render_compare_stats([_compare_rows(0.1, floor)])
+    assert "however large" not in six and "smaller than the power column is not excluded" in six
