@@ -102,8 +102,9 @@ def margin_caption(thr: float) -> str:
     return (f"Force-angle stability margin (Eq. 3-9) of the critical support edge; below the {thr:g}° threshold the "
             "robot is judged to be tipping. The dashed vertical line is the detection, dotted lines the adjustment "
             "leg landing; the cross marks where the robot tipped over (its lines end there). Margins are clipped to "
-            f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. Beneath: the edge the margin is measured about. SSM and NESM of the same "
-            "polygon (right axis): click their legend entries (the bundle's figure draws them in a row of their own).")
+            f"[{CLIP[0]:g}°, {CLIP[1]:g}°]. Beneath: the edge the margin is measured about, named as in Table II "
+            "(a35 is the edge between feet 3 and 5). SSM and NESM of the same polygon (right axis): click their legend "
+            "entries (the bundle's figure draws them in a row of their own).")
 
 
 def _margin_traces(runs: list[dict]) -> list[dict]:
@@ -146,9 +147,12 @@ def margin_view(summary: dict, traces: Mapping) -> dict:
     fasm, extra, edge = MARGIN_AXES
     layout = {"xaxis": kit.axis(TIME, anchor="free", position=0.0),
               "yaxis": kit.axis(fasm, range=[CLIP[0] - 5, CLIP[1]], domain=[0.3, 1.0]),
-              "yaxis2": kit.axis(extra, overlaying="y", side="right", showgrid=False),
+              # no zero line of its own: it fell off the FASM zero, a stray line across the plot
+              "yaxis2": kit.axis(extra, overlaying="y", side="right", showgrid=False, zeroline=False),
               "yaxis3": kit.axis(edge, domain=[0.0, 0.2], anchor="x", type="category"),
-              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 64, "t": 36, "b": 44}}
+              "shapes": shapes, "annotations": notes, "hovermode": "x unified", "margin": {"l": 56, "r": 64, "t": 36, "b": 44},
+              # the legend clears the detection's label above the plot (on a phone its last rows covered it)
+              "legend": {"orientation": "h", "y": 1.08, "yanchor": "bottom", "x": 0}}
     return kit.panel("margin", MARGIN_TITLE, margin_caption(thr), kit.figure(data, layout), height=520)
 
 
