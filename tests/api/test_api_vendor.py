@@ -1,10 +1,12 @@
 """The dashboard's two plotly.js bundles (app/api/routes/dashboard.py): the full one from the
 pinned plotly package and the vendored cartesian build (web/vendor, scripts/vendor_plotly.sh)
-are one plotly.js release; each page's head names both by a versioned URL; an unknown script
-name is a 404 naming the ones there are."""
+are one plotly.js release; each page's head names both by a versioned URL; both go with V8's
+compile hint before the file's own bytes, gzipped on request; an unknown script name is a 404
+naming the ones there are."""
 
 from __future__ import annotations
 
+import gzip
 import re
 
 import pytest
@@ -12,7 +14,7 @@ from fastapi.testclient import TestClient
 from service_support import deployment, migrated
 
 from app.api import create_app
-from app.api.routes.dashboard import PLOTLY_BUNDLES, _plotly_js
+from app.api.routes.dashboard import COMPILE_HINT, PLOTLY_BUNDLES, _plotly_js
 
 
 def _release(path) -> str:
@@ -48,3 +50,22 @@ def test_pages_name_both_bundles_and_each_goes_gzipped(client):
     r = client.get("/vendor/jquery.min.js")
     assert r.status_code == 404 and r.json()["errors"][0]["field"] == "name"
     assert "plotly-cartesian" in r.json()["detail"]
+
+
+def test_both_bundles_start_with_the_compile_hint_and_are_otherwise_the_files_bytes(client):
+    """Chrome compiles a script that starts with //# allFunctionsCalledOnLoad while it streams
+    in, off the page's thread; the rest is the bundle's file byte for byte, gzipped on the
+    wire when the browser takes it and plain when it does not."""
+    assert COMPILE_HINT == b"//# allFunctionsCalledOnLoad\n"
+    page = client.get("/jobs/whatever").text
+    for name in PLOTLY_BUNDLES:
+        want = COMPILE_HINT + _plotly_js(name).read_bytes()
+        url = re.search(rf'<meta name="gm-{name}" content="([^"]+)"', page).group(1)
+        with client.stream("GET", url, headers={"Accept-Encoding": "gzip"}) as r:
+            wire = b"".join(r.iter_raw())
+            assert r.headers["content-encoding"] == "gzip", name
+        assert wire[:2] == b"\x1f\x8b" and gzip.decompress(wire) == want, name
+        assert len(wire) < len(want) / 2.5, (name, len(wire), len(want))  # 4.8 MB -> 1.4, 1.5 -> 0.5
+        plain = client.get(url, headers={"Accept-Encoding": "identity"})
+        assert "content-encoding" not in plain.headers and plain.content == want, name
+        assert plain.headers["content-type"].startswith("text/javascript")
