@@ -132,6 +132,12 @@ def test_tipping_through_the_form(page, new_page, server, shots):
     # SSM / NESM are there on request (legend), hidden at first
     hidden = jp.evaluate("document.getElementById('plot-margin').data.filter(t => t.visible === 'legendonly').map(t => t.name)")
     assert any(n.startswith("SSM") for n in hidden) and any(n.startswith("NESM") for n in hidden)
+    # beneath it, the critical support edge of each run in a row of its own (Table II's names,
+    # a category axis), the shared time axis along the page's bottom
+    lay = jp.evaluate("(({yaxis3, xaxis}) => ({edge: yaxis3.type, pos: xaxis.position}))(document.getElementById('plot-margin').layout)")
+    assert lay == {"edge": "category", "pos": 0}, lay
+    edges = jp.evaluate("document.getElementById('plot-margin').data.filter(t => t.yaxis === 'y3').flatMap(t => t.y)")
+    assert edges and {e[0] for e in edges} == {"a"} and all(len(e) == 3 and set(e[1:]) <= set("123456") for e in edges), edges
 
     # the headline is the kind's: every row it gives is on the page (chosen leg, foothold,
     # time to tip, margins when a leg was caught), booleans in words
