@@ -145,3 +145,28 @@ def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_pag
         pg.screenshot(path=shots / f"{name}-390.png", full_page=True)
         glance.no_axe_faults(pg, f"{name} page")
         glance.fits_width(pg)
+        if name == "study":
+            _verdict_fits_a_phone(pg)
+    # the desktop keeps the verdict a table, its notes readable beside the values
+    assert page.locator("#panel-verdict table").evaluate("t => getComputedStyle(t).display") == "table"
+
+
+def _verdict_fits_a_phone(pg):
+    """The verdict over the seeds at 390 px: no sideways scroll (its table showed 2 of 6
+    columns, the rest behind an unmarked scroll, rows ~280 px tall), every cell on screen
+    under its column's name."""
+    table = pg.locator("#panel-verdict table")
+    wrap = pg.locator("#panel-verdict .table-wrap")
+    assert wrap.evaluate("w => w.scrollWidth <= w.clientWidth + 1"), \
+        wrap.evaluate("w => [w.scrollWidth, w.clientWidth]")
+    heads = table.locator("thead th").all_inner_texts()
+    assert len(heads) == 6, heads
+    right = wrap.bounding_box()["x"] + wrap.bounding_box()["width"]
+    for row in table.locator("tbody tr").all():
+        cells = row.locator("td")
+        assert cells.evaluate_all("cs => cs.map((c) => c.dataset.label)") == heads[1:]
+        for k in range(cells.count()):
+            box = cells.nth(k).bounding_box()
+            assert box["width"] > 0 and box["x"] + box["width"] <= right + 1, (heads[k + 1], box, right)
+        # a label above its value: the column's name is on screen, not only in the head
+        assert cells.first.evaluate("c => getComputedStyle(c, '::before').content") == f'"{heads[1]}"'

@@ -55,8 +55,11 @@
         const r = ((c.views && c.views.headline) || []).find((x) => x.label === label);
         if (!r) return "–";
         const v = GMViews.show(r.value, 3);
-        return r.met === true ? el("span", {}, v, el("span", { class: "mark met", text: "✓ met" }))
-          : r.met === false ? el("span", {}, v, el("span", { class: "mark unmet", text: "✗ not met" })) : v;
+        if (r.met !== true && r.met !== false) return v;
+        const mark = el("span", { class: `mark ${r.met ? "met" : "unmet"}`, text: r.met ? "✓ met" : "✗ not met" });
+        // a row whose value is the verdict itself ("not met") says it once, in the mark
+        // (it read "not met ✗ not met"); a number keeps its value beside the mark
+        return v === "met" || v === "not met" ? el("span", { class: "verdict-only" }, mark) : el("span", {}, v, mark);
       })]);
     }
     return rows;

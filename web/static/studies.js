@@ -33,6 +33,17 @@
         : el("p", { class: "small muted", text: "No studies yet: submit one below." }));
   }
 
+  // The verdict over the seeds has six columns with long notes: on a phone each row is a card
+  // (app.css, table.stack), every cell under its column's name; a desktop keeps the table.
+  function stackOnPhone(table) {
+    if (!table) return;
+    const heads = [...table.querySelectorAll("thead th")].map((th) => th.textContent.trim());
+    for (const tr of table.querySelectorAll("tbody tr")) {
+      [...tr.children].forEach((c, i) => { if (i > 0 && heads[i]) c.setAttribute("data-label", heads[i]); });
+    }
+    table.classList.add("stack");
+  }
+
   async function one() {
     $("new-study").hidden = true;
     const s = await api(`/api/studies/${id}`);
@@ -51,6 +62,7 @@
         j.error ? ` ${j.error}` : "")))].filter(Boolean));
     const v = await api(s.links.views);
     GMViews.panels($("study-views"), v.panels);
+    stackOnPhone($("study-views").querySelector("#panel-verdict table"));
     if (s.status === "running" || s.status === "queued") setTimeout(() => one().catch(showError), 3000);
   }
 
