@@ -142,6 +142,26 @@ const GM = (() => {
 
   const narrow = () => window.matchMedia("(max-width: 700px)").matches;
 
+  // On a phone a long axis title ("coverage (% of map cells), higher better") outgrew its axis: cut
+  // off at the ends, and a y title reached up into the legend. Such a title goes on two lines there
+  // (at its last comma, else its middle space), with room made for it (automargin).
+  function phoneTitles(layout) {
+    if (!narrow()) return layout;
+    for (const [k, ax] of Object.entries(layout)) {
+      const t = /^[xy]axis\d*$/.test(k) && ax && ax.title;
+      const text = t && (typeof t === "string" ? t : t.text);
+      if (!text || text.length <= 28 || text.includes("<br>")) continue;
+      let at = text.lastIndexOf(", ") + 1;
+      if (at <= 0) at = text.indexOf(" ", Math.floor(text.length / 2));
+      if (at <= 0) continue;
+      const two = `${text.slice(0, at).trimEnd()}<br>${text.slice(at).trimStart()}`;
+      const title = { ...(typeof t === "string" ? {} : t), text: two, font: { size: 12 } };
+      layout[k] = { ...ax, automargin: true, title };
+    }
+    layout.legend = { font: { size: 11 }, ...layout.legend }; // shorter rows leave the plot more height
+    return layout;
+  }
+
   // Plotly with the same look everywhere; responsive, no logo, hover on. On a phone the
   // toolbar is off (it covered the legends); pinch and the legend still work. Resolves once
   // drawn (the div then carries data-rendered="1").
@@ -157,7 +177,7 @@ const GM = (() => {
       div.classList.remove("plot-empty");
       div.textContent = "";
     }
-    const out = await P.react(div, traces, Object.assign(base, layout),
+    const out = await P.react(div, traces, phoneTitles(Object.assign(base, layout)),
       { responsive: true, displaylogo: false, displayModeBar: narrow() ? false : "hover",
         modeBarButtonsToRemove: ["lasso2d", "select2d"] });
     div.dataset.rendered = "1";

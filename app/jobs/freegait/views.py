@@ -113,18 +113,30 @@ def _foot_traces(run: dict) -> list[dict]:
     return out
 
 
-def minefield_view(s: dict, traces: Mapping) -> dict:
+def zone_discs(s: dict, lo, hi) -> list[dict]:
+    """The zones near the footholds (within 0.2 m of [lo, hi]) as plotly circles: each its safe
+    area (grey) and its forbidden disc (black)."""
     f = s.get("field", {})
-    runs = minefield_runs(s, traces)
-    pts = [[p["x"], p["y"]] for r in runs for p in r["ok"] + r["bad"]]
-    lo = np.min(pts, axis=0) - 0.3 if pts else np.array([-1.0, -1.0])
-    hi = np.max(pts, axis=0) + 0.3 if pts else np.array([1.0, 1.0])
     shapes = []
     for x, y in s.get("zones", []):
         if lo[0] - 0.2 <= x <= hi[0] + 0.2 and lo[1] - 0.2 <= y <= hi[1] + 0.2:
             for rad, col in ((f.get("safe_radius_m", 0.075), SAFE), (f.get("zone_radius_m", 0.025), ZONE)):
                 shapes.append({"type": "circle", "xref": "x", "yref": "y", "x0": x - rad, "x1": x + rad, "y0": y - rad,
                                "y1": y + rad, "fillcolor": col, "line": {"width": 0}, "layer": "below"})
+    return shapes
+
+
+def minefield_view(s: dict, traces: Mapping) -> dict:
+    f = s.get("field", {})
+    runs = minefield_runs(s, traces)
+    pts = [[p["x"], p["y"]] for r in runs for p in r["ok"] + r["bad"]]
+    lo = np.min(pts, axis=0) - 0.3 if pts else np.array([-1.0, -1.0])
+    hi = np.max(pts, axis=0) + 0.3 if pts else np.array([1.0, 1.0])
+    shapes = zone_discs(s, lo, hi)
+    # the ranges hold every disc drawn, safe area included (they were cut at the top and bottom)
+    for d in shapes:
+        lo, hi = np.minimum(lo, [d["x0"], d["y0"]]), np.maximum(hi, [d["x1"], d["y1"]])
+    lo, hi = lo - 0.02, hi + 0.02
     data = [t for r in runs for t in _foot_traces(r)]
     walk = runs[0]
     cap = (f"Forbidden zones (black, {2 * f.get('zone_radius_m', 0.025):g} m) with their safe areas (grey, "
@@ -136,9 +148,14 @@ def minefield_view(s: dict, traces: Mapping) -> dict:
     for r in runs[1:]:
         cap += (f" {r['name'][0].upper() + r['name'][1:]} (click its legend entries): {len(r['bad'])} of "
                 f"{len(r['ok']) + len(r['bad'])} in zones.")
-    layout = {"xaxis": _axis("x (m)", range=[float(lo[0]), float(hi[0])]),
-              "yaxis": _axis("y (m)", range=[float(lo[1]), float(hi[1])], scaleanchor="x", scaleratio=1),
-              "shapes": shapes, "legend": {"orientation": "h", "y": -0.18}}
+    # constrain="domain": the equal scale narrows the plot instead of widening the x range (at 1280 px a
+    # 0.3 m walk was a few pixels on -3..3 m); the legend above the plot, as elsewhere (below it, it sat on
+    # the x axis title on a phone)
+    layout = {"xaxis": _axis("x (m)", range=[round(float(lo[0]), 3), round(float(hi[0]), 3)], constrain="domain",
+                             automargin=True),
+              "yaxis": _axis("y (m)", range=[round(float(lo[1]), 3), round(float(hi[1]), 3)], scaleanchor="x",
+                             scaleratio=1, constrain="domain", automargin=True),
+              "shapes": shapes, "legend": {"orientation": "h", "x": 0, "y": 1.02, "yanchor": "bottom"}}
     return _panel("minefield", MINEFIELD_TITLE, cap, data, layout, 460)
 
 

@@ -47,6 +47,14 @@ def _xy_of_edge(tree: dict, i: int) -> tuple[list, list]:
     return [float(tree["pos"][a, 0]), float(tree["pos"][i, 0])], [float(tree["pos"][a, 1]), float(tree["pos"][i, 1])]
 
 
+def plan_label(gaits: list[int], most: int = 8) -> str:
+    """The plan's legend entry: its gaits in order, at most `most` of them a line and the lines
+    about even (on one line a 17-gait plan ran past a phone's right edge)."""
+    per_line = -(-len(gaits) // -(-len(gaits) // most)) if gaits else most
+    lines = [" → ".join(str(g) for g in gaits[i:i + per_line]) for i in range(0, len(gaits), per_line)]
+    return f"plan ({len(gaits)} gaits:{'<br>' if len(lines) > 1 else ' '}" + " →<br>".join(lines) + ")"
+
+
 def map_view(summary: dict, traces: Mapping) -> dict:
     pm = summary["map"]
     tree = _tree(summary, traces)
@@ -93,9 +101,8 @@ def map_view(summary: dict, traces: Mapping) -> dict:
                 x, y = _xy_of_edge(tree, i)
                 xs += x
                 ys += y
-            steps = " → ".join(str(int(tree["gait"][i]) + 1) for i in path[1:])
-            data.append(kit.line(xs, ys, f"plan ({len(path) - 1} gaits: {steps})", "#111827", width=4,
-                                 hoverinfo="skip"))
+            data.append(kit.line(xs, ys, plan_label([int(tree["gait"][i]) + 1 for i in path[1:]]), "#111827",
+                                 width=4, hoverinfo="skip"))
     plan = traces.get("plan") if hasattr(traces, "get") else None
     if plan is not None and "pivot_mu" in plan and len(plan["pivot_mu"]) > 1:
         p = np.asarray(plan["pivot_mu"], dtype=float)
@@ -172,7 +179,9 @@ def reuse_view(summary: dict) -> list[dict]:
              "error_y": {"type": "data", "array": [r[n]["distance_mu"]["std"] for n in names]}, "name": "distance to goal (mu)",
              "marker": {"color": kit.METHOD}}]
     fig = kit.panel("reuse", "Reuse: distance to goal per scenario", "Lower is better; error bars one standard deviation.",
-                    kit.figure(data, {"xaxis": kit.axis("scenario"), "yaxis": kit.axis("distance to goal (mu)"),
+                    kit.figure(data, {"xaxis": {**kit.axis("scenario", automargin=True),
+                                                "title": {"text": "scenario", "standoff": 8}},
+                                      "yaxis": kit.axis("distance to goal (mu)", automargin=True),
                                       "hovermode": "closest"}), height=320)
     return [tab, fig]
 

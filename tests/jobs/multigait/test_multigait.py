@@ -310,3 +310,18 @@ def test_the_page_and_the_figure_draw_the_search_beside_its_random_search(small_
     assert [t[0] for t in page["traces"]] == list(kind.history_axis({})["series"].values())  # all six
     assert any("random search" in t[0] for t in page["traces"])
     assert figure_plot(saved_figures["convergence.png"]) == page
+
+
+def test_plan_legend_entry_and_reuse_axis_fit_a_phone():
+    """Issue 25 screenshots at 390 px: a 17-gait plan's legend entry ran past the right edge, and
+    the reuse chart's 'scenario' title sat on its two-line tick labels."""
+    from app.jobs.multigait.views import plan_label, reuse_view
+
+    long = plan_label([1, 1, 3, 2] * 4 + [3])
+    lines = long.split("<br>")
+    assert len(lines) == 4 and max(len(x) for x in lines) <= len("1 → ") * 6 + 1, lines
+    assert "".join(lines).replace(" ", "").replace("→", "").endswith("3)")
+    assert plan_label([1, 2, 3]) == "plan (3 gaits: 1 → 2 → 3)"
+    stat = {"mean": 1.0, "std": 0.1}
+    fig = reuse_view({"reuse": {"empty_same": {"distance_mu": stat, "coverage_pct": stat}}})[1]["figure"]
+    assert fig["layout"]["xaxis"]["automargin"] and fig["layout"]["xaxis"]["title"]["standoff"] > 0
