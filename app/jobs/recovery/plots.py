@@ -28,7 +28,8 @@ def _three_rows(traces: dict[str, dict], out: Path, style: dict[str, tuple[str, 
             ax.set_ylabel(ylabel)
     axes[0].set_title(title)
     axes[-1].set_xlabel("time (s)")
-    axes[0].legend()
+    if axes[0].get_lines():  # a result without traces draws empty axes, and no empty legend
+        axes[0].legend()
     for ax in axes:
         ax.grid(alpha=0.3)
     return _save(fig, out, name)
