@@ -12,6 +12,7 @@ from app.jobs import viewkit as kit
 from app.jobs.multigait import views as mg
 from app.jobs.recovery import views as rec
 from app.jobs.tipping import views as tip
+from tests.jobs.tipping.cases import tipping_summary
 
 
 def strict_json(x) -> str:
@@ -25,13 +26,7 @@ def tipping_case():
             "foot_fz_n": np.tile(np.arange(1, 7) * 1e3, (len(t), 1)), "tilt_rel_deg": np.where(fall, 120.0, 0.0),
             "platform_tilt_deg": 2 * t}
     reco = dict(base, fasm_deg=np.where(t > 6, 35.0, 30 - 2 * t), tilt_rel_deg=0 * t)
-    summary = {"threshold_deg": 20.0, "adjustment_leg": 6,
-               "runs": {"no_recovery": {"tipped": True, "tipped_at_s": 12.0, "adjustments": []},
-                        "recovery": {"tipped": False, "detection_time_s": 5.0,
-                                     "adjustments": [{"detect_time_s": 5.0, "edge": "a35", "leg": 6, "land_time_s": 6.2,
-                                                      "foothold_body_m": [-2.4, -2.4, -1.7], "foothold_label": "D",
-                                                      "margin_after_landing_deg": 35.0, "lands_before_tip": True}]}}}
-    return summary, {"no_recovery": base, "recovery": reco}
+    return tipping_summary(), {"no_recovery": base, "recovery": reco}
 
 
 def test_tipping_margin_has_threshold_detection_and_stops_at_the_fall():

@@ -12,6 +12,7 @@ import pytest
 from app.jobs.base import JobResult
 from app.jobs.registry import get_kind
 from app.jobs.tipping import views as tip
+from tests.jobs.tipping.cases import tipping_summary
 from tests.results.convergence_page import saved_figures  # noqa: F401 (fixture)
 from tests.results.panel_page import figure_panel, page_panel
 
@@ -32,13 +33,7 @@ def tipping_case() -> tuple[dict, dict]:
     reco = {"time_s": t, "fasm_deg": np.where(t > 6, 35.0, 30 - 2 * t), "ssm_m": 0.5 - 0.01 * t, "nesm_m": 0.2 + 0 * t,
             "foot_fz_n": np.tile(np.arange(1, 7) * 1e3, (n, 1)), "tilt_rel_deg": 0 * t, "platform_tilt_deg": 2 * t,
             "edge_leg_a": np.full(n, 3), "edge_leg_b": np.full(n, 5), "qp_fz_n": qp}
-    summary = {"threshold_deg": 20.0, "adjustment_leg": 6,
-               "runs": {"no_recovery": {"tipped": True, "tipped_at_s": 12.0, "adjustments": []},
-                        "recovery": {"tipped": False, "detection_time_s": 5.0,
-                                     "adjustments": [{"detect_time_s": 5.0, "edge": "a35", "leg": 6, "land_time_s": 6.2,
-                                                      "foothold_body_m": [-2.4, -2.4, -1.7], "foothold_label": "D",
-                                                      "margin_after_landing_deg": 35.0, "lands_before_tip": True}]}}}
-    return summary, {"no_recovery": base, "recovery": reco}
+    return tipping_summary(), {"no_recovery": base, "recovery": reco}
 
 
 FIGURES = {"margin_timeline": "margin", "foot_forces": "forces", "tilt": "tilt"}  # file -> page panel
