@@ -12,7 +12,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from app.core.colors import history_styles  # noqa: E402
 
-DASHES = {"solid": "-", "dot": ":", "dash": "--"}  # plotly's dash -> matplotlib's
+DASHES = {"solid": "-", "dot": ":", "dash": "--", "dashdot": "-."}  # plotly's dash -> matplotlib's
+PX = 0.75  # matplotlib points per page pixel: a page line's width in a figure
 
 
 def _save(fig, out: Path, name: str) -> list[Path]:
@@ -36,7 +37,7 @@ def history_lines(ax, history: list[dict], series: dict[str, str], x: str = "gen
     keys = [k for k in series if any(num(r.get(k)) for r in history)]
     for k, (color, dash, width) in history_styles(keys).items():
         pts = [(r.get(x, i), r[k]) for i, r in enumerate(history) if num(r.get(k))]
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], DASHES.get(dash, "-"), color=color, lw=0.75 * width,
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], DASHES.get(dash, "-"), color=color, lw=PX * width,
                 marker="o", ms=3, label=series[k])
 
 

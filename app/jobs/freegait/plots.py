@@ -13,10 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.plots import DASHES, _save, plt
+from app.core.plots import DASHES, PX, _save, plt
 from app.jobs.freegait import views as V
-
-PX = 0.75  # matplotlib points per page pixel (the convergence figures' scale)
 
 
 def _draw_zones(ax, s: dict) -> None:

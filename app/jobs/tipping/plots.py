@@ -19,17 +19,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from app.core.colors import ROLES  # noqa: E402
-from app.core.plots import DASHES, _save  # noqa: E402
+from app.core.plots import DASHES, PX, _save  # noqa: E402
 from app.jobs.tipping import views as V  # noqa: E402
-
-LINE = {**DASHES, "dashdot": "-."}  # plotly's dash -> matplotlib's
-PX = 0.75  # matplotlib points per page pixel (the convergence figures' scale)
 
 
 def _events(ax, summary: dict) -> None:
     """The page's vertical lines (detection, landings), each with its text at the top."""
     for x, text, color, dash in V.margin_events(summary):
-        ax.axvline(x, color=color, ls=LINE[dash], lw=1.5 * PX, label=f"_{text}")
+        ax.axvline(x, color=color, ls=DASHES[dash], lw=1.5 * PX, label=f"_{text}")
         top = dash != V.LANDED[1]
         ax.text(x, 1.0 if top else 0.97, text, color=color, fontsize=7, ha="center", va="bottom" if top else "top",
                 transform=ax.get_xaxis_transform())
@@ -43,7 +40,7 @@ def margin_timeline(traces: dict, summary: dict, out: Path) -> list[Path]:
         color, label = r["color"], r["label"]
         ax.plot(r["t"], r["fasm"], color=color, lw=2 * PX, label=f"FASM {label}")
         for nice, (v, dash) in r["extra"].items():
-            ax2.plot(r["t"], v, LINE[dash], color=color, lw=1.5 * PX, label=f"{nice} {label} (m)")
+            ax2.plot(r["t"], v, DASHES[dash], color=color, lw=1.5 * PX, label=f"{nice} {label} (m)")
         for n in r["edges"]:
             codes.setdefault(n, len(codes))
         if r["edges"]:
@@ -72,10 +69,10 @@ def foot_forces(traces: dict, out: Path) -> list[Path]:
     for p, (ax, r) in enumerate(zip(axes[:, 0], runs)):
         for leg in range(r["fz"].shape[1]):
             color, dash, width = V.leg_line(leg)
-            ax.plot(r["t"], r["fz"][:, leg], LINE[dash], color=color, lw=width * PX,
+            ax.plot(r["t"], r["fz"][:, leg], DASHES[dash], color=color, lw=width * PX,
                     label=f"leg {leg + 1}" if p == 0 else f"_leg {leg + 1}")
             if leg in r["qp"]:
-                ax.plot(r["t"], r["qp"][leg], LINE[V.QP_LINE[0]], color=color, lw=V.QP_LINE[1] * PX,
+                ax.plot(r["t"], r["qp"][leg], DASHES[V.QP_LINE[0]], color=color, lw=V.QP_LINE[1] * PX,
                         label=f"_leg {leg + 1}: QP")
         ax.set_ylabel(V.force_axis(r["label"]))
         ax.set_title(r["title"], fontsize=9, loc="left", fontweight="bold")
@@ -90,7 +87,7 @@ def foot_forces(traces: dict, out: Path) -> list[Path]:
 def tilt(traces: dict, out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(7, 3))
     for ln in V.tilt_lines(traces):
-        ax.plot(ln["t"], ln["y"], LINE[ln["dash"]], color=ln["color"], lw=2 * PX, label=ln["name"])
+        ax.plot(ln["t"], ln["y"], DASHES[ln["dash"]], color=ln["color"], lw=2 * PX, label=ln["name"])
     ax.set_xlabel(V.TIME)
     ax.set_ylabel(V.TILT_AXIS)
     ax.set_title(V.TILT_TITLE)
