@@ -1,12 +1,27 @@
 """`gaitmend bench`: every registered kind's benchmark entries, measured in one go
-(performance targets live in the kinds' entries, never in timed unit tests)."""
+(performance targets live in the kinds' entries, never in timed unit tests); and
+`gaitmend reproduce bench`, which runs it kind by kind and keeps each kind's figures, with
+the machine and its load, in docs/benchmarks.json (app/results/benchmarks.py renders them).
+
+The reproduction lives here, not in a kind's experiments: it spans every kind and measures
+with the very function `gaitmend bench --kind K --json` calls (``run_bench``)."""
 
 from __future__ import annotations
 
+import datetime as _dt
 import os
+import platform
+import time
 from collections.abc import Callable
+from pathlib import Path
 
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from app.jobs.base import Experiment
+from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import KINDS
+from app.results import benchmarks
+from app.results.provenance import git_commit
 
 
 def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: list[str] | None = None) -> dict:
@@ -18,3 +33,75 @@ def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: li
             log(f"{entry.name}: {entry.help} ...")
             figures[entry.name] = entry.run(quick, log)
     return figures
+
+
+# -- gaitmend reproduce bench -------------------------------------------------------------------
+
+class BenchParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    kinds: str = Field("", description="kinds to measure, comma-separated, even those the file holds already (a new "
+                                       "run is appended beside the old); empty: every kind with a bench the file "
+                                       "does not hold yet")
+    json_out: Path = Field(Path(benchmarks.JSON), description="the file each kind's run is appended to")
+
+    @field_validator("kinds")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        unknown = [k for k in _names(v) if k not in KINDS or not KINDS[k].bench()]
+        if unknown:
+            raise ValueError(f"no kind with a bench named {', '.join(unknown)} (kinds: {', '.join(KINDS)})")
+        return v
+
+
+def _names(text: str) -> list[str]:
+    return [k.strip() for k in text.split(",") if k.strip()]
+
+
+def machine() -> dict:
+    """The CPU model (/proc/cpuinfo's, else the platform's word for it) and the core count."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
+
+
+def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dict] = run_bench) -> dict:
+    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when."""
+    before, t0, c0 = os.getloadavg()[0], time.perf_counter(), time.process_time()
+    out = bench(quick=False, log=log, kinds=[kind])
+    wall, cpu, after = time.perf_counter() - t0, time.process_time() - c0, os.getloadavg()[0]
+    return {"kind": kind, "figures": {k: v for k, v in out.items() if k not in ("cores", "quick")},
+            "machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
+            "commit": git_commit(ROOT), "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
+
+
+def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print,
+                    bench: Callable[..., dict] = run_bench) -> str:
+    """Each kind asked for (or each not yet in the file), one at a time, appended as it ends."""
+    import json
+
+    data = (json.loads(p.json_out.read_text()) if p.json_out.exists()
+            else {"schema": 1, "experiment": "bench", "command": benchmarks.COMMAND, "runs": []})
+    have = {r["kind"] for r in data["runs"]}
+    todo = _names(p.kinds) or [k for k, kind in KINDS.items() if kind.bench() and k not in have]
+    for kind in todo:
+        log(f"{kind}: gaitmend bench --kind {kind} --json (load {os.getloadavg()[0]:.1f}) ...")
+        data["runs"].append(measure_kind(kind, log, bench))
+        write_json_atomic(p.json_out, data)
+        log(f"{kind}: {data['runs'][-1]['wall_s']:.0f} s, appended to {p.json_out}")
+    if not todo:
+        log(f"every kind is in {p.json_out} already (--kinds K re-measures one)")
+    return benchmarks.render_all(data)
+
+
+EXPERIMENT = Experiment("bench", "every kind's `gaitmend bench --kind K --json`, one kind at a time, each appended "
+                                 "with the machine, its load before and after, the commit and the date (kinds "
+                                 "already in --json-out are skipped unless --kinds names them)",
+                        BenchParams, reproduce_bench, benchmarks.sections())

@@ -230,6 +230,18 @@ for _kind in KINDS.values():
         reproduce_app.command(_kind.name if _i == 0 else f"{_kind.name}-{_exp.name}")(_experiment_command(_exp))
 
 
+def _cross_kind_experiments():
+    """Reproductions that span the kinds: `gaitmend reproduce <name>` (app/cli/bench.py's
+    measures every kind with the function `gaitmend bench` calls)."""
+    from app.cli.bench import EXPERIMENT as BENCH
+
+    return [BENCH]
+
+
+for _exp in _cross_kind_experiments():
+    reproduce_app.command(_exp.name)(_experiment_command(_exp))
+
+
 @cli.command()
 def docs(check: bool = typer.Option(False, "--check", help="only compare: exit 1 and print the differences when a "
                                     "generated section's text differs from what its data renders")):

@@ -12,6 +12,8 @@ from app.jobs.tipping.stability.fast import distribute_fast, plane_normal
 from app.jobs.tipping.stability.fasm import TipDetector
 from app.jobs.tipping.scenario import monitor
 
+TARGET_MS = 1.0  # FASM + judgment + QP per control step, one core
+
 
 def _state(rng: np.random.Generator, tilt_deg: float):
     """A four-leg stance (tripod 1-3-5 plus the caught leg 6) on a platform tilted about y,
@@ -61,6 +63,8 @@ def bench_tipping(steps: int = 500, seed: int = 0) -> dict:
     out["tipping_step_p95_ms"] = 1e3 * float(np.percentile(times["step"][steps // 10:], 95))
     out["qp_stability_constrained"] = bool(sol.stability_constrained)
     out["steps"] = steps
+    # the issue's target, on the wall time the bench reports (other work on the machine counts in it)
+    out["targets"] = {"tipping_step_ms_max": TARGET_MS, "tipping_step_met": out["tipping_step_ms"] <= TARGET_MS}
     return out
 
 

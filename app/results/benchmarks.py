@@ -1,0 +1,138 @@
+"""The benchmark figures of docs/benchmarks.md and of each kind's page, rendered from
+docs/benchmarks.json (issue 28: every published number from committed data). That file is
+written by ``gaitmend reproduce bench`` (app/cli/bench.py), which runs ``gaitmend bench
+--kind K --json`` for each kind and appends the kind's figures with the machine, the
+1-minute load average before and after, the commit and the date.
+
+The renderers know no kind: a kind's figures are its bench entries' JSON, shown as the
+bench returns them (a number with the unit its key ends in), each with the target and the
+verdict the bench reports in its ``targets`` block: ``<figure>_max`` / ``<figure>_min``
+bound the figure of that name, and its verdict is the ``<stem>_met`` whose stem is the
+longest that begins the figure's name (``ga_wall_s_max`` -> ``ga_met``). A figure the
+bench gives no target has none here. Lists (e.g. each run of a preset) stay in the JSON."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.jobs.registry import KINDS
+from app.jobs.reporting import Section, md_table, missing
+
+JSON = "docs/benchmarks.json"
+COMMAND = "gaitmend reproduce bench --write-docs"
+SKIP = ("targets",)  # the verdicts, shown beside their figures
+UNITS = (("_per_s", "/s"), ("_ms", "ms"), ("_s", "s"), ("_cm", "cm"), ("_deg", "deg"), ("_m", "m"))
+
+
+def runs_of(data: dict | None, kind: str) -> list[dict]:
+    """The runs of ``kind`` in the file, oldest first."""
+    return [r for r in (data or {}).get("runs", []) if r["kind"] == kind]
+
+
+def flat(figures: dict, prefix: str = "", nested: bool = True) -> list[tuple[str, Any]]:
+    """(dotted key, value) of every scalar of ``figures`` in order (a dict's scalars under
+    its key when ``nested``; lists and the targets block left out)."""
+    out: list[tuple[str, Any]] = []
+    for k, v in figures.items():
+        if k in SKIP or isinstance(v, list):
+            continue
+        if isinstance(v, dict):
+            out += flat(v, f"{prefix}{k}.", nested) if nested else []
+        else:
+            out.append((prefix + k, v))
+    return out
+
+
+def value(key: str, v: Any) -> str:
+    """A figure as text: the number to about three digits, with the unit its dotted key's
+    last part with a unit ends in (``fitness_eval_parts_s.qp``: s)."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, str):
+        return v
+    unit = next((u for part in reversed(key.split(".")) for suffix, u in UNITS if part.endswith(suffix)), "")
+    a = abs(v)
+    text = (f"{v:,}" if isinstance(v, int) else f"{v:,.0f}" if a >= 100 else f"{v:.1f}" if a >= 10
+            else f"{v:.2f}" if a >= 1 else f"{v:.3g}")
+    return f"{text} {unit}".strip()
+
+
+def verdicts(figures: dict) -> dict[str, tuple[str, bool | None]]:
+    """{figure key: (its target in words, met as the bench reports it, None if it does not)}."""
+    targets = figures.get("targets") or {}
+    mets = sorted((k[:-4] for k in targets if k.endswith("_met")), key=len, reverse=True)
+    out = {}
+    for k, bound in targets.items():
+        for suffix, sign in (("_max", "<="), ("_min", ">=")):
+            if k.endswith(suffix):
+                key = k[:-len(suffix)]
+                stem = next((m for m in mets if key.startswith(m)), None)
+                out[key] = (f"{sign} {value(key, bound)}", None if stem is None else targets[f"{stem}_met"])
+    return out
+
+
+def met_text(met: bool | None) -> str:
+    return "-" if met is None else "met" if met else "**not met**"
+
+
+def load_text(run: dict) -> str:
+    return f"{run['load_before']:.1f} / {run['load_after']:.1f}"
+
+
+def provenance(run: dict) -> str:
+    """Where and when a run was measured, and at which load."""
+    m = run["machine"]
+    commit = run.get("commit") or "unknown"
+    return (f"`gaitmend bench --kind {run['kind']} --json`, {run['date']}, commit {commit[:10]}"
+            f"{' (with uncommitted changes)' if commit.endswith('+dirty') else ''}, {m['cpu']} ({m['cores']} cores), "
+            f"nice {run['nice']}; 1-minute load average {run['load_before']:.1f} before and {run['load_after']:.1f} "
+            f"after (wall times carry that load); the bench took {run['wall_s']:.0f} s.")
+
+
+def kind_rows(run: dict, nested: bool) -> list[list[str]]:
+    """[figure, measured, target, met] for every scalar figure of one run."""
+    rows = []
+    for entry, figures in run["figures"].items():
+        judged = verdicts(figures)
+        for key, v in flat(figures, nested=nested):
+            target, met = judged.get(key, ("-", None))
+            rows.append([f"`{entry}.{key}`", value(key, v), target, met_text(met)])
+    return rows
+
+
+def render_kind(kind: str, data: dict | None) -> str:
+    """One kind's section: its latest run, every scalar figure, with where it was measured."""
+    runs = runs_of(data, kind)
+    if not runs:
+        return missing(JSON, f"gaitmend reproduce bench --kinds {kind} --write-docs")
+    run = runs[-1]
+    earlier = (f" {len(runs) - 1} earlier run(s) of this kind are kept in {JSON}, not shown."
+               if len(runs) > 1 else "")
+    return md_table(["figure", "measured", "target", "met"], kind_rows(run, True)) + f"\n{provenance(run)}{earlier}\n"
+
+
+def render_all(data: dict | None) -> str:
+    """Every kind's latest run at a glance: its top-level figures, with the load each was measured at."""
+    rows, notes = [], []
+    for kind in KINDS:
+        runs = runs_of(data, kind)
+        if not runs:
+            notes.append(f"{kind}: not measured yet (`gaitmend reproduce bench --kinds {kind} --write-docs`).")
+            continue
+        run = runs[-1]
+        rows += [[kind, *r, load_text(run)] for r in kind_rows(run, False)]
+        notes.append(f"{kind}: {provenance(run)}")
+    if not rows:
+        return missing(JSON, COMMAND)
+    return (md_table(["kind", "figure", "measured", "target", "met", "load before / after"], rows) + "\n"
+            + "".join(f"- {n}\n" for n in notes))
+
+
+def sections() -> tuple[Section, ...]:
+    """``bench`` (every kind at a glance, docs/benchmarks.md) and ``bench-<kind>`` per kind
+    with a bench (its page's machine-dependent section)."""
+    per_kind = tuple(Section(f"bench-{k}", (JSON,), lambda d, k=k: render_kind(k, d[0]))
+                     for k, kind in KINDS.items() if kind.bench())
+    return (Section("bench", (JSON,), lambda d: render_all(d[0])), *per_kind)
