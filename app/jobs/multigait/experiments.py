@@ -22,7 +22,7 @@ from pydantic import BaseModel, Field
 
 from app.jobs import stats
 from app.jobs.base import BenchEntry, Experiment, MemoryContext
-from app.jobs.multigait import paper_rows
+from app.jobs.multigait import paper_rows, stairs
 from app.jobs.multigait.compare import METRICS
 from app.jobs.reporting import Section, md_table, missing, num
 from app.jobs.multigait.run import run
@@ -352,7 +352,11 @@ EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and dista
                                                     paper_rows.render_not_attempted))),
                Experiment("cells", "The coverage scale: the committed PSO-vs-random bests re-planned and counted at "
                                    "several cell sizes, against the node ceiling", paper_rows.CellsParams, paper_rows.cells,
-                          (Section("multigait-cells", (paper_rows.CELLS_JSON,), paper_rows.render_cells),))]
+                          (Section("multigait-cells", (paper_rows.CELLS_JSON,), paper_rows.render_cells),)),
+               Experiment("stairs", "The staircase at a small budget (every expansion simulated): the trees' heights, "
+                                    "the distance to the goal, the measured cost and the paper-size estimate from it",
+                          stairs.StairsParams, stairs.stairs,
+                          (Section("multigait-stairs", (stairs.STAIRS_JSON,), stairs.render_stairs),))]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:

@@ -209,8 +209,8 @@ def not_attempted(data: dict | None) -> str:
         out.append(f"- Not run yet ({len(miss)} rows): {', '.join(miss)}; `{ROWS_COMMAND}` runs them at this budget{per}.")
     out.append("- Not attempted: 20 trials per row at the paper's budget (20 x 150): about 8 minutes a run on two idle "
                "cores (docs/benchmarks.md), 40 rows x 20 trials = 800 runs, some 100 hours; the staircase "
-               "(Lizard, Quadropod, k = 2, K = 150) at any search budget worth reporting: every expansion is simulated, "
-               "about 30 hours a run at the paper's budget (a 4 x 2 run is in the staircase section).")
+               "(Lizard, Quadropod, k = 2, K = 150) at any search budget worth reporting: every expansion is simulated "
+               "(the staircase section estimates a paper-size run's hours from a small measured run).")
     return "\n".join(out) + "\n"
 
 
