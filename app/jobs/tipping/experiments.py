@@ -20,6 +20,8 @@ from app.robots.heavy_hexapod import HEAVY
 from app.jobs.tipping.evidence import (CONTROLS, CONVERGENCE_TOL, EvidencePlan, Setup, band, control_rows,
                                        convergence_row, outcome, simulate)
 from app.jobs.tipping.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
+from app.jobs.tipping.reruns import CliffParams, SweepParams, cliff, sweep
+from app.jobs.tipping.reruns_docs import CLIFF_SECTIONS, SWEEP_SECTIONS
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
     ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
@@ -434,7 +436,13 @@ EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec.
                Experiment("friction", "Low friction: QP with force-controlled stance vs position servos vs no QP",
                           FrictionParams, friction),
                Experiment("timing", "Eq. 15 time-to-tip against the simulated fall; Eq. 15 swing vs a fixed 1.5 s swing",
-                          TimingParams, timing)]
+                          TimingParams, timing),
+               Experiment("sweep", "The 12-direction sweep of both tripods at fixed final tilts, with the QP, without it "
+                                   "and with posture feedback (resumable: directions already in --json-out are skipped)",
+                          SweepParams, sweep, SWEEP_SECTIONS),
+               Experiment("cliff", "The cliff walk (Sec. 5.1) without and with recovery, its controls and robustness "
+                                   "re-runs (resumable: runs already in --json-out are skipped)", CliffParams, cliff,
+                          CLIFF_SECTIONS)]
 
 
 def _bench(quick: bool, log: Callable[[str], None]) -> dict:

@@ -129,6 +129,15 @@ def _sweep_cases(spec: TippingSpec) -> list[tuple[float, tuple[int, ...], bool]]
             for k in range(spec.sweep.directions) for st in spec.sweep.stances for rec in (False, True)]
 
 
+def sweep_run(spec: TippingSpec, i: int, psi: float, stance: tuple[int, ...], recovery: bool) -> dict:
+    """One run of the direction sweep: the spec's platform motion turned toward ``psi``, the
+    tripod ``stance`` in stance, with or without recovery; its row (``i``: its index)."""
+    s = spec.scenario
+    sc = TiltScenario(downhill_deg=psi, stance=stance, rate_deg_s=s.rate_deg_s, settle_s=s.settle_s,
+                      max_tilt_deg=s.max_tilt_deg, hold_s=s.hold_s)
+    return _sweep_row(i, psi, stance, recovery, simulate(_setup(spec, recovery, sc)))
+
+
 def _sweep_row(i: int, psi: float, stance: tuple[int, ...], recovery: bool, r: dict) -> dict:
     first = first_catch(r["adjustments"])
     return {"run": i, "downhill_deg": psi, "stance": "".join(map(str, stance)), "recovery": int(recovery),
@@ -141,14 +150,11 @@ def _sweep_row(i: int, psi: float, stance: tuple[int, ...], recovery: bool, r: d
 
 def _sweep(job: _Job) -> None:
     """Every downhill direction x tripod, without and with recovery."""
-    spec, s = job.spec, job.spec.scenario
     pc = job.phases.context("sweep")
     job.rows = rows = list((pc.load_checkpoint() or {}).get("rows", []))
     _resumed(pc, len(rows))
-    for i, (psi, st, rec) in enumerate(_sweep_cases(spec)[len(rows):], start=len(rows)):
-        sc = TiltScenario(downhill_deg=psi, stance=st, rate_deg_s=s.rate_deg_s, settle_s=s.settle_s,
-                          max_tilt_deg=s.max_tilt_deg, hold_s=s.hold_s)
-        rows.append(_sweep_row(i, psi, st, rec, simulate(_setup(spec, rec, sc))))
+    for i, (psi, st, rec) in enumerate(_sweep_cases(job.spec)[len(rows):], start=len(rows)):
+        rows.append(sweep_run(job.spec, i, psi, st, rec))
         pc.save_checkpoint({"rows": rows, "wall_s": job.wall()})
         pc.tick(1, {"downhill_deg": psi, "stance": "".join(map(str, st)), "recovery": rec})
 
