@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, Field
@@ -24,7 +25,8 @@ STAIRS_COMMAND = "gaitmend reproduce multigait-stairs --write-docs"
 
 
 class StairsParams(BaseModel):
-    robot: str = Field("quadropod", description="the modular robot (the paper's staircase: Lizard and Quadropod)")
+    robot: Literal["lizard", "quadropod"] = Field("quadropod", description="the modular robot (the paper's staircase "
+                                                                         "robots)")
     particles: int = Field(4, ge=2, le=40, description="PSO particles")
     generations: int = Field(2, ge=1, le=150, description="PSO generations after the initial swarm")
     iterations: int = Field(8, ge=1, le=150, description="planner iterations K of each tree (the paper: 150)")
