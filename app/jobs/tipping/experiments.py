@@ -17,11 +17,13 @@ from app.jobs.base import BenchEntry, Experiment
 from app.jobs.ledger import Ledger, current_runs, results_by_name
 from app.jobs.reporting import Section, md_table, missing, num, progress_note, yes
 from app.robots.heavy_hexapod import HEAVY
-from app.jobs.tipping.evidence import (CONTROLS, CONVERGENCE_TOL, EvidencePlan, Setup, band, control_rows,
-                                       convergence_row, outcome, simulate)
+from app.jobs.tipping.evidence import CONTROLS, EvidencePlan, Setup, band, control_rows, outcome, simulate
 from app.jobs.tipping.scenario import ControllerConfig, TiltScenario, first_catch, paper_direction, run_summary
 from app.jobs.tipping.reruns import CliffParams, SweepParams, cliff, sweep
 from app.jobs.tipping.reruns_docs import CLIFF_SECTIONS, SWEEP_SECTIONS
+from app.jobs.tipping.checks import (ConvergenceParams, FrictionParams, RobustnessParams, TimingParams, convergence,
+                                     friction, robustness, timing)
+from app.jobs.tipping.checks_docs import CONVERGENCE_SECTIONS, FRICTION_SECTIONS, ROBUST_SECTIONS, TIMING_SECTIONS
 
 PAPER_CASES = (  # (axis, direction, stance, the paper's adjustment leg)
     ("y", "ccw", (1, 3, 5), 6), ("y", "cw", (1, 3, 5), 4), ("x", "ccw", (1, 3, 5), 2),
@@ -311,117 +313,6 @@ def render_summary(datas: list) -> str:
             f"{len(cs)}, without in {len(cs) - tipped} of {len(cs)}{g} ([docs/tipping.md](docs/tipping.md)).\n")
 
 
-# -- the checks behind issue 12's findings ------------------------------------------------------
-
-CHECK_DIRECTIONS = ((180.0, "climbing (y ccw)"), (0.0, "descending (y cw)"), (90.0, "lateral (x ccw)"))
-
-
-def _floats(text: str) -> list[float]:
-    return [float(v) for v in text.split(",") if v.strip()]
-
-
-def _row_md(cells) -> str:
-    return "| " + " | ".join(cells) + " |"
-
-
-class ConvergenceParams(BaseModel):
-    steps_ms: str = Field("2,1", description="physics steps (ms) to check, comma-separated; each against its half")
-    directions: str = Field("180,0,90,270,30,150", description="downhill directions (deg), stance 1-3-5")
-    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
-
-
-def convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
-    """The convergence rule on recovered answers: tipped or not, margin after landing and
-    detection time at a step and at its half."""
-    md = ["| step (ms) vs half | downhill (deg) | tipped | margin after landing (deg) | detection (s) "
-          "| Eq. 15 t_s (s) | within tolerance |", "|---|---|---|---|---|---|---|"]
-    for ms in _floats(p.steps_ms):
-        for psi in _floats(p.directions):
-            s = Setup(TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg), ControllerConfig())
-            a = outcome(simulate(s.with_(geom=dataclasses.replace(HEAVY, timestep=ms / 1e3))))
-            b = outcome(simulate(s.with_(geom=dataclasses.replace(HEAVY, timestep=ms / 2e3))))
-            row = convergence_row(a, b)
-            md.append(_row_md([f"{ms:g} vs {ms / 2:g}", f"{psi:g}", f"{a['tipped']} / {b['tipped']}",
-                               f"{_n(a['margin_after_landing_deg'], '{:.2f}')} / {_n(b['margin_after_landing_deg'], '{:.2f}')}",
-                               f"{_n(a['detection_time_s'], '{:.2f}')} / {_n(b['detection_time_s'], '{:.2f}')}",
-                               f"{_n(a['time_to_tip_s'], '{:.2f}')} / {_n(b['time_to_tip_s'], '{:.2f}')}",
-                               "yes" if row["ok"] else "no"]))
-            log(md[-1])
-    return "\n".join(md) + f"\n\ntolerance: {CONVERGENCE_TOL}, tipped must agree"
-
-
-def qp_force_error(r: dict) -> float | None:
-    """Largest |mean measured - mean QP force| over the stance feet from 1 s after the
-    caught leg lands to the end, in % of the robot's weight (None: no landing, or tipped)."""
-    first = first_catch(r["adjustments"])
-    if r["tipped"] or not first or first.get("land_time_s") is None:
-        return None
-    tr = r["trace"]
-    late = tr["time_s"] > first["land_time_s"] + 1.0
-    if not late.any():
-        return None
-    stance = tr["stance"][late][-1]
-    if not np.any(tr["qp_f_n"][late]):
-        return None  # the QP was off
-    err = np.abs(tr["foot_f_n"][late][:, stance].mean(axis=0) - tr["qp_f_n"][late][:, stance].mean(axis=0))
-    return float(100.0 * err.max() / (r["mass_kg"] * 9.81))
-
-
-class FrictionParams(BaseModel):
-    frictions: str = Field("1.5,1.0,0.9", description="foot-ground friction coefficients, comma-separated")
-    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
-
-
-def friction(p: FrictionParams, log: Callable[[str], None]) -> str:
-    """Does the QP force distribution matter on low friction? Recovery with force-controlled
-    stance legs (the QP's forces), with position-servoed ones, and without the QP."""
-    modes = (("QP, force-controlled stance", {}), ("QP as feed-forward, position servos", {"stance_control": "position"}),
-             ("no QP", {"qp": False}))
-    md = ["| friction | case | stance control | tipped | foot slip (m) | friction demand | margin after landing (deg) "
-          "| measured - QP force, worst stance foot (% of weight) |", "|---|---|---|---|---|---|---|---|"]
-    for mu in _floats(p.frictions):
-        for psi, name in CHECK_DIRECTIONS:
-            for label, kw in modes:
-                s = Setup(TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg), ControllerConfig(**kw), friction=mu)
-                r = simulate(s)
-                o = outcome(r)
-                md.append(_row_md([f"{mu:g}", name, label, "yes" if o["tipped"] else "no", f"{o['max_slip_m']:.3f}",
-                                   _n(o["friction_demand"], "{:.2f}"), _n(o["margin_after_landing_deg"], "{:.1f}"),
-                                   _n(qp_force_error(r), "{:.1f}")]))
-                log(md[-1])
-    return "\n".join(md)
-
-
-class TimingParams(BaseModel):
-    rates_deg_s: str = Field("3,10,20", description="platform rates (deg/s), comma-separated")
-    max_tilt_deg: float = Field(40.0, gt=0.0, le=60.0, description="fixed final platform tilt")
-
-
-def timing(p: TimingParams, log: Callable[[str], None]) -> str:
-    """Eq. 15 against the simulated fall, and the swing it sets against a fixed 1.5 s swing."""
-    md = ["| rate (deg/s) | case | Eq. 15 t_s (s) | t_s / kappa (s) | margin reached 0 after (s, no recovery) "
-          "| swing Eq. 15 / fixed (s) | upright Eq. 15 / fixed | margin after landing Eq. 15 / fixed (deg) |",
-          "|---|---|---|---|---|---|---|---|"]
-    for rate in _floats(p.rates_deg_s):
-        for psi, name in CHECK_DIRECTIONS:
-            sc = TiltScenario(downhill_deg=psi, max_tilt_deg=p.max_tilt_deg, rate_deg_s=rate)
-            cfg = ControllerConfig()
-            eq, fixed = (outcome(simulate(Setup(sc, c))) for c in (cfg, dataclasses.replace(cfg, swing_timing="fixed")))
-            tr = simulate(Setup(sc, ControllerConfig(recovery=False)))["trace"]
-            fall = None
-            if eq["detection_time_s"] is not None:
-                after = (tr["time_s"] > eq["detection_time_s"]) & (tr["fasm_deg"] <= 0.0)
-                fall = float(tr["time_s"][after.argmax()] - eq["detection_time_s"]) if after.any() else None
-            ts = eq["time_to_tip_s"]
-            md.append(_row_md([f"{rate:g}", name, _n(ts, "{:.2f}"), _n(None if ts is None else ts / cfg.kappa, "{:.2f}"),
-                               _n(fall, "{:.2f}"), f"{_n(eq['swing_s'], '{:.2f}')} / {_n(fixed['swing_s'], '{:.2f}')}",
-                               f"{'yes' if not eq['tipped'] else 'no'} / {'yes' if not fixed['tipped'] else 'no'}",
-                               f"{_n(eq['margin_after_landing_deg'], '{:.1f}')} / "
-                               f"{_n(fixed['margin_after_landing_deg'], '{:.1f}')}"]))
-            log(md[-1])
-    return "\n".join(md)
-
-
 SECTIONS = (Section("tipping-cases", (CASES_JSON,), render_cases),
             Section("tipping-controls", (CASES_JSON,), render_controls),
             Section("tipping-band", (CASES_JSON,), render_band),
@@ -431,12 +322,18 @@ SECTIONS = (Section("tipping-cases", (CASES_JSON,), render_cases),
 EXPERIMENTS = [Experiment("cases", "The paper's six tilting-platform cases (Sec. 5.2, Fig. 6), each without and "
                                    "with recovery, with the controls, the paper's reach and the survivable tilt band "
                                    "(resumable: runs already in --json-out are skipped)", CasesParams, cases, SECTIONS),
-               Experiment("convergence", "Recovered answers at a physics step and at its half (the convergence rule)",
-                          ConvergenceParams, convergence),
-               Experiment("friction", "Low friction: QP with force-controlled stance vs position servos vs no QP",
-                          FrictionParams, friction),
-               Experiment("timing", "Eq. 15 time-to-tip against the simulated fall; Eq. 15 swing vs a fixed 1.5 s swing",
-                          TimingParams, timing),
+               Experiment("convergence", "Recovered answers at a physics step and at its half (the convergence rule; "
+                                         "resumable: runs already in --json-out are skipped)",
+                          ConvergenceParams, convergence, CONVERGENCE_SECTIONS),
+               Experiment("friction", "Low friction: QP with force-controlled stance vs position servos vs no QP "
+                                      "(resumable: runs already in --json-out are skipped)",
+                          FrictionParams, friction, FRICTION_SECTIONS),
+               Experiment("timing", "Eq. 15 time-to-tip against the simulated fall; Eq. 15 swing vs a fixed 1.5 s swing "
+                                    "(resumable: runs already in --json-out are skipped)",
+                          TimingParams, timing, TIMING_SECTIONS),
+               Experiment("robustness", "The job's robustness block (seven re-runs) of the climbing, descending and "
+                                        "lateral cases (resumable: runs already in --json-out are skipped)",
+                          RobustnessParams, robustness, ROBUST_SECTIONS),
                Experiment("sweep", "The 12-direction sweep of both tripods at fixed final tilts, with the QP, without it "
                                    "and with posture feedback (resumable: directions already in --json-out are skipped)",
                           SweepParams, sweep, SWEEP_SECTIONS),

@@ -164,9 +164,10 @@ def cliff_run(recovery: bool) -> dict:
     return out | _load()
 
 
-def cliff_evidence(what: str, name: str) -> dict:
-    """One control (``what`` = "control") or robustness re-run of the cliff's recovery."""
-    spec = TippingSpec.model_validate(CLIFF_JOB)
+def cliff_evidence(what: str, name: str, job: dict = CLIFF_JOB) -> dict:
+    """One control (``what`` = "control") or robustness re-run of the cliff's recovery (or
+    of ``job``'s: app/jobs/tipping/checks.py runs the tilt cases' robustness blocks so)."""
+    spec = TippingSpec.model_validate(job)
     answer = _setup(spec, True)
     if what == "control":
         s = next(s for n, _, s in control_setups(answer) if n == name)
