@@ -72,13 +72,15 @@ def machine() -> dict:
 
 
 def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dict] = run_bench) -> dict:
-    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when."""
-    before, t0, c0 = os.getloadavg()[0], time.perf_counter(), time.process_time()
+    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when: the
+    commit as the run starts (the code it ran; others may commit while it runs), the date as
+    it finishes."""
+    commit, before, t0, c0 = git_commit(ROOT), os.getloadavg()[0], time.perf_counter(), time.process_time()
     out = bench(quick=False, log=log, kinds=[kind])
     wall, cpu, after = time.perf_counter() - t0, time.process_time() - c0, os.getloadavg()[0]
     return {"kind": kind, "figures": {k: v for k, v in out.items() if k not in ("cores", "quick")},
             "machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
-            "commit": git_commit(ROOT), "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "commit": commit, "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
 
 

@@ -13,6 +13,7 @@ bench gives no target has none here. Lists (e.g. each run of a preset) stay in t
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from app.jobs.registry import KINDS
@@ -21,6 +22,7 @@ from app.jobs.reporting import Section, md_table, missing
 JSON = "docs/benchmarks.json"
 COMMAND = "gaitmend reproduce bench --write-docs"
 SKIP = ("targets",)  # the verdicts, shown beside their figures
+PER = re.compile(r"_(ms|s)_per_([a-z]+)$")  # a time per something else
 UNITS = (("_per_s", "/s"), ("_ms", "ms"), ("_s", "s"), ("_cm", "cm"), ("_deg", "deg"), ("_m", "m"))
 
 
@@ -43,16 +45,28 @@ def flat(figures: dict, prefix: str = "", nested: bool = True) -> list[tuple[str
     return out
 
 
+def unit_of(key: str) -> str:
+    """The unit the last part of a dotted key that has one ends in (``parts_s.qp``: s;
+    ``rollout_s_per_generation``: s per generation)."""
+    for part in reversed(key.split(".")):
+        per = PER.search(part)
+        if per:
+            return f"{dict(UNITS)['_' + per[1]]} per {per[2]}"
+        unit = next((u for suffix, u in UNITS if part.endswith(suffix)), "")
+        if unit:
+            return unit
+    return ""
+
+
 def value(key: str, v: Any) -> str:
-    """A figure as text: the number to about three digits, with the unit its dotted key's
-    last part with a unit ends in (``fitness_eval_parts_s.qp``: s)."""
+    """A figure as text: the number to about three digits, with its key's unit."""
     if v is None:
         return "-"
     if isinstance(v, bool):
         return "yes" if v else "no"
     if isinstance(v, str):
         return v
-    unit = next((u for part in reversed(key.split(".")) for suffix, u in UNITS if part.endswith(suffix)), "")
+    unit = unit_of(key)
     a = abs(v)
     text = (f"{v:,}" if isinstance(v, int) else f"{v:,.0f}" if a >= 100 else f"{v:.1f}" if a >= 10
             else f"{v:.2f}" if a >= 1 else f"{v:.3g}")
@@ -69,7 +83,8 @@ def verdicts(figures: dict) -> dict[str, tuple[str, bool | None]]:
             if k.endswith(suffix):
                 key = k[:-len(suffix)]
                 stem = next((m for m in mets if key.startswith(m)), None)
-                out[key] = (f"{sign} {value(key, bound)}", None if stem is None else targets[f"{stem}_met"])
+                met = None if stem is None else targets[f"{stem}_met"]
+                out[key] = (f"{sign} {bound:g} {unit_of(key)}".strip(), met)
     return out
 
 
@@ -85,10 +100,10 @@ def provenance(run: dict) -> str:
     """Where and when a run was measured, and at which load."""
     m = run["machine"]
     commit = run.get("commit") or "unknown"
-    return (f"`gaitmend bench --kind {run['kind']} --json`, {run['date']}, commit {commit[:10]}"
+    return (f"`gaitmend bench --kind {run['kind']} --json`, finished {run['date']}, commit {commit[:10]}"
             f"{' (with uncommitted changes)' if commit.endswith('+dirty') else ''}, {m['cpu']} ({m['cores']} cores), "
             f"nice {run['nice']}; 1-minute load average {run['load_before']:.1f} before and {run['load_after']:.1f} "
-            f"after (wall times carry that load); the bench took {run['wall_s']:.0f} s.")
+            f"after (wall times carry that load); the bench took {value('wall_s', run['wall_s'])}.")
 
 
 def kind_rows(run: dict, nested: bool) -> list[list[str]]:

@@ -1,0 +1,120 @@
+"""`gaitmend reproduce bench` and the sections it feeds (issue 28): each kind's bench figures
+come from docs/benchmarks.json with the machine, the load, the commit and the date, the
+target and verdict its bench reports, and the latest run of each kind; a kind already in
+the file is not measured again unless asked. Rendered from a small fixture here, and the
+real pages checked against a changed file."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from app.cli.bench import BenchParams, reproduce_bench
+from app.jobs.registry import KINDS
+from app.results import benchmarks, docs_gen
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(kind: str, figures: dict, load=(3.25, 4.5), date="2026-12-03 14:00 UTC", commit="0123456789abcdef") -> dict:
+    return {"kind": kind, "figures": {kind: figures}, "machine": {"cpu": "Test CPU", "cores": 2, "python": "3.11"},
+            "load_before": load[0], "load_after": load[1], "nice": 10, "commit": commit, "date": date,
+            "wall_s": 12.3, "cpu_s": 10.0}
+
+
+FIXTURE = {"schema": 1, "experiment": "bench", "command": benchmarks.COMMAND, "runs": [
+    _run("tipping", {"step_ms": 9.99, "targets": {"step_ms_max": 1.0, "step_met": False}}, load=(9.0, 9.5),
+         date="2026-12-01 10:00 UTC"),
+    _run("tipping", {"step_ms": 0.4321, "step_cpu_ms": 0.25, "steps": 500, "constrained": True,
+                     "targets": {"step_ms_max": 1.0, "step_met": True}}),
+    _run("energy", {"fitness_eval_s": 0.61, "ga_wall_s": 87.0, "parts_s": {"qp": 0.0123}, "runs": [1, 2],
+                    "targets": {"fitness_eval_s_max": 0.5, "ga_wall_s_max": 300.0, "fitness_eval_met": False,
+                                "ga_met": True, "ratio_min": 0.9, "ratio_met": True}},
+         commit="fedcba9876543210+dirty"),
+]}
+
+
+def test_a_kind_section_shows_its_latest_run_with_targets_load_and_provenance():
+    text = benchmarks.render_kind("tipping", FIXTURE)
+    assert "| `tipping.step_ms` | 0.432 ms | <= 1 ms | met |" in text
+    assert "| `tipping.step_cpu_ms` | 0.25 ms | - | - |" in text  # no target: none shown
+    assert "| `tipping.steps` | 500 | - | - |" in text and "| `tipping.constrained` | yes | - | - |" in text
+    assert "9.99" not in text  # the earlier run is kept in the file, not shown
+    assert "1 earlier run(s)" in text
+    assert ("finished 2026-12-03 14:00 UTC, commit 0123456789, Test CPU (2 cores), nice 10; 1-minute load average 3.2 "
+            "before and 4.5 after") in text
+
+
+def test_verdicts_pair_each_bound_with_the_longest_stem_and_nested_figures_keep_their_unit():
+    text = benchmarks.render_kind("energy", FIXTURE)
+    assert "| `energy.fitness_eval_s` | 0.61 s | <= 0.5 s | **not met** |" in text
+    assert "| `energy.ga_wall_s` | 87.0 s | <= 300 s | met |" in text
+    assert "| `energy.parts_s.qp` | 0.0123 s | - | - |" in text
+    assert "runs" not in text.split("\n\n")[0]  # lists stay in the JSON
+    assert "(with uncommitted changes)" in text
+    assert benchmarks.verdicts(FIXTURE["runs"][2]["figures"]["energy"])["ratio"] == (">= 0.9", True)
+    assert benchmarks.unit_of("rollout_s_per_generation") == "s per generation"
+    assert benchmarks.unit_of("steps") == "" and benchmarks.unit_of("sim_steps_per_s") == "/s"
+
+
+def test_the_summary_shows_every_kind_top_level_figures_with_their_load():
+    text = benchmarks.render_all(FIXTURE)
+    assert "| tipping | `tipping.step_ms` | 0.432 ms | <= 1 ms | met | 3.2 / 4.5 |" in text
+    assert "| energy | `energy.fitness_eval_s` | 0.61 s | <= 0.5 s | **not met** | 3.2 / 4.5 |" in text
+    assert "parts_s" not in text  # nested figures: the kind's own section
+    missing = [k for k, kind in KINDS.items() if kind.bench() and k not in ("tipping", "energy")]
+    for k in missing:
+        assert f"{k}: not measured yet (`gaitmend reproduce bench --kinds {k} --write-docs`)" in text
+    assert "No data yet" in benchmarks.render_all(None) and "No data yet" in benchmarks.render_kind("tipping", None)
+
+
+def _fake_bench(calls: list):
+    def bench(quick, log, kinds):
+        calls.append((quick, list(kinds)))
+        return {"cores": 2, "quick": quick, kinds[0]: {"x_ms": float(len(calls))}}
+    return bench
+
+
+def test_reproduce_appends_each_kind_and_skips_those_already_there(tmp_path):
+    path = tmp_path / "benchmarks.json"
+    have = [k for k, kind in KINDS.items() if kind.bench()]
+    path.write_text(json.dumps({**FIXTURE, "runs": [_run(k, {"x_ms": 0.5}) for k in have[1:]]}))
+    calls: list = []
+    out = reproduce_bench(BenchParams(json_out=path), lambda m: None, _fake_bench(calls))
+    assert calls == [(False, [have[0]])]  # only the kind the file lacked, at the full budget
+    row = json.loads(path.read_text())["runs"][-1]
+    assert row["kind"] == have[0] and row["figures"] == {have[0]: {"x_ms": 1.0}}  # cores/quick are not figures
+    assert {"machine", "load_before", "load_after", "commit", "date", "nice", "wall_s"} <= row.keys()
+    assert row["machine"]["cores"] >= 1 and row["machine"]["cpu"]
+    assert f"`{have[0]}.x_ms`" in out
+    reproduce_bench(BenchParams(json_out=path), lambda m: None, _fake_bench(calls))
+    assert len(calls) == 1  # nothing left to measure
+    reproduce_bench(BenchParams(kinds=have[1], json_out=path), lambda m: None, _fake_bench(calls))
+    runs = json.loads(path.read_text())["runs"]
+    assert calls[-1] == (False, [have[1]]) and [r["kind"] for r in runs].count(have[1]) == 2  # kept beside the old
+    assert "2.00 ms" in benchmarks.render_kind(have[1], {"runs": runs})  # the new run is the one shown
+
+
+def test_an_unknown_kind_is_refused():
+    with pytest.raises(ValueError, match="no kind with a bench named nope"):
+        BenchParams(kinds="tipping,nope")
+
+
+def test_the_pages_follow_the_committed_file(tmp_path):
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
+    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("*.png", "*.svg"))
+    assert docs_gen.check(tmp_path) == []
+    path = tmp_path / "docs" / "benchmarks.json"
+    data = json.loads(path.read_text())
+    kinds = {r["kind"] for r in data["runs"]}
+    assert {k for k, kind in KINDS.items() if kind.bench()} <= kinds  # every kind is measured in the committed file
+    tipping = [r for r in data["runs"] if r["kind"] == "tipping"][-1]
+    tipping["figures"]["tipping"]["tipping_step_ms"] = 123.0
+    path.write_text(json.dumps(data))
+    diffs = docs_gen.check(tmp_path)
+    assert sorted(d.split("\n")[0] for d in diffs) == ["--- docs/benchmarks.md (as written)",
+                                                        "--- docs/tipping.md (as written)"]
+    assert all("123 ms" in d for d in diffs)
