@@ -42,3 +42,14 @@ def test_rows_are_the_papers():
 def test_not_attempted_lists_what_the_data_lacks():
     text = not_attempted(None)
     assert "Not run yet (40 rows)" in text and "staircase" in text and "20 trials" in text
+
+
+def test_paper_budget_hours_scale_by_evaluations_from_the_rows():
+    """The paper-budget estimate comes from the data's rows: 48 evaluations in 24 s is 0.5 s
+    an evaluation, so a 3020-evaluation run is about 25 min and 800 of them 336 h."""
+    from app.jobs.multigait.paper_rows import _paper_budget_hours
+
+    runs = [{"spec": {"search": {"particles": 8, "generations": 5}}, "wall_s": w} for w in (20.0, 28.0)]
+    text = _paper_budget_hours(runs)
+    assert "about 25 min a run and 336 h in all" in text and "0.50 s of wall time an evaluation" in text
+    assert _paper_budget_hours([]) == ""
