@@ -14,7 +14,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import loop_check, peers_check, prose, randomised_check
+from app.jobs.recovery import jobtime, loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
@@ -100,10 +100,12 @@ def _rows_in(raw_path: Path | None, same: Callable[[dict], bool],
 
 def _run_and_keep(spec: RecoverySpec, row_of: Callable[[dict], dict], rows: list[dict], others: list[dict],
                   raw_path: Path | None) -> tuple[dict, float]:
-    """Runs ``spec``, appends its row and saves at once: (the summary, the run's wall time)."""
-    t = time.perf_counter()
+    """Runs ``spec``, appends its row (with the machine's 1-minute load before and after
+    the run and its cores, so its wall time can be read) and saves at once: (the summary,
+    the run's wall time)."""
+    before, t = os.getloadavg()[0], time.perf_counter()
     s = run(spec, MemoryContext()).summary
-    rows.append(row_of(s))
+    rows.append(row_of(s) | {"load_before": before, "load_after": os.getloadavg()[0], "cores": os.cpu_count()})
     _save_rows(others + rows, raw_path)
     return s, time.perf_counter() - t
 
@@ -639,8 +641,6 @@ class Table2Params(BaseModel):
 
 
 def _table2(p: Table2Params, log: Callable[[str], None]) -> str:
-    # docs/recovery.md: a paper-size run (DE 30 x 60 with its random-search control and the
-    # robustness re-runs, 1 ms) took 379 s on an idle 2-core machine, 782 s at load 4-5.
     if p.render_only:
         md = run_table2(p.seeds, p.generations, p.population, log, p.raw, p.peers, render_only=True)
         p.out.parent.mkdir(parents=True, exist_ok=True)
@@ -648,8 +648,9 @@ def _table2(p: Table2Params, log: Callable[[str], None]) -> str:
         return md
     runs = 4 * p.seeds
     scale = p.population * (p.generations + 1) / (30 * 61) * (0.001 / RecoverySpec().sim.timestep_s)
-    log(f"{runs} runs (4 scenarios x {p.seeds} seeds); estimate {runs * 379 * scale / 60:.0f}-"
-        f"{runs * 782 * scale / 60:.0f} min (idle to loaded 2-core machine), less for runs already in {p.raw}")
+    done = json.loads(p.raw.read_text()) if p.raw.exists() else []
+    log(f"{runs} runs (4 scenarios x {p.seeds} seeds); {jobtime.estimate(done, ROW_VERSION, runs, scale)}, "
+        f"less for runs already in {p.raw}")
     md = run_table2(seeds=p.seeds, generations=p.generations, population=p.population, log=log, raw_path=p.raw,
                     peers_path=p.peers)
     p.out.parent.mkdir(parents=True, exist_ok=True)
@@ -809,7 +810,11 @@ EXPERIMENTS = [
                (Section(TABLE2_SECTION, (TABLE2_JSON, PEERS_JSON), render_table2),
                 Section("recovery-table2-seed0", (TABLE2_JSON,), render_table2_seed0),
                 Section("recovery-default-result", (TABLE2_JSON,),
-                        lambda datas: prose.render_default_result(datas, ROW_VERSION)))),
+                        lambda datas: prose.render_default_result(datas, ROW_VERSION)),
+                Section("recovery-job-time", (TABLE2_JSON,), lambda datas: jobtime.render_job_time(datas, ROW_VERSION)),
+                Section("recovery-f-scale", (TABLE2_JSON,), lambda datas: jobtime.render_f_scale(datas, ROW_VERSION)),
+                Section("readme-first-command-time", (TABLE2_JSON,),
+                        lambda datas: jobtime.render_readme_time(datas, ROW_VERSION)))),
     Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
                         "docs/table2_peers.json; the Table II page pairs them with our DE",
