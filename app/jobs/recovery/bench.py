@@ -1,6 +1,6 @@
 """The ``recovery`` kind's figures for `gaitmend bench` (targets live here, not in tests),
-sized to be quick beside the one paper-size search it must run (about 3 of its minutes on
-two idle cores; docs/recovery_speed.md):
+sized to be quick beside the one paper-size search it must run (that search's time, with
+the machine's load, is ``paper_recovery_wall_s`` in docs/benchmarks.json):
 
 (a) raw native-rollout steps/s on the damaged model (legs 1 and 6 lost), all cores, with
     controls precomputed outside the timer; (b) the evaluator's steps/s including
