@@ -232,10 +232,12 @@ for _kind in KINDS.values():
 
 def _cross_kind_experiments():
     """Reproductions that span the kinds: `gaitmend reproduce <name>` (app/cli/bench.py's
-    measures every kind with the function `gaitmend bench` calls)."""
+    measures every kind with the function `gaitmend bench` calls; app/cli/examples.py's runs
+    the README's example lines through the CLI)."""
     from app.cli.bench import EXPERIMENT as BENCH
+    from app.cli.examples import EXPERIMENT as EXAMPLES
 
-    return [BENCH]
+    return [BENCH, EXAMPLES]
 
 
 for _exp in _cross_kind_experiments():

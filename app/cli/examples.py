@@ -1,0 +1,156 @@
+"""`gaitmend reproduce readme-examples`: how long the README's example lines take (issue 28).
+
+The examples are read from README.md itself, the fenced `echo '<spec>' | gaitmend run
+/dev/stdin --out results/` lines of its "## One job per kind" section, one per kind, so the
+commands measured are exactly the ones the README shows; a README whose section or lines
+no longer have that shape is refused with what is missing. Each line runs, as written, in a
+bash that a user would type it into (``gaitmend`` being this checkout's CLI, ``python -m
+app``) in an empty folder, one example at a time, and is appended to
+docs/readme_examples.json with the wall and CPU seconds of the whole command, the 1-minute
+load average before and after, the machine, the niceness, the commit and the date; an
+example whose spec is there already is skipped unless --kinds names its kind.
+app/results/examples.py renders the file.
+
+It lives here, beside `gaitmend reproduce bench`, because it spans every kind and runs the CLI."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from app.cli.bench import _names, machine
+from app.jobs.base import Experiment
+from app.jobs.ledger import ROOT, write_json_atomic
+from app.jobs.registry import KINDS
+from app.results import examples as rendered
+from app.results.provenance import git_commit
+
+SECTION = "## One job per kind"
+FENCE = re.compile(r"^```bash\n(?P<body>.*?)^```", re.M | re.S)
+LINE = re.compile(r"^echo '(?P<spec>\{.*\})' \| gaitmend run /dev/stdin --out results/$")
+
+
+class ReadmeShapeError(ValueError):
+    """README.md no longer holds the example lines in the shape this reproduction reads."""
+
+
+def key_of(spec: dict) -> str:
+    """The spec as canonical JSON: an example's identity, whatever the commit or its spacing."""
+    return json.dumps(spec, sort_keys=True, separators=(",", ":"))
+
+
+def _section(text: str) -> str:
+    start = text.find(f"\n{SECTION}\n")
+    if start < 0:
+        raise ReadmeShapeError(f"README.md has no {SECTION!r} section: the example lines are read from it")
+    end = text.find("\n## ", start + len(SECTION) + 2)
+    return text[start:end if end >= 0 else len(text)]
+
+
+def parse_examples(text: str, kinds: Iterable[str] = KINDS) -> list[dict]:
+    """The example lines of a README's "## One job per kind" section, in order: {kind, spec
+    (the README's JSON text), key, command (the line as written)}; exactly one per kind."""
+    found, odd = [], []
+    for block in FENCE.finditer(_section(text)):
+        for line in filter(str.strip, block["body"].splitlines()):
+            m = LINE.match(line.strip())
+            if m is None:
+                odd.append(line)
+                continue
+            try:
+                spec = json.loads(m["spec"])
+            except json.JSONDecodeError as e:
+                raise ReadmeShapeError(f"an example line's spec is not JSON ({e}): {line}") from None
+            found.append({"kind": spec.get("kind"), "spec": m["spec"], "key": key_of(spec), "command": line.strip()})
+    if odd:
+        raise ReadmeShapeError(f"{SECTION} has fenced bash lines not of the form "
+                               f"\"echo '<spec>' | gaitmend run /dev/stdin --out results/\": {odd}")
+    named = [e["kind"] for e in found]
+    wrong = [k for k in kinds if named.count(k) != 1] + [k for k in named if k not in kinds]
+    if wrong:
+        raise ReadmeShapeError(f"{SECTION} should hold one example line per kind ({', '.join(kinds)}); found "
+                               f"{', '.join(map(str, named)) or 'none'} (wrong: {', '.join(map(str, wrong))})")
+    return found
+
+
+def run_line(command: str, log: Callable[[str], None]) -> None:
+    """The README's line, as written, in bash in an empty folder, with `gaitmend` this checkout's CLI."""
+    env = os.environ | {"PYTHONPATH": str(ROOT), "GAITMEND_PY": sys.executable}
+    script = f'gaitmend() {{ "$GAITMEND_PY" -m app "$@"; }}\nset -o pipefail\n{command}\n'
+    with tempfile.TemporaryDirectory(prefix="gaitmend-example-") as tmp:
+        done = subprocess.run(["bash", "-c", script], cwd=tmp, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"`{command}` exited {done.returncode}:\n{done.stderr[-2000:]}")
+    log(done.stdout.strip().splitlines()[-1] if done.stdout.strip() else "(no output)")
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def measure_example(example: dict, log: Callable[[str], None],
+                    run: Callable[[str, Callable[[str], None]], None] = run_line) -> dict:
+    """One example with where and when: the commit as it starts, the date as it ends; CPU
+    seconds are the command's own (every process it waited for)."""
+    commit, before, t0, c0 = git_commit(ROOT), os.getloadavg()[0], time.perf_counter(), _children_cpu()
+    run(example["command"], log)
+    wall, cpu, after = time.perf_counter() - t0, _children_cpu() - c0, os.getloadavg()[0]
+    return example | {"machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
+                      "commit": commit, "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+                      "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
+
+
+class ExamplesParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    kinds: str = Field("", description="kinds whose README example to measure again, comma-separated (a new run is "
+                                       "appended beside the old); empty: every example the file does not hold yet")
+    readme: Path = Field(Path("README.md"), description="the README whose example lines are measured (relative: "
+                                                        "to the repository)")
+    json_out: Path = Field(Path(rendered.JSON), description="the file each example's run is appended to")
+
+    @field_validator("kinds")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        unknown = [k for k in _names(v) if k not in KINDS]
+        if unknown:
+            raise ValueError(f"no kind named {', '.join(unknown)} (kinds: {', '.join(KINDS)})")
+        return v
+
+
+def reproduce_examples(p: ExamplesParams, log: Callable[[str], None] = print,
+                       run: Callable[[str, Callable[[str], None]], None] = run_line) -> str:
+    """Each README example not yet in the file (or of a kind asked for), one at a time, appended as it ends."""
+    examples = parse_examples((ROOT / p.readme).read_text())
+    data = (json.loads(p.json_out.read_text()) if p.json_out.exists()
+            else {"schema": 1, "experiment": "readme-examples", "command": rendered.COMMAND, "runs": []})
+    have, again = {r["key"] for r in data["runs"]}, _names(p.kinds)
+    todo = [e for e in examples if e["kind"] in again or e["key"] not in have]
+    for e in todo:
+        log(f"{e['kind']}: {e['command']} (load {os.getloadavg()[0]:.1f}) ...")
+        data["runs"].append(measure_example(e, log, run))
+        write_json_atomic(p.json_out, data)
+        log(f"{e['kind']}: {data['runs'][-1]['wall_s']:.0f} s, appended to {p.json_out}")
+    if not todo:
+        log(f"every README example is in {p.json_out} already (--kinds K re-measures one)")
+    return rendered.render_table(data)
+
+
+EXPERIMENT = Experiment("readme-examples",
+                        "README.md's example lines (one per kind, read from the README), each run as written "
+                        "through the CLI one at a time and appended with its wall and CPU seconds, the load before "
+                        "and after, the machine, the commit and the date (examples already in --json-out are "
+                        "skipped unless --kinds names their kind)",
+                        ExamplesParams, reproduce_examples, rendered.sections())
