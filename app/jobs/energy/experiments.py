@@ -127,13 +127,31 @@ def _job(data: dict) -> dict:
     return _compact(json.loads(dumps(r.summary)), json.loads(dumps(r.history)))
 
 
+def _search_default(name: str) -> int:
+    """The energy spec's own default of ``search.<name>`` (the kind's default budget)."""
+    from app.jobs.energy.spec import Search
+
+    return Search.model_fields[name].default
+
+
 class SeedsParams(BaseModel):
     seeds: str = Field("0,1,2,3,4", description="GA seeds (comma-separated); the random search's seed follows each")
-    population: int = Field(12, ge=4, le=200, description="GA population (even)")
-    generations: int = Field(8, ge=1, le=500, description="GA generations after the initial population")
+    population: int = Field(_search_default("population"), ge=4, le=200, description="GA population (even)")
+    generations: int = Field(_search_default("generations"), ge=1, le=500,
+                             description="GA generations after the initial population")
     period_bounds: str = Field("0.3,1.5", description="the GA's period range (s): low,high")
     json_out: Path | None = Field(Path(SEEDS_JSON), description="the ledger: each finished seed is appended, a "
                                                                 "re-run skips the seeds already there")
+
+
+def seeds_spec(p: SeedsParams, seed: int) -> dict:
+    """One seed's job: the trot search at the params' budget and period range, with its
+    random search and the analysis controls (no robustness re-runs). ``workers`` 0 uses every
+    core; the numbers do not depend on it (tests/jobs/energy), so the run's key does not either."""
+    lo, hi = (float(v) for v in p.period_bounds.split(","))
+    return {"kind": "energy", "gait": {"period_bounds_s": [lo, hi]},
+            "search": {"population": p.population, "generations": p.generations, "seed": seed, "workers": 0},
+            "evidence": {"controls": True, "random_search": True, "robustness": False}}
 
 
 def _seeds(p: SeedsParams, log: Callable[[str], None]) -> str:
@@ -141,9 +159,7 @@ def _seeds(p: SeedsParams, log: Callable[[str], None]) -> str:
     lo, hi = (float(v) for v in p.period_bounds.split(","))
     led = Ledger(p.json_out, "energy-seeds", SEEDS_COMMAND, p.model_dump(mode="json"), SCIENCE, planned=len(seeds))
     for seed in seeds:
-        data = {"kind": "energy", "gait": {"period_bounds_s": [lo, hi]},
-                "search": {"population": p.population, "generations": p.generations, "seed": seed, "workers": 1},
-                "evidence": {"controls": True, "random_search": True, "robustness": False}}
+        data = seeds_spec(p, seed)
         log(f"energy seed {seed}: GA {p.population} x ({p.generations} + 1) and its random search, T in [{lo}, {hi}] s")
         led.run(f"seed {seed}", data, seed, lambda data=data: _job(data), log)
     return render_seeds([led.data])
@@ -153,9 +169,41 @@ def _ctl(row: dict, name: str) -> dict:
     return next((c["metrics"] for c in row["controls"] if c["name"] == name), {})
 
 
+def _of_budget(run: dict, params: dict) -> bool:
+    """Whether a ledger run is at the GA budget of the ledger's params (the file keeps the runs
+    of an earlier budget as a record; only the params' budget is tabled)."""
+    s = run["spec"]["search"]
+    return (s["population"], s["generations"]) == (params["population"], params["generations"])
+
+
+def _budget_runs(data: dict, tabled: bool = True) -> list[dict]:
+    """The current runs at the params' budget (``tabled``), or the others."""
+    return [r for r in current_runs(data) if _of_budget(r, data["params"]) == tabled]
+
+
 def _seed_rows(data: dict) -> list[tuple[int, dict, float]]:
-    """(seed, row, the period range's upper end) per finished seed."""
-    return [(r["seed"], r["result"], r["spec"]["gait"]["period_bounds_s"][1]) for r in current_runs(data)]
+    """(seed, row, the period range's upper end) per finished seed at the params' budget."""
+    return [(r["seed"], r["result"], r["spec"]["gait"]["period_bounds_s"][1]) for r in _budget_runs(data)]
+
+
+def _budget_text(data: dict) -> str:
+    """The tabled budget against the spec's default, the seeds' wall time, and the runs of
+    other budgets the file keeps (not tabled)."""
+    p, pop, gen = data["params"], _search_default("population"), _search_default("generations")
+    n = p["population"] * (p["generations"] + 1)
+    same = (p["population"], p["generations"]) == (pop, gen)
+    wall = [r["wall_s"] for r in _budget_runs(data)]
+    text = (f"GA {p['population']} x ({p['generations']} + 1) = {n} evaluations per seed ("
+            + ("the energy spec's default" if same else f"the default is {pop} x ({gen} + 1) = {pop * (gen + 1)}")
+            + f"), the same for the random search; period range [{p['period_bounds']}] s; seeds "
+            f"{', '.join(str(s) for s, _, _ in _seed_rows(data))}; a seed's job (GA, random search, controls, "
+            f"physics) took {_range(wall, '{:.0f}')} s wall on the shared machine.")
+    other = _budget_runs(data, tabled=False)
+    if other:
+        kept = sorted({(r["spec"]["search"]["population"], r["spec"]["search"]["generations"]) for r in other})
+        text += (f" The file also keeps {len(other)} earlier runs at " + ", ".join(f"{a} x ({b} + 1)" for a, b in kept)
+                 + " (not tabled here).")
+    return text + "\n"
 
 
 def render_seeds(datas: list) -> str:
@@ -178,10 +226,7 @@ def render_seeds(datas: list) -> str:
         t1.append((r["cot"]["final"], tab.get("cot_final")))
     if not rows:
         return missing(SEEDS_JSON, SEEDS_COMMAND)
-    p = data["params"]
-    out = [f"GA {p['population']} x ({p['generations']} + 1) = {p['population'] * (p['generations'] + 1)} evaluations per "
-           f"seed (the default is 40 x (40 + 1) = 1640), the same for the random search; period range "
-           f"[{p['period_bounds']}] s; seeds {', '.join(str(s) for s, _, _ in _seed_rows(data))}.\n",
+    out = [_budget_text(data),
            md_table(["seed", "period T (s)", "links hip / thigh / calf (m)", "CoT final", "CoT in MuJoCo",
                      "walks 10 periods, speed (m/s)", "J", "random search: J", "random search: CoT final",
                      "Table 1 gait: CoT final"], rows),
@@ -194,7 +239,7 @@ def render_seeds(datas: list) -> str:
            "- The GA's answer against Table 1's trot, final CoT (lower is better): "
            + stats.paired_text(stats.paired([a for a, _ in t1], [b for _, b in t1], higher_is_better=False,
                                             names=("the GA's answer", "Table 1's trot")), digits=3)
-           + f"; CoT ratio {min(a / b for a, b in t1):.2f}-{max(a / b for a, b in t1):.2f}.",
+           + f"; CoT ratio {_range([a / b for a, b in t1], '{:.2f}')}.",
            "", stats.PAIRED_NOTE, progress_note(data, len(rows))]
     return "\n".join(out) + "\n"
 
@@ -246,7 +291,7 @@ def render_seeds_summary(datas: list) -> str:
     bound = sum(r["gait"]["period_s"] >= hi * (1 - BOUND_TOL) for _, r, hi in rows)
     ga = stats.paired([r["J"] for _, r, _ in rows], [_ctl(r, "random_search")["J"] for _, r, _ in rows],
                       higher_is_better=False, names=("GA", "random search"))
-    return (f"- **energy** (paper 003, {len(rows)} seeds): the GA's trot costs {min(cot):.2f}-{max(cot):.2f}x Table 1's CoT, "
+    return (f"- **energy** (paper 003, {len(rows)} seeds): the GA's trot costs {_range(cot, '{:.2f}')}x Table 1's CoT, "
             f"its period on the range's bound in {bound} of {len(rows)} seeds; GA vs random search at equal budget: "
             f"{ga['verdict']} ([docs/energy.md](docs/energy.md)).\n")
 
