@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from app.cli.examples import ExamplesParams, ReadmeShapeError, key_of, parse_examples, reproduce_examples
+from app.cli.examples import (FIRST_KEY, ExamplesParams, ReadmeShapeError, key_of, parse_examples, parse_first,
+                               reproduce_examples)
 from app.jobs.registry import KINDS
 from app.results import docs_gen, examples
 
@@ -59,6 +60,26 @@ def test_a_readme_of_another_shape_is_refused_clearly():
         parse_examples("# x\n\n## One job per kind\n\nno examples\n\n## Next\n")
 
 
+def test_the_first_commands_job_is_read_from_the_readme():
+    """The first command's job is the `gaitmend run --out results/` that ends the README's
+    install line (the install is not timed); a README without it is refused."""
+    first = parse_first(README)
+    assert first["command"] == "gaitmend run --out results/" and first["key"] == FIRST_KEY and first["spec"] == "{}"
+    line = next(ln for ln in README.splitlines() if ln.endswith(first["command"]) and not ln.startswith("#"))
+    assert "pip install" in line  # the install line, as the README shows it
+    with pytest.raises(ReadmeShapeError, match="first command"):
+        parse_first(README.replace("gaitmend run --out results/\n```", "gaitmend run\n```"))
+    with pytest.raises(ReadmeShapeError, match="no '## Two commands' section"):
+        parse_first(README.replace("## Two commands", "## Start"))
+
+
+def test_the_first_command_is_in_the_table_and_not_in_the_examples_sentence():
+    run = _run('{"kind": "recovery"}', 400.0) | {"key": FIRST_KEY, "spec": "{}", "command": "gaitmend run --out results/"}
+    data = {**FIXTURE, "runs": [*FIXTURE["runs"], run]}
+    assert "| recovery (the first command) | `gaitmend run --out results/` | 400 s |" in examples.render_table(data)
+    assert examples.render_sentence(data) == examples.render_sentence(FIXTURE)
+
+
 def test_the_table_shows_each_example_latest_run_with_its_load():
     text = examples.render_table(FIXTURE)
     assert "| tipping | `{\"kind\": \"tipping\"}` | 93 s | 84 s | 4.2 / 5.5 | 2026-12-03 15:00 UTC | 0123456789 |" in text
@@ -78,6 +99,7 @@ def test_reproduce_appends_each_example_and_skips_those_already_there(tmp_path):
     readme, path = tmp_path / "README.md", tmp_path / "readme_examples.json"
     readme.write_text(README)
     lines = [e["command"] for e in parse_examples(README)]
+    first = parse_first(README)["command"]
     calls: list[str] = []
 
     def fake(command, log):
@@ -85,14 +107,16 @@ def test_reproduce_appends_each_example_and_skips_those_already_there(tmp_path):
 
     path.write_text(json.dumps({**FIXTURE, "runs": [FIXTURE["runs"][1]]}))  # tipping's, measured already
     reproduce_examples(ExamplesParams(readme=readme, json_out=path), lambda m: None, fake)
-    assert calls == [c for c in lines if '"tipping"' not in c]  # in the README's order, one at a time
+    assert calls == [first] + [c for c in lines if '"tipping"' not in c]  # in the README's order, one at a time
     runs = json.loads(path.read_text())["runs"]
-    assert len(runs) == len(KINDS) and runs[-1]["command"] == lines[-1]
+    assert len(runs) == len(KINDS) + 1 and runs[-1]["command"] == lines[-1]
     assert {"machine", "load_before", "load_after", "commit", "date", "nice", "wall_s", "cpu_s", "spec"} <= runs[-1].keys()
     reproduce_examples(ExamplesParams(readme=readme, json_out=path), lambda m: None, fake)
-    assert len(calls) == len(KINDS) - 1  # nothing left to measure
+    assert len(calls) == len(KINDS)  # nothing left to measure
     reproduce_examples(ExamplesParams(kinds="tipping", readme=readme, json_out=path), lambda m: None, fake)
-    assert calls[-1] == next(c for c in lines if '"tipping"' in c) and len(json.loads(path.read_text())["runs"]) == 6
+    assert calls[-1] == next(c for c in lines if '"tipping"' in c) and len(json.loads(path.read_text())["runs"]) == 7
+    reproduce_examples(ExamplesParams(kinds="first", readme=readme, json_out=path), lambda m: None, fake)
+    assert calls[-1] == first and len(json.loads(path.read_text())["runs"]) == 8
     readme.write_text(README.replace("## One job per kind", "## Kinds"))
     with pytest.raises(ReadmeShapeError):
         reproduce_examples(ExamplesParams(readme=readme, json_out=path), lambda m: None, fake)

@@ -37,6 +37,9 @@ from app.results import examples as rendered
 from app.results.provenance import git_commit
 
 SECTION = "## One job per kind"
+FIRST_SECTION = "## Two commands"
+FIRST_KEY = "first-command"  # the README's first command: the default recovery job, no spec
+FIRST_RUN = re.compile(r"(?P<run>gaitmend run --out results/)$")
 FENCE = re.compile(r"^```bash\n(?P<body>.*?)^```", re.M | re.S)
 LINE = re.compile(r"^echo '(?P<spec>\{.*\})' \| gaitmend run /dev/stdin --out results/$")
 
@@ -50,12 +53,25 @@ def key_of(spec: dict) -> str:
     return json.dumps(spec, sort_keys=True, separators=(",", ":"))
 
 
-def _section(text: str) -> str:
-    start = text.find(f"\n{SECTION}\n")
+def _section(text: str, title: str = SECTION) -> str:
+    start = text.find(f"\n{title}\n")
     if start < 0:
-        raise ReadmeShapeError(f"README.md has no {SECTION!r} section: the example lines are read from it")
-    end = text.find("\n## ", start + len(SECTION) + 2)
+        raise ReadmeShapeError(f"README.md has no {title!r} section: the example lines are read from it")
+    end = text.find("\n## ", start + len(title) + 2)
     return text[start:end if end >= 0 else len(text)]
+
+
+def parse_first(text: str) -> dict:
+    """The README's first command's job (the ``gaitmend run --out results/`` that ends the
+    first fenced line of "## Two commands", after the install), as an example: the default
+    spec, keyed ``first-command``; the install before it is not timed."""
+    for block in FENCE.finditer(_section(text, FIRST_SECTION)):
+        for line in block["body"].splitlines():
+            m = FIRST_RUN.search(line.strip())
+            if m and not line.lstrip().startswith("#"):
+                return {"kind": "recovery", "spec": "{}", "key": FIRST_KEY, "command": m["run"], "first": True}
+    raise ReadmeShapeError(f"{FIRST_SECTION} has no fenced line ending in `gaitmend run --out results/` (the first "
+                           "command, whose job is timed)")
 
 
 def parse_examples(text: str, kinds: Iterable[str] = KINDS) -> list[dict]:
@@ -115,8 +131,9 @@ def measure_example(example: dict, log: Callable[[str], None],
 class ExamplesParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    kinds: str = Field("", description="kinds whose README example to measure again, comma-separated (a new run is "
-                                       "appended beside the old); empty: every example the file does not hold yet")
+    kinds: str = Field("", description="kinds whose README example to measure again, comma-separated ('first': the "
+                                       "first command's job; a new run is appended beside the old); empty: every "
+                                       "example the file does not hold yet")
     readme: Path = Field(Path("README.md"), description="the README whose example lines are measured (relative: "
                                                         "to the repository)")
     json_out: Path = Field(Path(rendered.JSON), description="the file each example's run is appended to")
@@ -124,20 +141,21 @@ class ExamplesParams(BaseModel):
     @field_validator("kinds")
     @classmethod
     def _known(cls, v: str) -> str:
-        unknown = [k for k in _names(v) if k not in KINDS]
+        unknown = [k for k in _names(v) if k not in KINDS and k != "first"]
         if unknown:
-            raise ValueError(f"no kind named {', '.join(unknown)} (kinds: {', '.join(KINDS)})")
+            raise ValueError(f"no kind named {', '.join(unknown)} (kinds: {', '.join(KINDS)}, or first)")
         return v
 
 
 def reproduce_examples(p: ExamplesParams, log: Callable[[str], None] = print,
                        run: Callable[[str, Callable[[str], None]], None] = run_line) -> str:
     """Each README example not yet in the file (or of a kind asked for), one at a time, appended as it ends."""
-    examples = parse_examples((ROOT / p.readme).read_text())
+    text = (ROOT / p.readme).read_text()
+    examples = [parse_first(text), *parse_examples(text)]
     data = (json.loads(p.json_out.read_text()) if p.json_out.exists()
             else {"schema": 1, "experiment": "readme-examples", "command": rendered.COMMAND, "runs": []})
     have, again = {r["key"] for r in data["runs"]}, _names(p.kinds)
-    todo = [e for e in examples if e["kind"] in again or e["key"] not in have]
+    todo = [e for e in examples if ("first" if e.get("first") else e["kind"]) in again or e["key"] not in have]
     for e in todo:
         log(f"{e['kind']}: {e['command']} (load {os.getloadavg()[0]:.1f}) ...")
         data["runs"].append(measure_example(e, log, run))

@@ -813,7 +813,7 @@ EXPERIMENTS = [
                         lambda datas: prose.render_default_result(datas, ROW_VERSION)),
                 Section("recovery-job-time", (TABLE2_JSON,), lambda datas: jobtime.render_job_time(datas, ROW_VERSION)),
                 Section("recovery-f-scale", (TABLE2_JSON,), lambda datas: jobtime.render_f_scale(datas, ROW_VERSION)),
-                Section("readme-first-command-time", (TABLE2_JSON,),
+                Section("readme-first-command-time", (TABLE2_JSON, "docs/readme_examples.json"),
                         lambda datas: jobtime.render_readme_time(datas, ROW_VERSION)))),
     Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "

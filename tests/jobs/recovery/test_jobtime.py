@@ -30,6 +30,22 @@ def test_the_readme_line_is_the_default_jobs_runs_with_their_load():
     assert "(2 cores)" in line and "load 1.5-6.5; load not recorded for 1" in line
 
 
+def test_the_readme_line_leads_with_the_first_command_timed_as_written():
+    """docs/readme_examples.json's latest run of the first command comes first, with its load;
+    an example of another key is not read as it."""
+    run = {"key": "first-command", "wall_s": 330.0, "machine": {"cores": 2}, "load_before": 0.2, "load_after": 1.9,
+           "date": "2026-12-03 16:00 UTC"}
+    older = run | {"wall_s": 900.0}
+    other = run | {"key": '{"kind":"recovery"}', "wall_s": 60.0}
+    line = jobtime.render_readme_time([ROWS, {"runs": [older, run, other]}], V)
+    assert line.startswith("How long the first command takes: 5.5 min as the README writes it (2 cores, 1-minute "
+                           "load 0.2 before and 1.9 after, 2026-12-03 16:00 UTC;")
+    assert "The same job is Table II's legs 1 & 6 row at 1 ms" in line and "median of 10.0 min" in line
+    assert jobtime.render_readme_time([ROWS, {"runs": [other]}], V) == jobtime.render_readme_time([ROWS], V)
+    assert jobtime.render_readme_time([[], {"runs": [run]}], V).startswith(
+        "How long the first command takes: 5.5 min as the README writes it")
+
+
 def test_the_job_time_table_by_step_default_damage_and_all():
     table = jobtime.render_job_time([ROWS], V).splitlines()
     assert table[2] == ("| 1 ms | legs 1 & 6 (the default job) | 3 (seeds 0-2) | 600 | 300 / 1200 "
