@@ -5,6 +5,7 @@ and Redis key prefix, so runs in parallel do not collide."""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -28,6 +29,15 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "kinds"))  # the cont
 
 PG_BASE = os.environ.get("GAITMEND_TEST_PG_URL", "postgresql://postgres@127.0.0.1:5432/test")
 REDIS_URL = os.environ.get("GAITMEND_TEST_REDIS_URL", "redis://127.0.0.1:6379/0")
+
+
+@pytest.fixture
+def docs_copy(tmp_path):
+    """README.md and docs/ (pages and data) copied: a repository a test may break."""
+    root = Path(__file__).resolve().parents[1]
+    shutil.copy(root / "README.md", tmp_path / "README.md")
+    shutil.copytree(root / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("*.png", "*.svg"))
+    return tmp_path
 
 
 @pytest.fixture

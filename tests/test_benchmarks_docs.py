@@ -7,7 +7,6 @@ real pages checked against a changed file."""
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import pytest
@@ -103,9 +102,8 @@ def test_an_unknown_kind_is_refused():
         BenchParams(kinds="tipping,nope")
 
 
-def test_the_pages_follow_the_committed_file(tmp_path):
-    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("*.png", "*.svg"))
+def test_the_pages_follow_the_committed_file(docs_copy):
+    tmp_path = docs_copy
     assert docs_gen.check(tmp_path) == []
     path = tmp_path / "docs" / "benchmarks.json"
     data = json.loads(path.read_text())

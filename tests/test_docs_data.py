@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 from pathlib import Path
 
 import pytest
@@ -41,11 +40,8 @@ def test_each_sections_data_is_committed_json_under_docs():
 
 
 @pytest.fixture
-def copy(tmp_path):
-    """README.md and docs/ (pages and data) copied: a repository the test may break."""
-    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("*.png", "*.svg"))
-    return tmp_path
+def copy(docs_copy):
+    return docs_copy
 
 
 def _first_number_in_a_section(text: str) -> tuple[int, str]:

@@ -8,7 +8,6 @@ runs here: the command runner is a fake."""
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import pytest
@@ -124,9 +123,8 @@ def test_reproduce_appends_each_example_and_skips_those_already_there(tmp_path):
         ExamplesParams(kinds="tipping,nope")
 
 
-def test_the_pages_follow_the_committed_file(tmp_path):
-    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("*.png", "*.svg"))
+def test_the_pages_follow_the_committed_file(docs_copy):
+    tmp_path = docs_copy
     assert docs_gen.check(tmp_path) == []
     path = tmp_path / examples.JSON
     data = json.loads(path.read_text())

@@ -9,11 +9,13 @@ with the very function `gaitmend bench --kind K --json` calls (``run_bench``).""
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import os
 import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -84,20 +86,28 @@ def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dic
             "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
 
 
+def append_measured(path: Path, experiment: str, command: str, todo: list, measure: Callable[[Any], dict],
+                    label: Callable[[Any], str], log: Callable[[str], None]) -> dict:
+    """The measurement file at ``path`` (a new one named by ``experiment`` and ``command``),
+    with each item of ``todo`` measured one at a time and appended, the file rewritten as each
+    ends (an interruption loses only the measurement under way)."""
+    data = (json.loads(path.read_text()) if path.exists()
+            else {"schema": 1, "experiment": experiment, "command": command, "runs": []})
+    for item in todo:
+        log(f"{label(item)} (load {os.getloadavg()[0]:.1f}) ...")
+        data["runs"].append(measure(item))
+        write_json_atomic(path, data)
+        log(f"{label(item)}: {data['runs'][-1]['wall_s']:.0f} s, appended to {path}")
+    return data
+
+
 def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print,
                     bench: Callable[..., dict] = run_bench) -> str:
     """Each kind asked for (or each not yet in the file), one at a time, appended as it ends."""
-    import json
-
-    data = (json.loads(p.json_out.read_text()) if p.json_out.exists()
-            else {"schema": 1, "experiment": "bench", "command": benchmarks.COMMAND, "runs": []})
-    have = {r["kind"] for r in data["runs"]}
+    have = {r["kind"] for r in json.loads(p.json_out.read_text())["runs"]} if p.json_out.exists() else set()
     todo = _names(p.kinds) or [k for k, kind in KINDS.items() if kind.bench() and k not in have]
-    for kind in todo:
-        log(f"{kind}: gaitmend bench --kind {kind} --json (load {os.getloadavg()[0]:.1f}) ...")
-        data["runs"].append(measure_kind(kind, log, bench))
-        write_json_atomic(p.json_out, data)
-        log(f"{kind}: {data['runs'][-1]['wall_s']:.0f} s, appended to {p.json_out}")
+    data = append_measured(p.json_out, "bench", benchmarks.COMMAND, todo, lambda k: measure_kind(k, log, bench),
+                           lambda k: f"{k}: gaitmend bench --kind {k} --json", log)
     if not todo:
         log(f"every kind is in {p.json_out} already (--kinds K re-measures one)")
     return benchmarks.render_all(data)

@@ -29,9 +29,9 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from app.cli.bench import _names, machine
+from app.cli.bench import _names, append_measured, machine
 from app.jobs.base import Experiment
-from app.jobs.ledger import ROOT, write_json_atomic
+from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
 from app.results import examples as rendered
 from app.results.provenance import git_commit
@@ -152,15 +152,11 @@ def reproduce_examples(p: ExamplesParams, log: Callable[[str], None] = print,
     """Each README example not yet in the file (or of a kind asked for), one at a time, appended as it ends."""
     text = (ROOT / p.readme).read_text()
     examples = [parse_first(text), *parse_examples(text)]
-    data = (json.loads(p.json_out.read_text()) if p.json_out.exists()
-            else {"schema": 1, "experiment": "readme-examples", "command": rendered.COMMAND, "runs": []})
-    have, again = {r["key"] for r in data["runs"]}, _names(p.kinds)
+    have = {r["key"] for r in json.loads(p.json_out.read_text())["runs"]} if p.json_out.exists() else set()
+    again = _names(p.kinds)
     todo = [e for e in examples if ("first" if e.get("first") else e["kind"]) in again or e["key"] not in have]
-    for e in todo:
-        log(f"{e['kind']}: {e['command']} (load {os.getloadavg()[0]:.1f}) ...")
-        data["runs"].append(measure_example(e, log, run))
-        write_json_atomic(p.json_out, data)
-        log(f"{e['kind']}: {data['runs'][-1]['wall_s']:.0f} s, appended to {p.json_out}")
+    data = append_measured(p.json_out, "readme-examples", rendered.COMMAND, todo, lambda e: measure_example(e, log, run),
+                           lambda e: f"{e['kind']}: {e['command']}", log)
     if not todo:
         log(f"every README example is in {p.json_out} already (--kinds K re-measures one)")
     return rendered.render_table(data)
