@@ -47,6 +47,11 @@ def fail(msg: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
+def default_spec_data() -> dict:
+    """The spec `gaitmend run` runs when given none (app/jobs/default_spec.json)."""
+    return json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
+
+
 def load_spec(path: Optional[Path]):
     """Parse a spec file (spec JSON, bundle manifest or bundle zip); exit 2 if it is bad."""
     from app.results.bundle import read_spec_file
@@ -55,7 +60,7 @@ def load_spec(path: Optional[Path]):
 
     try:
         if path is None:
-            data = json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
+            data = default_spec_data()
         elif path.suffix == ".zip":
             data = read_spec_file(path)
         else:

@@ -30,6 +30,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.cli.bench import _names, append_measured, machine
+from app.cli.common import default_spec_data
 from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
@@ -69,7 +70,8 @@ def parse_first(text: str) -> dict:
         for line in block["body"].splitlines():
             m = FIRST_RUN.search(line.strip())
             if m and not line.lstrip().startswith("#"):
-                return {"kind": "recovery", "spec": "{}", "key": FIRST_KEY, "command": m["run"], "first": True}
+                return {"kind": default_spec_data()["kind"], "spec": "{}", "key": FIRST_KEY, "command": m["run"],
+                        "first": True}
     raise ReadmeShapeError(f"{FIRST_SECTION} has no fenced line ending in `gaitmend run --out results/` (the first "
                            "command, whose job is timed)")
 
