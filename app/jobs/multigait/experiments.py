@@ -13,6 +13,7 @@ paper's parameters except the PSO budget given here.
 from __future__ import annotations
 
 import json
+import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -275,7 +276,25 @@ def render_compare_stats(datas: list) -> str:
                if fewest >= stats.fewest_pairs() else
                f"at this budget and {fewest} seeds no true advantage of PSO is excluded, however large; the power "
                "column says what the t-test alone could find with them.")]
-    return "\n".join(out) + "\n"
+    return "\n".join(out) + "\n" + _full_budget_estimate(rows)
+
+
+FULL_BUDGET = 20 * 150  # the paper's PSO: 20 particles x 150 generations, evaluations an arm
+
+
+def _full_budget_estimate(rows: list[dict]) -> str:
+    """What the comparison at the paper's full budget would cost, scaled by evaluations from
+    these runs' own wall time (each run's robustness block included: an estimate on the high side)."""
+    per = [float(r["wall_s"]) / int(r["evaluations"]) for r in rows if r.get("wall_s") and r.get("evaluations")]
+    if not per:
+        return ""
+    each = statistics.median(per) * FULL_BUDGET
+    arms, seeds = 2, max(len({r["seed"] for r in rows}), stats.fewest_pairs())
+    return (f"\nAt the paper's full budget ({FULL_BUDGET} evaluations an arm), one arm's run would take about "
+            f"{each / 60:.0f} min here and {arms} arms x {seeds} seeds about {arms * seeds * each / 3600:.0f} h, "
+            f"scaled by evaluations from these {len(per)} runs' wall time (median {statistics.median(per):.2f} s an "
+            "evaluation at the load they ran at, each run's robustness block included: an estimate on the high "
+            "side).\n")
 
 
 def render_compare(datas: list) -> str:

@@ -66,3 +66,15 @@ def test_seeds_needed_is_never_below_what_the_signed_rank_test_can_reject_with(n
     assert f"at this budget and {n} seeds no true advantage of PSO is excluded, however large" in text
     six = ex.render_compare_stats([_compare_rows(0.1, floor)])
     assert "however large" not in six and "smaller than the power column is not excluded" in six
+
+
+def test_the_full_budget_cost_is_scaled_from_the_runs_own_wall_time():
+    rows = _compare_rows(1.0, 5)
+    assert "full budget" not in ex.render_compare_stats([rows])  # no wall times: no estimate
+    for i, r in enumerate(rows):
+        r["wall_s"] = 400 * (1.0 + 0.5 * (i % 3))  # 1, 1.5, 2 s an evaluation: median 1.5
+    text = ex.render_compare_stats([rows])
+    # 1.5 s x 3000 evaluations = 75 min a run; 2 arms x 6 seeds (the fewest that can show a difference)
+    assert f"2 arms x {stats.fewest_pairs()} seeds" in text and stats.fewest_pairs() == 6
+    assert "one arm's run would take about 75 min here and 2 arms x 6 seeds about 15 h" in text
+    assert "these 15 runs' wall time (median 1.50 s an evaluation" in text
