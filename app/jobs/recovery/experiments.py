@@ -14,10 +14,11 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import jobtime, loop_check, peers_check, prose, randomised_check
+from app.jobs.recovery import atlas_check, jobtime, loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
+from app.jobs.recovery.atlas_check import feasible_losses
 from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
@@ -307,21 +308,6 @@ def run_table2(seeds: int, generations: int, population: int, log: Callable[[str
 # -- robust vs nominal recovery on every feasible 1- and 2-leg loss -----------------------------
 
 ROBUST_MODELS = ["friction_0.7", "friction_1.3", "payload"]  # trained on; the other four cases are held out
-
-
-def feasible_losses() -> list[tuple[int, ...]]:
-    import itertools
-
-    from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
-
-    out = []
-    for lost in [(l,) for l in range(1, 7)] + list(itertools.combinations(range(1, 7), 2)):
-        try:
-            check_feasible([l for l in range(1, 7) if l not in lost])
-        except InfeasibleMorphology:
-            continue
-        out.append(lost)
-    return out
 
 
 def run_robust_comparison(generations: int, population: int, seed: int = 0, aggregate: str = "worst",
@@ -819,6 +805,10 @@ EXPERIMENTS = [
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
                         "docs/table2_peers.json; the Table II page pairs them with our DE",
                peers_check.PeersParams, peers_check.run_peers),
+    Experiment("atlas", "issue 28: the damage atlas as data: every feasible 1- and 2-leg loss at the paper's budget "
+                        "and the default step over seeds, each run appended to docs/recovery_atlas.json (Table II's "
+                        "four damages: its own runs)", atlas_check.AtlasParams, atlas_check.run_atlas,
+               (Section("recovery-atlas", (atlas_check.JSON, TABLE2_JSON), atlas_check.render),)),
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust,
                tuple(Section(name, (path,), render) for path, (name, _, _, render) in ROBUST_PAGES.items())
