@@ -21,7 +21,7 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
-from app.jobs.recovery import science
+from app.jobs.recovery import curves, science
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_atlas.json"
@@ -70,6 +70,12 @@ def _spec(lost: tuple[int, ...], seed: int, population: int, generations: int) -
             "search": {"population": population, "generations": generations, "seed": seed}}
 
 
+def best_curve(s: dict) -> list[list]:
+    """A search's best F after each generation: [[generation, best F, evaluations so far], ...]
+    (paper 000's Figs. 3, 6, 9 and 12 plot it; Table II rows written before it was kept have none)."""
+    return [[h["generation"], h["best"], h["evaluations"]] for h in s["history"]]
+
+
 def search_one(lost: tuple[int, ...], seed: int, population: int, generations: int) -> dict:
     """One atlas point: the job's search with its baseline and robustness block, as a row of
     the same fields as Table II's (experiments._row; no random-search control)."""
@@ -85,7 +91,7 @@ def search_one(lost: tuple[int, ...], seed: int, population: int, generations: i
             "timestep_s": s["timestep_s"], "baseline": s["baseline"]["metrics"],
             "baseline_target_met": s["baseline"]["target_met"], "best": s["best"]["metrics"],
             "best_fitness": s["best"]["fitness"], "best_params": s["best"]["params"],
-            "target_met": s["best"]["target_met"], "gait": s["gait"]["name"],
+            "target_met": s["best"]["target_met"], "gait": s["gait"]["name"], "curve": best_curve(s),
             "robustness": {"met": rob.met if rob else 0, "total": rob.total if rob else 0,
                            "cases": {c.name: {k: c.metrics[k] for k in KEEP} | {"target_met": c.target_met}
                                      for c in cases}}}
@@ -214,6 +220,7 @@ def render(datas: list) -> str:
            "with the random-search control). Target: forward >= 50 cm, |lateral| <= 5 cm, |yaw| <= 10 deg, no "
            "fall. Values: median [min, max] over the seeds.", "", _table(groups), _convergence(rows)]
     out += _findings(groups)
+    out += ["", curves.render_generations([r for r in rows if r["source"] == "atlas"], JSON, COMMAND)]
     if infeasible:
         out += ["", "Infeasible, listed and never run: " + "; ".join(
             f"{', '.join(map(_said, losses))} ({why})" for why, losses in infeasible.items()) + "."]

@@ -14,11 +14,11 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery import atlas_check, jobtime, loop_check, peers_check, prose, randomised_check
+from app.jobs.recovery import atlas_check, curves, jobtime, loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of, robustness_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
-from app.jobs.recovery.atlas_check import feasible_losses
+from app.jobs.recovery.atlas_check import best_curve, feasible_losses
 from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
@@ -56,7 +56,7 @@ def _row(lost, seed, generations, population, s: dict) -> dict:
             "random_search": None if rs is None else {"metrics": rs.metrics, "fitness": rs.extra["fitness"],
                                                       "target_met": rs.target_met},
             "robustness": _robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "fell")),
-            "gait": s["gait"]["name"], "wall_s": s["timing"]["wall_s"]}
+            "gait": s["gait"]["name"], "wall_s": s["timing"]["wall_s"], "curve": best_curve(s)}
 
 
 def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
@@ -218,6 +218,8 @@ def table_markdown(rows: list[dict], generations: int, population: int, peers: d
                 f"Wall time per run: median {statistics.median(walks):.0f} s on the machine that ran it "
                 "(2 cores, often loaded by other work: a loaded machine makes it longer).", ""]
     out += _perturbation_table(rows)
+    out += ["### Generations to converge (the paper's Figs. 3, 6, 9, 12)", "",
+            curves.render_generations(rows, TABLE2_JSON, "gaitmend reproduce recovery --write-docs"), ""]
     out += ["## Against the controls and the peers, paired", "",
             comparisons_markdown(rows, peers, population, generations, dt), ""]
     return "\n".join(out)

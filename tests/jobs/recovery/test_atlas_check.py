@@ -33,6 +33,9 @@ def test_each_point_is_searched_appended_then_skipped(tmp_path, monkeypatch, one
     assert res["target_met"] is (False if res["best"]["fell"] else None)  # a 1 s walk is too short to judge
     assert res["robustness"]["total"] == 7 and set(res["robustness"]["cases"]) >= {"dt_half", "dt_quarter"}
     assert set(res["best"]) >= set(atlas_check.KEEP) and "y_f_m" in res["baseline"]
+    curve = res["curve"]  # the best F after each generation: never falls, ends at the answer's F
+    assert [c[0] for c in curve] == [0, 1] and [c[2] for c in curve] == [4, 8]
+    assert curve[0][1] <= curve[1][1] == res["best_fitness"]
     monkeypatch.setattr(atlas_check, "search_one", lambda *a: pytest.fail("a finished point was run again"))
     atlas_check.run_atlas(p, logs.append)
     assert json.loads(path.read_text())["runs"] == data["runs"] and sum("skipped" in m for m in logs) == 1
