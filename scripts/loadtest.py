@@ -5,6 +5,7 @@
     python scripts/loadtest.py                       # starts its own `gaitmend serve` (SQLite,
                                                      # embedded broker, no worker) in a temp dir
     python scripts/loadtest.py --server http://127.0.0.1:8000 --token gm_...
+    python scripts/loadtest.py --json-out docs/loadtest.json   # appended with where and when
 
 Only submission is measured: jobs stay queued (no worker), so the search does not compete
 for the CPU with the API."""
@@ -24,6 +25,8 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.parse
+from pathlib import Path
 
 import httpx
 
@@ -101,6 +104,66 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def start_server(database_url: str) -> tuple[subprocess.Popen, str]:
+    """A `gaitmend serve` (embedded broker, no worker) in a temp data dir on a free port, on
+    SQLite or ``database_url``; (its process, its base URL) once it answers /api/health."""
+    tmp = tempfile.mkdtemp(prefix="gaitmend-load-")
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("GAITMEND_")} | {
+        "GAITMEND_DATA_DIR": tmp, "GAITMEND_MAX_QUEUED_PER_OWNER": "1000000"}
+    if database_url:
+        env["GAITMEND_DATABASE_URL"] = database_url
+    proc = subprocess.Popen([sys.executable, "-c", "from app.cli import main; main()", "serve", "--port", str(port), "--no-worker"],
+                            env=env, start_new_session=True)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            if httpx.get(f"{base}/api/health", timeout=2).status_code == 200:
+                return proc, base
+        except httpx.HTTPError:
+            pass
+        if time.monotonic() > deadline or proc.poll() is not None:
+            os.killpg(proc.pid, signal.SIGTERM)
+            sys.exit("the server did not start")
+        time.sleep(0.3)
+
+
+def measure(args: argparse.Namespace) -> dict:
+    """One measurement: the server started here (unless --server), the clients' burst, the server stopped."""
+    proc, base = (None, args.server) if args.server else start_server(args.database_url)
+    try:
+        return asyncio.run(run(base, args.token, args.clients, args.per_client))
+    finally:
+        if proc:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(20)
+
+
+def database(args: argparse.Namespace) -> str:
+    """The database as a row names it: ``sqlite``, or the URL's scheme, host and port (no user,
+    password or database name); a server not started here: unknown."""
+    if args.server:
+        return f"unknown (--server {args.server})"
+    if not args.database_url or args.database_url.startswith("sqlite"):
+        return "sqlite"
+    u = urllib.parse.urlsplit(args.database_url)
+    return f"{u.scheme}://{u.hostname}" + (f":{u.port}" if u.port else "")
+
+
+def append(args: argparse.Namespace) -> dict:
+    """The measurement with its options, the machine, the load, the commit and the date,
+    appended to --json-out (written atomically); the row appended."""
+    from app.cli.bench import append_measured, measured
+    from app.results.loadtest import COMMAND
+
+    options = {"clients": args.clients, "per_client": args.per_client, "database": database(args)}
+    data = append_measured(args.json_out, "loadtest", COMMAND, [options], lambda o: measured(lambda: o | measure(args)),
+                           lambda o: f"{o['clients']} clients x {o['per_client']} requests, {o['database']}",
+                           lambda line: print(line, file=sys.stderr))
+    return data["runs"][-1]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--server", help="target this server instead of starting one")
@@ -108,38 +171,13 @@ def main() -> None:
     ap.add_argument("--clients", type=int, default=50)
     ap.add_argument("--per-client", type=int, default=10)
     ap.add_argument("--database-url", default="", help="for the server started here (default: SQLite)")
+    ap.add_argument("--json-out", type=Path, help="append the measurement, with the options, the machine, its load "
+                                                  "before and after, the niceness, the commit and the date, to this "
+                                                  "JSON file (docs/loadtest.json is rendered into docs/benchmarks.md)")
     args = ap.parse_args()
     if args.clients < 1 or args.per_client < 1:
         ap.error("--clients and --per-client must be >= 1")
-
-    proc = None
-    base = args.server
-    if base is None:
-        tmp = tempfile.mkdtemp(prefix="gaitmend-load-")
-        port = free_port()
-        env = {k: v for k, v in os.environ.items() if not k.startswith("GAITMEND_")} | {
-            "GAITMEND_DATA_DIR": tmp, "GAITMEND_MAX_QUEUED_PER_OWNER": "1000000"}
-        if args.database_url:
-            env["GAITMEND_DATABASE_URL"] = args.database_url
-        proc = subprocess.Popen([sys.executable, "-c", "from app.cli import main; main()", "serve", "--port", str(port), "--no-worker"],
-                                env=env, start_new_session=True)
-        base = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(f"{base}/api/health", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if time.monotonic() > deadline or proc.poll() is not None:
-                sys.exit("the server did not start")
-            time.sleep(0.3)
-    try:
-        print(json.dumps(asyncio.run(run(base, args.token, args.clients, args.per_client))))
-    finally:
-        if proc:
-            os.killpg(proc.pid, signal.SIGTERM)
-            proc.wait(20)
+    print(json.dumps(append(args) if args.json_out else measure(args)))
 
 
 if __name__ == "__main__":

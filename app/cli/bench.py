@@ -73,17 +73,28 @@ def machine() -> dict:
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
 
 
+def measured(work: Callable[[], dict]) -> dict:
+    """``work()``'s figures with where and when they were measured: the machine, the 1-minute
+    load average before and after, the niceness, the commit as the work starts (the code it
+    ran; others may commit while it runs), the UTC date as it finishes and its wall seconds."""
+    commit, before, t0 = git_commit(ROOT), os.getloadavg()[0], time.perf_counter()
+    out = work()
+    wall, after = time.perf_counter() - t0, os.getloadavg()[0]
+    return out | {"machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
+                  "commit": commit, "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+                  "wall_s": round(wall, 1)}
+
+
 def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dict] = run_bench) -> dict:
-    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when: the
-    commit as the run starts (the code it ran; others may commit while it runs), the date as
-    it finishes."""
-    commit, before, t0, c0 = git_commit(ROOT), os.getloadavg()[0], time.perf_counter(), time.process_time()
-    out = bench(quick=False, log=log, kinds=[kind])
-    wall, cpu, after = time.perf_counter() - t0, time.process_time() - c0, os.getloadavg()[0]
-    return {"kind": kind, "figures": {k: v for k, v in out.items() if k not in ("cores", "quick")},
-            "machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
-            "commit": commit, "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-            "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
+    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when
+    (``measured``) and this process's CPU seconds."""
+    c0 = time.process_time()
+
+    def figures() -> dict:
+        out = bench(quick=False, log=log, kinds=[kind])
+        return {"kind": kind, "figures": {k: v for k, v in out.items() if k not in ("cores", "quick")}}
+
+    return measured(figures) | {"cpu_s": round(time.process_time() - c0, 1)}
 
 
 def append_measured(path: Path, experiment: str, command: str, todo: list, measure: Callable[[Any], dict],

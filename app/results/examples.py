@@ -31,7 +31,8 @@ def duration(s: float) -> str:
     return f"{s:.0f} s" if s < 600 else f"{s / 60:.1f} min"
 
 
-def _commit(run: dict) -> str:
+def commit_text(run: dict) -> str:
+    """A run's commit, short, and whether the tree had uncommitted changes."""
     c = run.get("commit") or "unknown"
     return c[:10] + (" (uncommitted changes)" if c.endswith("+dirty") else "")
 
@@ -43,7 +44,7 @@ def render_table(data: dict | None) -> str:
         return missing(JSON, COMMAND)
     rows = [[r["kind"] + (" (the first command)" if r["key"] == FIRST_KEY else ""),
              f"`{r['command'] if r['key'] == FIRST_KEY else r['spec']}`", duration(r["wall_s"]), duration(r["cpu_s"]),
-             f"{r['load_before']:.1f} / {r['load_after']:.1f}", r["date"], _commit(r)] for r in runs]
+             f"{r['load_before']:.1f} / {r['load_after']:.1f}", r["date"], commit_text(r)] for r in runs]
     machines = sorted({f"{r['machine']['cpu']} ({r['machine']['cores']} cores), nice {r['nice']}" for r in runs})
     return (md_table(["kind", "spec", "wall", "CPU", "load before / after", "finished", "commit"], rows)
             + f"\nEach line as the README shows it, run alone, on {'; '.join(machines)}. Wall: the whole command "
