@@ -104,10 +104,9 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(database_url: str) -> tuple[subprocess.Popen, str]:
-    """A `gaitmend serve` (embedded broker, no worker) in a temp data dir on a free port, on
-    SQLite or ``database_url``; (its process, its base URL) once it answers /api/health."""
-    tmp = tempfile.mkdtemp(prefix="gaitmend-load-")
+def start_server(database_url: str, tmp: str) -> tuple[subprocess.Popen, str]:
+    """A `gaitmend serve` (embedded broker, no worker) with its data in ``tmp`` on a free port,
+    on SQLite or ``database_url``; (its process, its base URL) once it answers /api/health."""
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("GAITMEND_")} | {
         "GAITMEND_DATA_DIR": tmp, "GAITMEND_MAX_QUEUED_PER_OWNER": "1000000"}
@@ -130,14 +129,16 @@ def start_server(database_url: str) -> tuple[subprocess.Popen, str]:
 
 
 def measure(args: argparse.Namespace) -> dict:
-    """One measurement: the server started here (unless --server), the clients' burst, the server stopped."""
-    proc, base = (None, args.server) if args.server else start_server(args.database_url)
-    try:
-        return asyncio.run(run(base, args.token, args.clients, args.per_client))
-    finally:
-        if proc:
-            os.killpg(proc.pid, signal.SIGTERM)
-            proc.wait(20)
+    """One measurement: the server started here (unless --server), the clients' burst, the
+    server stopped and its data folder removed."""
+    with tempfile.TemporaryDirectory(prefix="gaitmend-load-") as tmp:
+        proc, base = (None, args.server) if args.server else start_server(args.database_url, tmp)
+        try:
+            return asyncio.run(run(base, args.token, args.clients, args.per_client))
+        finally:
+            if proc:
+                os.killpg(proc.pid, signal.SIGTERM)
+                proc.wait(20)
 
 
 def database(args: argparse.Namespace) -> str:

@@ -14,7 +14,7 @@ from pathlib import Path
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
 from app.jobs.reporting import Section, regenerate, sections_in
-from app.results import benchmarks, examples, notebook_figures
+from app.results import benchmarks, examples, loadtest, notebook_figures
 
 SUMMARY = "results-summary"
 
@@ -23,10 +23,12 @@ def all_sections() -> dict[str, Section]:
     """Every section any kind's experiments declare, the notebook page's measured figures
     (app/results/notebook_figures.py) and the benchmark figures of every kind
     (app/results/benchmarks.py, `gaitmend reproduce bench`) and of the README's example lines
-    (app/results/examples.py, `gaitmend reproduce readme-examples`), by name (a name is unique)."""
+    (app/results/examples.py, `gaitmend reproduce readme-examples`) and the submission latency
+    (app/results/loadtest.py, scripts/loadtest.py), by name (a name is unique)."""
     out: dict[str, Section] = {}
     declared = [s for kind in KINDS.values() for exp in kind.experiments() for s in exp.sections]
-    for s in [*declared, *notebook_figures.SECTIONS, *benchmarks.sections(), *examples.sections()]:
+    for s in [*declared, *notebook_figures.SECTIONS, *benchmarks.sections(), *examples.sections(),
+              *loadtest.sections()]:
         if s.name in out or s.name == SUMMARY:
             raise ValueError(f"generated section {s.name!r} is declared twice")
         out[s.name] = s

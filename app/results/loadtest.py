@@ -40,11 +40,11 @@ def render(data: dict | None) -> str:
     earlier = len(data["runs"]) - len(shown)
     name = JSON.split("/")[-1]
     return (md_table(COLUMNS, [_row(r) for r in shown])
-            + "\nEach row is the latest run against its database: every client, with its own connection, POSTs "
-              "/api/jobs its number of times at once (a registered kind's smoke spec, distinct seeds) to a "
-              "`gaitmend serve` the script starts (embedded broker, no worker, so jobs stay queued and only "
-              "submission is timed); p50, p99 and max are of one request's time, throughput is the requests over "
-              "the burst's wall time, at the 1-minute load shown. "
+            + "\nEach row is the latest run against its database: the clients, each with its own connection, "
+              "POST /api/jobs concurrently, each its requests one after another (a registered kind's smoke spec, "
+              "distinct seeds), to a `gaitmend serve` the script starts (embedded broker, no worker, so jobs stay "
+              "queued and only submission is timed); p50, p99 and max are of one request's time, throughput is the "
+              "requests over the burst's wall time, at the 1-minute load shown. "
               f"{earlier} earlier run{'' if earlier == 1 else 's'} kept in [{name}]({name}), not shown.\n")
 
 
