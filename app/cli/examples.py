@@ -15,7 +15,6 @@ It lives here, beside `gaitmend reproduce bench`, because it spans every kind an
 
 from __future__ import annotations
 
-import datetime as _dt
 import json
 import os
 import re
@@ -23,19 +22,17 @@ import resource
 import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from app.cli.bench import _names, append_measured, machine
+from app.cli.bench import _names, append_measured, measured
 from app.cli.common import default_spec_data
 from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
 from app.results import examples as rendered
-from app.results.provenance import git_commit
 
 SECTION = "## One job per kind"
 FIRST_SECTION = "## Two commands"
@@ -122,12 +119,13 @@ def measure_example(example: dict, log: Callable[[str], None],
                     run: Callable[[str, Callable[[str], None]], None] = run_line) -> dict:
     """One example with where and when: the commit as it starts, the date as it ends; CPU
     seconds are the command's own (every process it waited for)."""
-    commit, before, t0, c0 = git_commit(ROOT), os.getloadavg()[0], time.perf_counter(), _children_cpu()
-    run(example["command"], log)
-    wall, cpu, after = time.perf_counter() - t0, _children_cpu() - c0, os.getloadavg()[0]
-    return example | {"machine": machine(), "load_before": before, "load_after": after, "nice": os.nice(0),
-                      "commit": commit, "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-                      "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)}
+    c0 = _children_cpu()
+
+    def work() -> dict:
+        run(example["command"], log)
+        return dict(example)
+
+    return measured(work) | {"cpu_s": round(_children_cpu() - c0, 1)}
 
 
 class ExamplesParams(BaseModel):
