@@ -4,7 +4,10 @@
 the machine and its load, in docs/benchmarks.json (app/results/benchmarks.py renders them).
 
 The reproduction lives here, not in a kind's experiments: it spans every kind and measures
-with the very function `gaitmend bench --kind K --json` calls (``run_bench``)."""
+with the very function `gaitmend bench --kind K --json` calls (``run_bench``). ``--kinds
+studies`` measures, with the function `gaitmend bench --studies --json` calls
+(app/cli/study_bench.py ``study_bench``), a study's dispatch overhead per point on the
+deployment the GAITMEND_* variables name, and records that deployment."""
 
 from __future__ import annotations
 
@@ -17,8 +20,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
+from app.cli.study_bench import POINTS, study_bench
 from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import KINDS
@@ -39,20 +43,35 @@ def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: li
 
 # -- gaitmend reproduce bench -------------------------------------------------------------------
 
+STUDIES = benchmarks.STUDIES  # --kinds' name for `gaitmend bench --studies`, beside the kinds
+
+
 class BenchParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     kinds: str = Field("", description="kinds to measure, comma-separated, even those the file holds already (a new "
                                        "run is appended beside the old); empty: every kind with a bench the file "
-                                       "does not hold yet")
+                                       f"does not hold yet. '{STUDIES}': a study's dispatch overhead per point "
+                                       "(`gaitmend bench --studies --json`) on the deployment the GAITMEND_* "
+                                       "variables name, only when named")
+    study_points: int = Field(POINTS, ge=1, description=f"the points of --kinds {STUDIES}' study ({POINTS}: the "
+                                                        "published size; fewer only for a smoke test)")
     json_out: Path = Field(Path(benchmarks.JSON), description="the file each kind's run is appended to")
 
     @field_validator("kinds")
     @classmethod
     def _known(cls, v: str) -> str:
-        unknown = [k for k in _names(v) if k not in KINDS or not KINDS[k].bench()]
+        unknown = [k for k in _names(v) if k != STUDIES and (k not in KINDS or not KINDS[k].bench())]
         if unknown:
-            raise ValueError(f"no kind with a bench named {', '.join(unknown)} (kinds: {', '.join(KINDS)})")
+            raise ValueError(f"no kind with a bench named {', '.join(unknown)} (kinds: {', '.join(KINDS)}; "
+                             f"or {STUDIES}: a study's dispatch overhead)")
+        return v
+
+    @field_validator("study_points")
+    @classmethod
+    def _points_need_studies(cls, v: int, info: ValidationInfo) -> int:
+        if v != POINTS and STUDIES not in _names(info.data.get("kinds", "")):
+            raise ValueError(f"{v} points: only --kinds {STUDIES} runs a study (the kinds' benches have no points)")
         return v
 
 
@@ -85,16 +104,30 @@ def measured(work: Callable[[], dict]) -> dict:
                   "wall_s": round(wall, 1)}
 
 
-def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dict] = run_bench) -> dict:
-    """One kind's `gaitmend bench --kind K --json`, in this process, with where and when
-    (``measured``) and this process's CPU seconds."""
+def _timed(kind: str, work: Callable[[], dict]) -> dict:
+    """A row of ``kind``: ``work()``'s figures, with where and when (``measured``) and this
+    process's CPU seconds."""
     c0 = time.process_time()
+    return measured(lambda: {"kind": kind} | work()) | {"cpu_s": round(time.process_time() - c0, 1)}
 
+
+def measure_kind(kind: str, log: Callable[[str], None], bench: Callable[..., dict] = run_bench) -> dict:
+    """One kind's `gaitmend bench --kind K --json`, in this process."""
     def figures() -> dict:
         out = bench(quick=False, log=log, kinds=[kind])
-        return {"kind": kind, "figures": {k: v for k, v in out.items() if k not in ("cores", "quick")}}
+        return {"figures": {k: v for k, v in out.items() if k not in ("cores", "quick")}}
 
-    return measured(figures) | {"cpu_s": round(time.process_time() - c0, 1)}
+    return _timed(kind, figures)
+
+
+def measure_studies(points: int, log: Callable[[str], None], bench: Callable[..., dict] = study_bench) -> dict:
+    """`gaitmend bench --studies --json` at ``points`` points, in this process (the API; the
+    worker is its own process, whose CPU seconds are not counted), with its deployment."""
+    def figures() -> dict:
+        out = bench(points, log)
+        return {"deployment": out["deployment"], "figures": {"study_dispatch": out["study_dispatch"]}}
+
+    return _timed(STUDIES, figures)
 
 
 def append_measured(path: Path, experiment: str, command: str, todo: list, measure: Callable[[Any], dict],
@@ -112,19 +145,30 @@ def append_measured(path: Path, experiment: str, command: str, todo: list, measu
     return data
 
 
-def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print,
-                    bench: Callable[..., dict] = run_bench) -> str:
-    """Each kind asked for (or each not yet in the file), one at a time, appended as it ends."""
+def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print, bench: Callable[..., dict] = run_bench,
+                    studies: Callable[..., dict] = study_bench) -> str:
+    """Each kind asked for (or each not yet in the file), one at a time, appended as it ends;
+    the study dispatch bench when --kinds names it."""
     have = {r["kind"] for r in json.loads(p.json_out.read_text())["runs"]} if p.json_out.exists() else set()
     todo = _names(p.kinds) or [k for k, kind in KINDS.items() if kind.bench() and k not in have]
-    data = append_measured(p.json_out, "bench", benchmarks.COMMAND, todo, lambda k: measure_kind(k, log, bench),
-                           lambda k: f"{k}: gaitmend bench --kind {k} --json", log)
+
+    def measure(k: str) -> dict:
+        return measure_studies(p.study_points, log, studies) if k == STUDIES else measure_kind(k, log, bench)
+
+    def label(k: str) -> str:
+        return (f"{k}: gaitmend bench --studies --json ({p.study_points} points)" if k == STUDIES
+                else f"{k}: gaitmend bench --kind {k} --json")
+
+    data = append_measured(p.json_out, "bench", benchmarks.COMMAND, todo, measure, label, log)
     if not todo:
         log(f"every kind is in {p.json_out} already (--kinds K re-measures one)")
-    return benchmarks.render_all(data)
+    shown = [benchmarks.render_all(data)] if set(todo) != {STUDIES} else []
+    return "\n".join(shown + ([benchmarks.render_studies(data)] if STUDIES in todo else []))
 
 
 EXPERIMENT = Experiment("bench", "every kind's `gaitmend bench --kind K --json`, one kind at a time, each appended "
                                  "with the machine, its load before and after, the commit and the date (kinds "
-                                 "already in --json-out are skipped unless --kinds names them)",
+                                 "already in --json-out are skipped unless --kinds names them); --kinds studies: "
+                                 "`gaitmend bench --studies --json` on the deployment the GAITMEND_* variables "
+                                 "name, recorded with it",
                         BenchParams, reproduce_bench, benchmarks.sections())

@@ -140,9 +140,9 @@ def bench(
     for k in kind or []:
         get_kind_or_exit(k)
     if studies:
-        from app.cli.study_bench import dispatch_overhead, tiny_spec
+        from app.cli.study_bench import POINTS, QUICK_POINTS, study_bench
 
-        figures = {"study_dispatch": dispatch_overhead(tiny_spec(), 6 if quick else 200, log=err.print)}
+        figures = study_bench(QUICK_POINTS if quick else POINTS, log=err.print)
     else:
         figures = run_bench(quick=quick, log=err.print, kinds=kind or None)
     if as_json:

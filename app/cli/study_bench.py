@@ -5,7 +5,11 @@ database). Overhead per point = (wall time from POST until the aggregate is comp
 also against the kinds' compute alone (summary.timing.wall_s).
 
     python -m app.cli.study_bench BASE_SPEC.json --points 200
-(GAITMEND_* variables choose the deployment; the worker inherits them.)"""
+(GAITMEND_* variables choose the deployment; the worker inherits them.)
+
+``study_bench`` is what `gaitmend bench --studies --json` prints and what `gaitmend reproduce
+bench --kinds studies` appends to docs/benchmarks.json: the figures with the deployment they
+were measured on (``deployment``: scheme, host and port only)."""
 
 from __future__ import annotations
 
@@ -15,6 +19,9 @@ import os
 import subprocess
 import sys
 import time
+import urllib.parse
+
+POINTS, QUICK_POINTS = 200, 6  # the published size; --quick's (a smoke run)
 
 
 def tiny_spec() -> dict:
@@ -74,10 +81,34 @@ def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
         worker.wait()
 
 
+def where(url: str) -> str:
+    """A server's URL as a measurement records it: scheme, host and port, never the user, the
+    password or the database."""
+    u = urllib.parse.urlsplit(url)
+    return f"{u.scheme}://{u.hostname}" + (f":{u.port}" if u.port else "")
+
+
+def deployment() -> dict:
+    """The broker and the database the GAITMEND_* variables name: the embedded ones (Celery's
+    filesystem transport, SQLite) by their names, a server by ``where``."""
+    from app.core.settings import get_settings
+
+    s = get_settings()
+    sqlite = not s.database_url or s.database_url.startswith("sqlite")
+    return {"broker": "embedded (filesystem)" if s.embedded_broker else where(s.broker_url),
+            "database": "embedded (SQLite)" if sqlite else where(s.database_url)}
+
+
+def study_bench(points: int = POINTS, log=lambda s: None) -> dict:
+    """`gaitmend bench --studies --json`'s figures: the dispatch overhead of ``points`` points of
+    ``tiny_spec`` on the configured deployment, and that deployment."""
+    return {"study_dispatch": dispatch_overhead(tiny_spec(), points, log), "deployment": deployment()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("base", nargs="?", help="base job spec JSON (make it tiny); default: a kind's smoke spec")
-    ap.add_argument("--points", type=int, default=200)
+    ap.add_argument("--points", type=int, default=POINTS)
     args = ap.parse_args()
     base = json.load(open(args.base)) if args.base else tiny_spec()
     print(json.dumps(dispatch_overhead(base, args.points, log=lambda s: print(s, file=sys.stderr))))

@@ -9,7 +9,11 @@ bench returns them (a number with the unit its key ends in), each with the targe
 verdict the bench reports in its ``targets`` block: ``<figure>_max`` / ``<figure>_min``
 bound the figure of that name, and its verdict is the ``<stem>_met`` whose stem is the
 longest that begins the figure's name (``ga_wall_s_max`` -> ``ga_met``). A figure the
-bench gives no target has none here. Lists (e.g. each run of a preset) stay in the JSON."""
+bench gives no target has none here. Lists (e.g. each run of a preset) stay in the JSON.
+
+Rows of kind ``studies`` are `gaitmend bench --studies --json` (`gaitmend reproduce bench
+--kinds studies`): a study's dispatch overhead per point, with the deployment it ran on;
+``study-dispatch`` is docs/studies.md's section of the latest one."""
 
 from __future__ import annotations
 
@@ -18,9 +22,12 @@ from typing import Any
 
 from app.jobs.registry import KINDS
 from app.jobs.reporting import Section, md_table, missing
+from app.results.examples import commit_text
 
 JSON = "docs/benchmarks.json"
 COMMAND = "gaitmend reproduce bench --write-docs"
+STUDIES = "studies"  # the kind of `gaitmend bench --studies` rows (no kind of the registry)
+STUDIES_COMMAND = f"gaitmend reproduce bench --kinds {STUDIES} --write-docs"
 SKIP = ("targets",)  # the verdicts, shown beside their figures
 PER = re.compile(r"_(ms|s)_per_([a-z]+)$")  # a time per something else
 UNITS = (("_per_s", "/s"), ("_ms", "ms"), ("_s", "s"), ("_cm", "cm"), ("_deg", "deg"), ("_m", "m"))
@@ -145,9 +152,37 @@ def render_all(data: dict | None) -> str:
             + "".join(f"- {n}\n" for n in notes))
 
 
+def render_studies(data: dict | None) -> str:
+    """docs/studies.md's dispatch overhead: the latest `gaitmend bench --studies` run's
+    figures, its verdict, its deployment and where and when it was measured."""
+    runs = runs_of(data, STUDIES)
+    if not runs:
+        return missing(JSON, STUDIES_COMMAND)
+    run = runs[-1]
+    f, m, d = run["figures"]["study_dispatch"], run["machine"], run["deployment"]
+    verdict = f"target <= {f['target_ms']:g} ms: {met_text(f['met'])}"
+    rows = [["overhead per point, beside the jobs' own work (claim -> finish)",
+             f"**{f['overhead_per_point_ms']:.1f} ms** ({verdict})"],
+            ["overhead per point, beside the kinds' compute alone", f"{f['overhead_vs_kind_compute_ms']:.1f} ms"],
+            ["wall, from the POST until the study finished", f"{f['wall_s']:.2f} s"],
+            ["jobs' claim -> finish (sum)", f"{f['jobs_claim_to_finish_s']:.2f} s"],
+            ["kinds' compute (sum)", f"{f['kind_compute_s']:.2f} s"],
+            ["points", f"{f['points']} ({f['status']})"],
+            ["deployment", f"broker {d['broker']}, database {d['database']}"],
+            ["1-minute load average before / after", load_text(run)],
+            ["machine", f"{m['cpu']} ({m['cores']} cores), nice {run['nice']}"],
+            ["commit", commit_text(run)],
+            ["finished", run["date"]]]
+    earlier = len(runs) - 1
+    return (md_table(["figure", "measured"], rows)
+            + f"\n`gaitmend bench --studies --json` as `{STUDIES_COMMAND}` ran it; {earlier} earlier "
+              f"run{'' if earlier == 1 else 's'} kept in [benchmarks.json](benchmarks.json), not shown.\n")
+
+
 def sections() -> tuple[Section, ...]:
-    """``bench`` (every kind at a glance, docs/benchmarks.md) and ``bench-<kind>`` per kind
-    with a bench (its page's machine-dependent section)."""
+    """``bench`` (every kind at a glance, docs/benchmarks.md), ``bench-<kind>`` per kind with
+    a bench (its page's machine-dependent section) and ``study-dispatch`` (docs/studies.md)."""
     per_kind = tuple(Section(f"bench-{k}", (JSON,), lambda d, k=k: render_kind(k, d[0]))
                      for k, kind in KINDS.items() if kind.bench())
-    return (Section("bench", (JSON,), lambda d: render_all(d[0])), *per_kind)
+    return (Section("bench", (JSON,), lambda d: render_all(d[0])), *per_kind,
+            Section("study-dispatch", (JSON,), lambda d: render_studies(d[0])))
