@@ -2,7 +2,9 @@
 come from docs/benchmarks.json with the machine, the load, the commit and the date, the
 target and verdict its bench reports, and the latest run of each kind; a kind already in
 the file is not measured again unless asked. Rendered from a small fixture here, and the
-real pages checked against a changed file."""
+real pages checked against a changed file. The same for `--kinds studies`, a study's dispatch
+overhead (`gaitmend bench --studies --json`) with the deployment it ran on; its run through
+a real worker is tests/studies/test_bench_cli.py's."""
 
 from __future__ import annotations
 
@@ -12,6 +14,8 @@ from pathlib import Path
 import pytest
 
 from app.cli.bench import BenchParams, reproduce_bench
+from app.cli.study_bench import deployment, where
+from app.core.settings import load_settings
 from app.jobs.registry import KINDS
 from app.results import benchmarks, docs_gen
 
@@ -116,3 +120,88 @@ def test_the_pages_follow_the_committed_file(docs_copy):
     assert sorted(d.split("\n")[0] for d in diffs) == ["--- docs/benchmarks.md (as written)",
                                                         "--- docs/tipping.md (as written)"]
     assert all("123 ms" in d for d in diffs)
+    studies = [r for r in data["runs"] if r["kind"] == "studies"]
+    assert studies, "the committed file holds no study dispatch run (gaitmend reproduce bench --kinds studies)"
+    studies[-1]["figures"]["study_dispatch"]["overhead_per_point_ms"] = 123.0
+    path.write_text(json.dumps(data))
+    diffs = docs_gen.check(tmp_path)
+    study_diff = [d for d in diffs if d.startswith("--- docs/studies.md")]
+    assert len(diffs) == 3 and len(study_diff) == 1 and "**123.0 ms**" in study_diff[0]
+
+
+def _study_run(overhead_ms: float, met: bool, date: str, load=(4.56, 5.04), commit="0123456789abcdef") -> dict:
+    figures = {"points": 200, "status": "succeeded", "wall_s": 61.23, "jobs_claim_to_finish_s": 57.2,
+               "kind_compute_s": 20.05, "overhead_per_point_ms": overhead_ms, "overhead_vs_kind_compute_ms": 205.9,
+               "target_ms": 50.0, "met": met}
+    return {**_run("studies", {}, load=load, date=date, commit=commit), "figures": {"study_dispatch": figures},
+            "deployment": {"broker": "redis://127.0.0.1:6379", "database": "postgresql://127.0.0.1:5432"}}
+
+
+STUDY_FIXTURE = {**FIXTURE, "runs": [*FIXTURE["runs"], _study_run(99.9, False, "2026-12-01 09:00 UTC"),
+                                     _study_run(20.15, True, "2026-12-03 17:40 UTC", commit="fedcba9876543210+dirty")]}
+
+
+def test_the_study_dispatch_section_shows_the_latest_run_with_its_deployment_and_load():
+    assert benchmarks.render_studies(STUDY_FIXTURE) == (
+        "| figure | measured |\n|---|---|\n"
+        "| overhead per point, beside the jobs' own work (claim -> finish) | **20.1 ms** (target <= 50 ms: met) |\n"
+        "| overhead per point, beside the kinds' compute alone | 205.9 ms |\n"
+        "| wall, from the POST until the study finished | 61.23 s |\n"
+        "| jobs' claim -> finish (sum) | 57.20 s |\n"
+        "| kinds' compute (sum) | 20.05 s |\n"
+        "| points | 200 (succeeded) |\n"
+        "| deployment | broker redis://127.0.0.1:6379, database postgresql://127.0.0.1:5432 |\n"
+        "| 1-minute load average before / after | 4.6 / 5.0 |\n"
+        "| machine | Test CPU (2 cores), nice 10 |\n"
+        "| commit | fedcba9876 (uncommitted changes) |\n"
+        "| finished | 2026-12-03 17:40 UTC |\n"
+        "\n`gaitmend bench --studies --json` as `gaitmend reproduce bench --kinds studies --write-docs` ran it; "
+        "1 earlier run kept in [benchmarks.json](benchmarks.json), not shown.\n")
+    only_old = {"runs": STUDY_FIXTURE["runs"][-2:-1]}
+    assert "**99.9 ms** (target <= 50 ms: **not met**)" in benchmarks.render_studies(only_old)
+    assert benchmarks.render_studies(only_old).endswith("0 earlier runs kept in [benchmarks.json](benchmarks.json), "
+                                                         "not shown.\n")
+    expected = ("*No data yet: `gaitmend reproduce bench --kinds studies --write-docs` writes "
+                "docs/benchmarks.json.*\n")
+    assert benchmarks.render_studies(FIXTURE) == expected and benchmarks.render_studies(None) == expected
+    assert "studies" not in benchmarks.render_all(STUDY_FIXTURE)  # not a kind: the summary lists the kinds
+
+
+def test_a_deployment_is_recorded_without_credentials():
+    assert where("postgresql://postgres:secret@127.0.0.1:5432/test?options=-csearch_path%3Dx") == \
+        "postgresql://127.0.0.1:5432"
+    assert where("redis://:pw@redis.example/0") == "redis://redis.example"
+    assert deployment(load_settings(data_dir="/nonexistent")) == {"broker": "embedded (filesystem)",
+                                                                  "database": "embedded (SQLite)"}
+    served = load_settings(broker_url="rediss://u:p@10.0.0.2:6380/1", database_url="postgresql+psycopg://u:p@db/x",
+                           database_password="secret")
+    assert deployment(served) == {"broker": "rediss://10.0.0.2:6380", "database": "postgresql+psycopg://db"}
+
+
+def test_reproduce_studies_appends_a_row_only_when_named(tmp_path):
+    path = tmp_path / "benchmarks.json"
+    calls: list = []
+
+    def studies(points, log):
+        calls.append(points)
+        return {"study_dispatch": STUDY_FIXTURE["runs"][-1]["figures"]["study_dispatch"] | {"points": points},
+                "deployment": {"broker": "b", "database": "d"}}
+
+    out = reproduce_bench(BenchParams(kinds="studies", study_points=7, json_out=path), lambda m: None,
+                          _fake_bench(calls), studies)
+    assert calls == [7]  # no kind's bench ran
+    row = json.loads(path.read_text())["runs"][-1]
+    assert row["kind"] == "studies" and row["deployment"] == {"broker": "b", "database": "d"}
+    assert row["figures"]["study_dispatch"]["points"] == 7
+    assert {"machine", "load_before", "load_after", "commit", "date", "nice", "wall_s", "cpu_s"} <= row.keys()
+    assert out.startswith("| figure | measured |") and "| points | 7 (succeeded) |" in out
+    reproduce_bench(BenchParams(json_out=path), lambda m: None, _fake_bench(calls), studies)
+    assert 7 in calls and calls.count(7) == 1 and len(calls) > 1  # the default: the kinds, never the study
+
+
+def test_study_points_need_the_studies_bench():
+    assert BenchParams(kinds="tipping,studies", study_points=6).study_points == 6
+    with pytest.raises(ValueError, match="6 points: only --kinds studies runs a study"):
+        BenchParams(kinds="tipping", study_points=6)
+    with pytest.raises(ValueError, match="or studies: a study's dispatch overhead"):
+        BenchParams(kinds="studies,nope")

@@ -88,12 +88,13 @@ def where(url: str) -> str:
     return f"{u.scheme}://{u.hostname}" + (f":{u.port}" if u.port else "")
 
 
-def deployment() -> dict:
-    """The broker and the database the GAITMEND_* variables name: the embedded ones (Celery's
-    filesystem transport, SQLite) by their names, a server by ``where``."""
+def deployment(settings=None) -> dict:
+    """The broker and the database of ``settings`` (default: those the GAITMEND_* variables
+    name): the embedded ones (Celery's filesystem transport, SQLite) by their names, a server
+    by ``where``."""
     from app.core.settings import get_settings
 
-    s = get_settings()
+    s = settings or get_settings()
     sqlite = not s.database_url or s.database_url.startswith("sqlite")
     return {"broker": "embedded (filesystem)" if s.embedded_broker else where(s.broker_url),
             "database": "embedded (SQLite)" if sqlite else where(s.database_url)}
