@@ -25,7 +25,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.parse
 from pathlib import Path
 
 import httpx
@@ -148,8 +147,9 @@ def database(args: argparse.Namespace) -> str:
         return f"unknown (--server {args.server})"
     if not args.database_url or args.database_url.startswith("sqlite"):
         return "sqlite"
-    u = urllib.parse.urlsplit(args.database_url)
-    return f"{u.scheme}://{u.hostname}" + (f":{u.port}" if u.port else "")
+    from app.cli.study_bench import where
+
+    return where(args.database_url)
 
 
 def append(args: argparse.Namespace) -> dict:
