@@ -29,14 +29,14 @@ def _damage(lost) -> str:
 
 
 def generation_rows(rows: list[dict]) -> list[list]:
-    """Per damage (in the rows' order): runs with a curve, the generations to 95 % and 99 % of the
+    """Per damage (one leg lost first, then two): runs with a curve, the generations to 95 % and 99 % of the
     final F, the share of the final F at the paper's generation 30, runs still improving after it."""
     groups: dict[tuple, list[list]] = {}
     for r in rows:
         if r.get("curve") and r["curve"][-1][1] > 0:
             groups.setdefault(tuple(r["lost_legs"]), []).append(r["curve"])
     out = []
-    for lost, curves in groups.items():
+    for lost, curves in sorted(groups.items(), key=lambda kv: (len(kv[0]), kv[0])):
         at30 = [next(b for g, b, _ in c if g == min(PAPER_GENERATIONS, c[-1][0])) / c[-1][1] for c in curves]
         later = sum(c[-1][1] > next(b for g, b, _ in c if g == min(PAPER_GENERATIONS, c[-1][0])) for c in curves)
         out.append([_damage(lost), len(curves), *(_mmm([reached(c, s) for c in curves]) for s in SHARES),

@@ -22,8 +22,8 @@ def test_the_table_counts_each_damage_and_runs_improving_after_generation_30():
     late = [1.0] * 40 + [20.0] * 21  # jumps at generation 40: after the paper's 30
     rows = [_row((1, 6), early), _row((1, 6), late), _row((4,), early), {"lost_legs": [4], "generations": 60}]
     body = curves.generation_rows(rows)
-    assert body[0] == ["legs 1 & 6", 2, "22 [5, 40]", "22 [5, 40]", "52 [5, 100]", "1/2"]
-    assert body[1] == ["leg 4", 1, "5 [5, 5]", "5 [5, 5]", "100 [100, 100]", "0/1"]  # the row without a curve: not counted
+    assert body[1] == ["legs 1 & 6", 2, "22 [5, 40]", "22 [5, 40]", "52 [5, 100]", "1/2"]
+    assert body[0] == ["leg 4", 1, "5 [5, 5]", "5 [5, 5]", "100 [100, 100]", "0/1"]  # the row without a curve: not counted
     md = curves.render_generations(rows, "docs/table2.json", "cmd")
     assert "almost 30 generations" in md and "| legs 1 & 6 | 2 |" in md
 
