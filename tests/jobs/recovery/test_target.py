@@ -17,6 +17,7 @@ def summary_of(best: dict) -> dict:
             "gait": {"name": "modified_pentagonal", "sigma": 4, "groups": []},
             "best": {"metrics": best, "fitness": -1.0, "target_met": TARGET.met(best)},
             "baseline": {"metrics": STANDING, "fitness": 0.01, "target_met": TARGET.met(STANDING)},
+            "history": [{"generation": 0, "best": -1.0, "evaluations": 4}],
             "target": {"text": TARGET.text, "best_met": TARGET.met(best), "baseline_met": TARGET.met(STANDING)},
             "controls": [{"name": "baseline", "label": "nominal tripod", "metrics": STANDING, "target_met": False,
                           "evaluations": 1, "note": "", "fitness": 0.01}],
@@ -61,6 +62,7 @@ def test_the_atlas_and_the_experiments_count_a_fall_as_not_met():
     s = summary_of(FELL_FAR) | {"timestep_s": 0.002, "timing": {"wall_s": 1.0}}
     s["best"] |= {"params": {}}
     row = experiments._row((1, 6), 0, 1, 4, s)
+    assert row["curve"] == [[0, -1.0, 4]]  # the best F per generation, as the history gives it
     assert row["target_met"] is False and row["robustness"] == {
         "met": 0, "total": 1, "cases": {"dt_half": {k: FELL_FAR[k] for k in ("x_f_m", "y_f_m", "yaw_f_deg",
                                                                             "tilt_max_deg", "fell")}
