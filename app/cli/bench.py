@@ -54,7 +54,7 @@ class BenchParams(BaseModel):
                                        f"does not hold yet. '{STUDIES}': a study's dispatch overhead per point "
                                        "(`gaitmend bench --studies --json`) on the deployment the GAITMEND_* "
                                        "variables name, only when named")
-    study_points: int = Field(POINTS, ge=1, description=f"the points of --kinds {STUDIES}' study ({POINTS}: the "
+    study_points: int = Field(POINTS, ge=1, le=10000, description=f"the points of --kinds {STUDIES}' study ({POINTS}: the "
                                                         "published size; fewer only for a smoke test)")
     json_out: Path = Field(Path(benchmarks.JSON), description="the file each kind's run is appended to")
 
