@@ -22,6 +22,7 @@ from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
 from app.jobs.recovery import curves, science
+from app.jobs.recovery.rows import KEEP, feasible_losses, leg_losses, search_row
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_atlas.json"
@@ -29,7 +30,6 @@ TABLE2_JSON = "docs/table2.json"
 COMMAND = "gaitmend reproduce recovery-atlas --write-docs"
 SCIENCE = science.BASE
 TABLE2 = ((1, 6), (3, 4), (1,), (4,))  # their rows come from Table II (experiments.SCENARIOS)
-KEEP = ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "fell")
 
 
 class AtlasParams(BaseModel):
@@ -37,27 +37,6 @@ class AtlasParams(BaseModel):
     population: int = Field(30, ge=4, le=1000, description="DE population (paper: 30)")
     generations: int = Field(60, ge=1, le=10000, description="DE generations after the first (paper: 60)")
     json_out: Path | None = Field(Path(JSON), description="the ledger: each (loss, seed) is appended when it ends")
-
-
-def leg_losses() -> tuple[list[tuple[int, ...]], dict[str, list[tuple[int, ...]]]]:
-    """Every 1- and 2-leg loss of the hexapod: (the feasible ones, {why not: the infeasible ones})."""
-    import itertools
-
-    from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
-
-    feasible, infeasible = [], {}
-    for lost in [(leg,) for leg in range(1, 7)] + list(itertools.combinations(range(1, 7), 2)):
-        try:
-            check_feasible([leg for leg in range(1, 7) if leg not in lost])
-        except InfeasibleMorphology as e:
-            infeasible.setdefault(str(e), []).append(lost)
-            continue
-        feasible.append(lost)
-    return feasible, infeasible
-
-
-def feasible_losses() -> list[tuple[int, ...]]:
-    return leg_losses()[0]
 
 
 def atlas_losses() -> list[tuple[int, ...]]:
@@ -70,31 +49,15 @@ def _spec(lost: tuple[int, ...], seed: int, population: int, generations: int) -
             "search": {"population": population, "generations": generations, "seed": seed}}
 
 
-def best_curve(s: dict) -> list[list]:
-    """A search's best F after each generation: [[generation, best F, evaluations so far], ...]
-    (paper 000's Figs. 3, 6, 9 and 12 plot it; Table II rows written before it was kept have none)."""
-    return [[h["generation"], h["best"], h["evaluations"]] for h in s["history"]]
-
-
 def search_one(lost: tuple[int, ...], seed: int, population: int, generations: int) -> dict:
     """One atlas point: the job's search with its baseline and robustness block, as a row of
     the same fields as Table II's (experiments._row; no random-search control)."""
     from app.jobs.base import MemoryContext
-    from app.jobs.evidence import robustness_of
     from app.jobs.recovery.run import run
     from app.jobs.recovery.spec import RecoverySpec
 
     s = run(RecoverySpec(**_spec(lost, seed, population, generations)), MemoryContext()).summary
-    rob = robustness_of(s)
-    cases = rob.cases if rob is not None else []
-    return {"lost_legs": list(lost), "seed": seed, "population": population, "generations": generations,
-            "timestep_s": s["timestep_s"], "baseline": s["baseline"]["metrics"],
-            "baseline_target_met": s["baseline"]["target_met"], "best": s["best"]["metrics"],
-            "best_fitness": s["best"]["fitness"], "best_params": s["best"]["params"],
-            "target_met": s["best"]["target_met"], "gait": s["gait"]["name"], "curve": best_curve(s),
-            "robustness": {"met": rob.met if rob else 0, "total": rob.total if rob else 0,
-                           "cases": {c.name: {k: c.metrics[k] for k in KEEP} | {"target_met": c.target_met}
-                                     for c in cases}}}
+    return search_row(lost, seed, generations, population, s)
 
 
 def run_atlas(p: AtlasParams, log: Callable[[str], None] = print) -> str:

@@ -16,9 +16,9 @@ from pydantic import BaseModel, Field, field_validator
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery import atlas_check, curves, jobtime, loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, marked, missing
-from app.jobs.evidence import controls_of, robustness_of
+from app.jobs.evidence import controls_of
 from app.jobs.recovery.answers import answers_metrics, documented_answers
-from app.jobs.recovery.atlas_check import best_curve, feasible_losses
+from app.jobs.recovery.rows import feasible_losses, robustness_row, search_row
 from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
@@ -37,26 +37,12 @@ PAPER = {
 ROW_VERSION = 2  # rows from a real run of this code: params, controls, robustness (no transcribed rows)
 
 
-def _robustness_row(s: dict, keep: tuple[str, ...]) -> dict:
-    """The robustness block of a run as a row keeps it: per case the ``keep`` metrics and
-    whether the target was met."""
-    rob = robustness_of(s)
-    cases = rob.cases if rob is not None else []
-    return {"met": rob.met if rob else 0, "total": rob.total if rob else 0,
-            "cases": {c.name: {k: c.metrics[k] for k in keep} | {"target_met": c.target_met} for c in cases}}
-
-
 def _row(lost, seed, generations, population, s: dict) -> dict:
     rs = next((c for c in controls_of(s) if c.name == "random_search"), None)
-    return {"version": ROW_VERSION, "lost_legs": list(lost), "seed": seed, "generations": generations,
-            "population": population, "timestep_s": s["timestep_s"],
-            "baseline": s["baseline"]["metrics"], "baseline_target_met": s["baseline"]["target_met"],
-            "best": s["best"]["metrics"], "best_fitness": s["best"]["fitness"], "best_params": s["best"]["params"],
-            "target_met": s["best"]["target_met"],
-            "random_search": None if rs is None else {"metrics": rs.metrics, "fitness": rs.extra["fitness"],
-                                                      "target_met": rs.target_met},
-            "robustness": _robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "tilt_max_deg", "fell")),
-            "gait": s["gait"]["name"], "wall_s": s["timing"]["wall_s"], "curve": best_curve(s)}
+    return {"version": ROW_VERSION} | search_row(lost, seed, generations, population, s) | {
+        "random_search": None if rs is None else {"metrics": rs.metrics, "fitness": rs.extra["fitness"],
+                                                  "target_met": rs.target_met},
+        "wall_s": s["timing"]["wall_s"]}
 
 
 def run_scenarios(seeds: int, generations: int, population: int, log: Callable[[str], None] = print,
@@ -343,7 +329,7 @@ def run_robust_comparison(generations: int, population: int, seed: int = 0, aggr
                 "baseline": s["baseline"]["metrics"], "baseline_target_met": s["baseline"]["target_met"],
                 "best": s["best"]["metrics"], "best_params": s["best"]["params"],
                 "target_met": s["best"]["target_met"], "gait": s["gait"]["name"],
-                "robustness": _robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "fell")),
+                "robustness": robustness_row(s, ("x_f_m", "y_f_m", "yaw_f_deg", "fell")),
                 "evaluations": s["timing"]["evaluations"], "wall_s": s["timing"]["wall_s"]}, rows, others, raw_path)
             m, rob = s["best"]["metrics"], rows[-1]["robustness"]
             log(f"legs {lost} {mode} (weights {weights}): x {100 * m['x_f_m']:.1f} cm, y {100 * m['y_f_m']:.1f} cm, "
