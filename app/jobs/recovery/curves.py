@@ -20,6 +20,11 @@ def reached(curve: list[list], share: float) -> int:
     return next(g for g, best, _ in curve if best >= share * final)
 
 
+def _best_at(curve: list[list], generation: int) -> float:
+    """The best F after ``generation`` (the last one if the search ran fewer)."""
+    return next(b for g, b, _ in curve if g == min(generation, curve[-1][0]))
+
+
 def _mmm(xs: list[float], fmt: str = "{:.0f}") -> str:
     return f"{fmt.format(statistics.median(xs))} [{fmt.format(min(xs))}, {fmt.format(max(xs))}]"
 
@@ -37,8 +42,8 @@ def generation_rows(rows: list[dict]) -> list[list]:
             groups.setdefault(tuple(r["lost_legs"]), []).append(r["curve"])
     out = []
     for lost, curves in sorted(groups.items(), key=lambda kv: (len(kv[0]), kv[0])):
-        at30 = [next(b for g, b, _ in c if g == min(PAPER_GENERATIONS, c[-1][0])) / c[-1][1] for c in curves]
-        later = sum(c[-1][1] > next(b for g, b, _ in c if g == min(PAPER_GENERATIONS, c[-1][0])) for c in curves)
+        at30 = [_best_at(c, PAPER_GENERATIONS) / c[-1][1] for c in curves]
+        later = sum(share < 1.0 for share in at30)  # the final F is above generation 30's
         out.append([_damage(lost), len(curves), *(_mmm([reached(c, s) for c in curves]) for s in SHARES),
                     _mmm([100 * a for a in at30]), f"{later}/{len(curves)}"])
     return out
