@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 import uuid
 from pathlib import Path
 
@@ -100,9 +101,29 @@ def _untracked() -> set[str] | None:
 
 def pytest_sessionstart(session):
     session.config._gaitmend_untracked = _untracked()
+    session.config._gaitmend_t0 = time.monotonic()
+
+
+def _record_suite(session) -> None:
+    """With GAITMEND_OBSERVED set, the wall time of a whole part of scripts/test.sh (every
+    test file, `-m "not serial"` or `-m serial`), from the controller, with its counts."""
+    from app.results import observed
+
+    part = {"not serial": "parallel", "serial": "serial"}.get(session.config.option.markexpr)
+    whole = [Path(a).resolve() for a in session.config.args] == [ROOT / "tests"]
+    selected = session.config.option.keyword or session.config.option.deselect
+    if part is None or not whole or selected or hasattr(session.config, "workerinput") \
+            or not os.environ.get(observed.ENV):
+        return
+    stats = session.config.pluginmanager.get_plugin("terminalreporter").stats
+    counts = {k: len(stats.get(k, [])) for k in ("passed", "failed", "skipped")}
+    workers = getattr(session.config.option, "numprocesses", None) or 1
+    observed.record(f"suite.{part}_s", [time.monotonic() - session.config._gaitmend_t0],
+                    {"pytest workers": workers, **{f"tests {k}": n for k, n in counts.items()}})
 
 
 def pytest_sessionfinish(session, exitstatus):
+    _record_suite(session)
     before = getattr(session.config, "_gaitmend_untracked", None)
     after = _untracked()
     if before is None or after is None:

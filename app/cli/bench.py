@@ -14,7 +14,6 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
-import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -27,7 +26,7 @@ from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import KINDS
 from app.results import benchmarks
-from app.results.provenance import git_commit
+from app.results.provenance import git_commit, machine
 
 
 def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: list[str] | None = None) -> dict:
@@ -77,19 +76,6 @@ class BenchParams(BaseModel):
 
 def _names(text: str) -> list[str]:
     return [k.strip() for k in text.split(",") if k.strip()]
-
-
-def machine() -> dict:
-    """The CPU model (/proc/cpuinfo's, else the platform's word for it) and the core count."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
 
 
 def measured(work: Callable[[], dict]) -> dict:

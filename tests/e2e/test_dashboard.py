@@ -18,6 +18,8 @@ from playwright.sync_api import expect
 
 import glance
 
+from app.results import observed
+
 SMALL = {"kind": "recovery", "damage": {"lost_legs": [2, 5]},
          "search": {"population": 6, "generations": 3, "seed": 2}, "sim": {"duration_s": 3.0}}
 JOB_TIMEOUT_MS = 120_000
@@ -175,6 +177,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
     first_plot_s = time.monotonic() - t_submit
     STATE["first_plot_s"] = first_plot_s
     print(f"\nsubmit to first convergence plot: {first_plot_s:.1f} s")
+    observed.record("dashboard.first_plot_s", [first_plot_s])
     expect(jp.locator("#facts")).to_contain_text("lost 2,5")  # live events must not wipe the spec
     expect(jp.locator("#facts")).to_contain_text("DE, population 6, 3 generations, seed 2")
 

@@ -19,6 +19,7 @@ from fault_support import TcpGate, Watcher, ballistic, check_answers, new_name, 
 from service_support import SMALL, deployment, migrated, wait_for
 
 from app.api import create_app
+from app.results import observed
 
 BURSTS, BURST_S, EVERY_S, GAP_S = 5, 1.5, 0.03, 1.5
 PG_BASE = os.environ.get("GAITMEND_TEST_PG_URL", "postgresql://postgres@127.0.0.1:5432/test")  # as tests/conftest.py
@@ -64,6 +65,8 @@ def test_bursts_of_terminated_postgresql_backends_fail_no_job(tmp_path, pg_url, 
     print(f"backends terminated per burst: {killed}; API answers: {len(watch.answers)}, "
           f"503s: {sum(1 for a in watch.answers if a[1] == 503)}")
     assert len(killed) == BURSTS and all(n > 0 for n in killed), killed  # the fault really happened
+    observed.record("faults.pg_backends_per_burst", killed, {"bursts": BURSTS, "burst (s)": BURST_S,
+                                                             "kill every (ms)": round(1000 * EVERY_S)})
     st.check_results({jid: j.spec for jid, j in rows.items()})
     assert {jid: j.attempt for jid, j in rows.items() if j.attempt != 1} == {}  # retried within the lease
     assert all(st.claims(jid) == 1 for jid in rows)

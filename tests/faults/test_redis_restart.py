@@ -18,6 +18,7 @@ from fault_support import PrivateRedis, Watcher, ballistic, check_answers, sigte
 from service_support import wait_for
 
 from app.store.models import utcnow
+from app.results import observed
 
 LONG = ballistic(generations=8, population=32)
 SHORT = ballistic(generations=2, population=8, seed=7)
@@ -61,6 +62,7 @@ def test_redis_killed_and_restarted_five_times_the_queue_moves_and_nothing_is_lo
                 outages.append((t_down, t_back))
                 specs |= {j: LONG for j in busy} | {j: SHORT for j in later}
         print(f"queue moved {', '.join(f'{s:.1f}' for s in moved_after)} s after Redis returned")
+        observed.record("faults.redis_queue_moved_s", moved_after, {"restarts": len(moved_after)})
         assert max(moved_after) <= 15, moved_after
         # no job lost, failed or run twice, every result the undisturbed one
         st.check_results(specs)

@@ -23,6 +23,8 @@ import pytest
 from fault_support import ballistic, sigterm_main
 from service_support import wait_for
 
+from app.results import observed
+
 SPEC = ballistic(generations=8, population=32, duration_s=2.0)  # generations of ~0.3 s
 SLOW = ballistic(generations=3, population=64, duration_s=5.0)  # generations of ~1 s: the SIGKILL lands inside one
 ROUNDS = 5
@@ -67,6 +69,10 @@ def test_stopped_workers_jobs_run_elsewhere_at_once_without_spending_an_attempt(
             assert j.attempt == 1, (r, how, j.attempt)  # handed back, or given back by the reaper: not spent
     print("ran elsewhere after (s):", {k: [round(m, 1) for m in v] for k, v in moved.items()},
           "; `docker stop` exited after (s):", [round(e, 1) for e in exits])
+    setup = {"rounds": ROUNDS, "stop grace (s)": 1.0, "lease (s)": 3}
+    observed.record("faults.stop_worker_exit_s", exits, setup)
+    observed.record("faults.stop_term_ran_elsewhere_s", moved["term"], setup)
+    observed.record("faults.stop_term_kill_ran_elsewhere_s", moved["term+kill"], setup)
     assert max(moved["term"] + moved["term+kill"]) <= 15, moved
     assert max(exits) <= 5, exits  # well inside Docker's 10 s
     rows = st.wait_final(list(jobs), 120)

@@ -15,6 +15,7 @@ from service_support import (SMALL, Proc, checkpoint_saves, comparable, deployme
                              reference_result, spec, wait_for)
 
 from app.api import create_app
+from app.results import observed
 
 FINAL = ("succeeded", "failed", "cancelled")
 
@@ -159,6 +160,8 @@ def test_kill9_mid_search_resumes_to_the_same_result_embedded(tmp_path, start_wo
     t = kill_and_resume(settings, client, jid, start_worker, env, kill, saves)
     print(f"embedded broker: kill -9 -> resumed in {t['kill_to_resume_s']:.1f} s, "
           f"finished {t['kill_to_done_s']:.1f} s after the kill")
+    observed.record("worker.kill9_embedded_resume_s", [t["kill_to_resume_s"]], {"lease (s)": float(env["GAITMEND_LEASE_S"])})
+    observed.record("worker.kill9_embedded_done_s", [t["kill_to_done_s"]], {"lease (s)": float(env["GAITMEND_LEASE_S"])})
     job = client.get(f"/api/jobs/{jid}").json()
     assert comparable(job["summary"]) == comparable(reference)
 
@@ -183,6 +186,8 @@ def test_kill9_mid_search_resumes_to_the_same_result_redis(tmp_path, start_worke
     assert any(f".{holder['w2'].pid}@" in w["name"] for w in health["workers"])
     print(f"redis broker: kill -9 -> resumed in {t['kill_to_resume_s']:.1f} s, "
           f"finished {t['kill_to_done_s']:.1f} s after the kill")
+    observed.record("worker.kill9_redis_resume_s", [t["kill_to_resume_s"]], {"lease (s)": float(env["GAITMEND_LEASE_S"])})
+    observed.record("worker.kill9_redis_done_s", [t["kill_to_done_s"]], {"lease (s)": float(env["GAITMEND_LEASE_S"])})
     job = client.get(f"/api/jobs/{jid}").json()
     assert comparable(job["summary"]) == comparable(reference)
 
