@@ -19,8 +19,11 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from urllib.parse import urlsplit
 
 ENTRY = "from app.cli import main; main()"
+JSON = "docs/study_scaling.json"
+COMMAND = "python -m app.cli.study_scaling STUDY --workers 2 --base ... --json-out docs/study_scaling.json"
 ONE_THREAD = {"GAITMEND_SIM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
@@ -93,11 +96,49 @@ def served(study: dict, workers: int, log, out: Path | None = None) -> dict:
             own = sum((j.finished_at - j.started_at).total_seconds() for j in jobs
                       if j.started_at and j.finished_at)
         return {"wall_s": wall, "status": st["status"], "aggregate": st["aggregate"], "jobs_claim_to_finish_s": own,
-                "study_id": sid}
+                "study_id": sid, "points": st["progress"]["points"]}
     finally:
         for p in procs:
             os.killpg(p.pid, 9)
             p.wait()
+
+
+def bundle_bytes(folder: Path) -> list[int]:
+    """The sizes of the job bundles the serial run wrote (zip files under ``folder``)."""
+    return sorted(f.stat().st_size for f in folder.rglob("*.zip")) if folder.is_dir() else []
+
+
+def scaling(study: dict, workers: int, out: Path, served_only: bool, log) -> dict:
+    """Both halves of one measurement; the figures as this command prints them."""
+    t_serial, agg_serial = None, None
+    study_file = out / "study.json"
+    study_file.write_text(json.dumps(study))
+    if not served_only:
+        log(f"serial: {study['name']} in one process with one thread ...")
+        t_serial, agg_serial = serial(study_file, out / "serial")
+        log(f"serial: {t_serial:.1f} s")
+    log(f"served by {workers} one-thread workers ...")
+    s = served(study, workers, log, out)
+    sizes = bundle_bytes(out / "serial")
+    return {"study": study["name"], "points": s["points"], "base": study["base"],
+            "workers": workers, "cores": os.cpu_count(),
+            "serial_s": None if t_serial is None else round(t_serial, 1), "served_s": round(s["wall_s"], 1),
+            "ratio": None if t_serial is None else round(s["wall_s"] / t_serial, 3), "served_status": s["status"],
+            "served_jobs_claim_to_finish_s": round(s["jobs_claim_to_finish_s"], 1),
+            "same_aggregate": None if agg_serial is None else s["aggregate"] == agg_serial,
+            "bundles": len(sizes), "bundle_bytes_median": sizes[len(sizes) // 2] if sizes else None,
+            "broker": where(os.environ.get("GAITMEND_BROKER_URL"), "embedded"),
+            "database": where(os.environ.get("GAITMEND_DATABASE_URL"), "sqlite")}
+
+
+def where(url: str | None, default: str) -> str:
+    """A deployment's broker or database by scheme and host only (no user, password, path
+    or options): "redis (127.0.0.1:6379)", "postgresql (db:5432)"."""
+    if not url:
+        return default
+    u = urlsplit(url)
+    scheme = u.scheme.split("+")[0]
+    return f"{scheme} ({u.hostname}{f':{u.port}' if u.port else ''})" if u.hostname else scheme
 
 
 def main() -> None:
@@ -107,28 +148,25 @@ def main() -> None:
     ap.add_argument("--base", default="{}", help="JSON merged into the study's base spec (e.g. a smaller budget)")
     ap.add_argument("--out", type=Path, default=None, help="folder for the serial run's files")
     ap.add_argument("--served-only", action="store_true", help="skip the serial run (e.g. to run a long study once)")
+    ap.add_argument("--json-out", type=Path, default=None,
+                    help=f"append the measurement, with the machine, load, commit and date, to this file "
+                         f"({JSON}: docs/studies.md's scaling table)")
     args = ap.parse_args()
+    if not 1 <= args.workers <= 64:
+        ap.error(f"--workers must be 1..64, got {args.workers}")
     study = load_study(args.study, json.loads(args.base))
     out = args.out or Path(tempfile.mkdtemp(prefix="gaitmend-scaling-"))
     out.mkdir(parents=True, exist_ok=True)
-    study_file = out / "study.json"
-    study_file.write_text(json.dumps(study))
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
-    t_serial, agg_serial = None, None
-    if not args.served_only:
-        log(f"serial: {study['name']} in one process with one thread ...")
-        t_serial, agg_serial = serial(study_file, out / "serial")
-        log(f"serial: {t_serial:.1f} s")
-    log(f"served by {args.workers} one-thread workers ...")
-    s = served(study, args.workers, log, out)
-    print(json.dumps({"study": study["name"], "workers": args.workers, "cores": os.cpu_count(),
-                      "serial_s": None if t_serial is None else round(t_serial, 1), "served_s": round(s["wall_s"], 1),
-                      "ratio": None if t_serial is None else round(s["wall_s"] / t_serial, 3),
-                      "served_status": s["status"],
-                      "served_jobs_claim_to_finish_s": round(s["jobs_claim_to_finish_s"], 1),
-                      "same_aggregate": None if agg_serial is None else s["aggregate"] == agg_serial,
-                      "broker": os.environ.get("GAITMEND_BROKER_URL", "embedded"),
-                      "database": os.environ.get("GAITMEND_DATABASE_URL", "sqlite").split("@")[-1]}))
+    if args.json_out is None:
+        print(json.dumps(scaling(study, args.workers, out, args.served_only, log)))
+        return
+    from app.cli.bench import append_measured, measured
+
+    data = append_measured(args.json_out, "study-scaling", COMMAND, [study["name"]],
+                           lambda _: measured(lambda: scaling(study, args.workers, out, args.served_only, log)),
+                           lambda name: f"{name}: serial, then served by {args.workers} workers", log)
+    print(json.dumps(data["runs"][-1]))
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from pathlib import Path
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
 from app.jobs.reporting import Section, regenerate, sections_in
-from app.results import benchmarks, examples, loadtest, notebook_figures, observed
+from app.results import benchmarks, examples, loadtest, notebook_figures, observed, robot_figures, scaling
 
 SUMMARY = "results-summary"
 
@@ -25,11 +25,13 @@ def all_sections() -> dict[str, Section]:
     (app/results/benchmarks.py, `gaitmend reproduce bench`) and of the README's example lines
     (app/results/examples.py, `gaitmend reproduce readme-examples`) and the submission latency
     (app/results/loadtest.py, scripts/loadtest.py) and what the test suite observes
-    (app/results/observed.py), by name (a name is unique)."""
+    (app/results/observed.py), a study's scaling over workers (app/results/scaling.py) and
+    the robot layer's timings (app/results/robot_figures.py), by name (a name is unique)."""
     out: dict[str, Section] = {}
     declared = [s for kind in KINDS.values() for exp in kind.experiments() for s in exp.sections]
     for s in [*declared, *notebook_figures.SECTIONS, *benchmarks.sections(), *examples.sections(),
-              *loadtest.sections(), *observed.sections()]:
+              *loadtest.sections(), *observed.sections(), *scaling.sections(),
+              *robot_figures.sections()]:
         if s.name in out or s.name == SUMMARY:
             raise ValueError(f"generated section {s.name!r} is declared twice")
         out[s.name] = s

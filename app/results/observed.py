@@ -54,6 +54,17 @@ FIGURES: dict[str, tuple[str, str, str]] = {
     "dashboard.first_plot_s": ("dashboard: from submit to the job page's first convergence plot", "s", "service"),
     "dashboard.jobs_first_page_s": ("jobs list of 3000 jobs: the first page (page load included)", "s", "service"),
     "dashboard.jobs_older_page_s": ("jobs list of 3000 jobs: one older page", "s", "service"),
+    "dashboard.cold_verdict_ms": ("a cold job page (fresh browser context; recovery: the convergence plot and "
+                                  "three panels), its second load: navigation start to the verdict", "ms", "service"),
+    "dashboard.cold_drawn_ms": ("the same load: navigation start to every plot drawn", "ms", "service"),
+    "dashboard.cold_first_load_drawn_ms": ("its first load (the server computes the views once per bundle): to "
+                                           "every plot drawn", "ms", "service"),
+    "dashboard.plotly_cartesian_gzip_bytes": ("plotly's cartesian bundle over the wire, gzipped (what a recovery "
+                                              "page loads)", "bytes", "service"),
+    "dashboard.plotly_full_bytes": ("the full `plotly.min.js`, uncompressed", "bytes", "service"),
+    "dashboard.plotly_full_gzip_bytes": ("the full `plotly.min.js` over the wire, gzipped", "bytes", "service"),
+    "robots.hostile_api_peak_rss_growth_mb": ("the hostile-robot suite through the API: growth of the API "
+                                              "process's peak resident memory", "MB", "service"),
     "suite.parallel_s": ("the suite's parallel part (scripts/test.sh)", "s", "service"),
     "suite.serial_s": ("the suite's serial part, the fault tests (scripts/test.sh)", "s", "service"),
 }
@@ -104,7 +115,7 @@ def latest(data: dict | None) -> dict[str, dict]:
 
 def _number(v: float, unit: str) -> str:
     if unit == "bytes":
-        return f"{v / 2**20:.1f} MiB" if v >= 2**20 else f"{v:,.0f} B"
+        return f"{v / 1e6:.2f} MB" if v >= 1e6 else f"{v / 1e3:.0f} kB"
     text = f"{v:.0f}" if float(v).is_integer() and unit == "" else f"{v:.1f}"
     return f"{text} {unit}".strip()
 

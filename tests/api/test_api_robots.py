@@ -20,6 +20,7 @@ import hostile_cases as hc  # noqa: E402
 import legged_models as lm_  # noqa: E402
 
 from app.api import create_app  # noqa: E402
+from app.results import observed  # noqa: E402
 from app.store import repo  # noqa: E402
 from app.store import robots as store  # noqa: E402
 from app.store.db import session_scope  # noqa: E402
@@ -146,6 +147,8 @@ def test_the_hostile_suite_gets_4xx_nothing_stored_nothing_read(client, settings
     assert _stored(settings) == (0, [])
     grown_mb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
     print(f"\nhostile suite: the API process's peak RSS grew by {grown_mb:.1f} MB")
+    observed.record("robots.hostile_api_peak_rss_growth_mb", [grown_mb], {"cases": len(hc.cases(host)),
+                                                                          "bound (MB)": MEMORY_BOUND_MB})
     assert grown_mb < MEMORY_BOUND_MB, f"the API process grew by {grown_mb:.0f} MB"
 
 
