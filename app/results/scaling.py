@@ -31,6 +31,8 @@ def _atlas_data() -> tuple[str, str]:
             if s.name == "recovery-atlas":
                 return s.data[0], s.data[1]
     raise LookupError("the recovery kind declares no recovery-atlas section")
+
+
 TARGET_RATIO = 0.6  # the studies issue's bar: served by two workers in <= 0.6 of the serial time
 MACHINES = (1, 2, 5, 12)
 
