@@ -185,6 +185,14 @@ def test_a_recovery_job_on_an_uploaded_robot_runs_through_the_api_and_the_worker
     assert other.status_code == 422 and other.json()["errors"][0]["field"] == "robot" and robot["id"] in other.json()["detail"]
     bad = client.post("/api/jobs", json=spec | {"robot_damage": {"lost_legs": ["no_such_leg"]}}, headers=A)
     assert bad.status_code == 422 and bad.json()["errors"][0]["field"] == "robot_damage" and "no_such_leg" in bad.json()["detail"]
+    # the dashboard's dry run answers the same, before it would ask to confirm a long job
+    for path in ("/api/web/check", "/api/jobs"):
+        lame = client.post(path, json=spec | {"robot_damage": {"lost_legs": [g["name"] for g in robot["legs"]["legs"][:3]]}},
+                           headers=A)
+        assert lame.status_code == 422 and lame.json()["errors"][0]["field"] == "robot_damage", (path, lame.text)
+    not_hers = client.post("/api/web/check", json=spec, headers=B)
+    assert not_hers.status_code == 422 and not_hers.json()["errors"][0]["field"] == "robot", not_hers.text
+    assert client.post("/api/web/check", json=spec, headers=A).status_code == 200
     r = client.post("/api/jobs", json=spec, headers=A)
     assert r.status_code == 201, r.text
     jid = r.json()["id"]

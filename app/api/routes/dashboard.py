@@ -435,11 +435,14 @@ async def kinds() -> list[dict]:
 async def check(request: Request, who: Principal = Depends(principal)):
     """Validate a spec without queuing it: its evaluation budget (the spec's own
     formula, the number the compare page shows) and the wall time it will take at this
-    server's measured rate (app/api/glance.py), or the API's field errors."""
-    from app.api.routes.jobs import read_spec
+    server's measured rate (app/api/glance.py), or the API's field errors, including an
+    uploaded robot's (a damage it cannot stand on), so the form never asks to confirm a
+    long job that POST /api/jobs would refuse."""
+    from app.api.routes.jobs import check_robot, read_spec
 
     spec = await read_spec(request, settings_of(request))  # the same edges as POST /api/jobs
     db = db_of(request)
+    await check_robot(spec, who, db)
     rate = await db.read(glance.rates)
     return _budget(spec) | {"estimate": glance.estimate(spec.kind, int(spec.evaluations_budget), rate)}
 
