@@ -14,6 +14,7 @@ Runs already in the JSON file are not run again (a long comparison can be resume
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -22,6 +23,7 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.evidence import control_seed
+from app.jobs.ledger import code_version
 from app.jobs.multigait.evidence import (CASES, COVERAGE_SHARE, gait_metrics, heldout_values, physics,
                                          robustness_target)
 from app.jobs.multigait.planner.costs import evaluate
@@ -30,6 +32,12 @@ from app.jobs.multigait.planner.primitives import ModularSim
 from app.optim.pso import PRESETS, ParticleSwarm
 from app.optim.random_search import RandomSearch
 from app.robots.modular import get_shape
+
+
+# the code that decides a run's numbers (``one`` below calls into these; ``code_version``
+# hashes them into each appended run, so a ledger filled over sessions says which code ran)
+SCIENCE = ("app/jobs/multigait/evidence.py", "app/jobs/multigait/cpg.py", "app/jobs/multigait/planner",
+           "app/robots/modular.py", "app/optim/pso.py", "app/optim/random_search.py")
 
 
 def make(arm: str, lower, upper, particles: int, seed: int):
@@ -245,8 +253,13 @@ def compare(p: CompareParams, log: Callable[[str], None] = print) -> str:
         for arm, s in order:
             if (arm, s) in have:
                 continue
-            done.append(one(arm, p.robot, s, p.particles, p.generations, p.heldout, log, gait_s=p.gait_s,
-                            iterations=p.iterations))
+            before = os.getloadavg()[0]
+            r = one(arm, p.robot, s, p.particles, p.generations, p.heldout, log, gait_s=p.gait_s,
+                    iterations=p.iterations)
+            # where and when it ran, so a ledger filled over several sessions says so per run
+            done.append(r | {"code_version": code_version(SCIENCE), "cores": os.cpu_count(), "load_before": before,
+                             "load_after": os.getloadavg()[0], "nice": os.nice(0),
+                             "finished": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
             p.json_out.write_text(json.dumps(done, indent=1))
         if p.robustness:
             for r in done:

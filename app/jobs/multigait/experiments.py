@@ -142,6 +142,9 @@ def _write(p: TablesParams, rows: list[dict], write_json: bool = True) -> str:
 
 PAPER_JSON = ("docs/multigait_paper_s0.json", "docs/multigait_paper_s1.json")
 COMPARE_JSON = "docs/multigait_compare.json"
+COMPARE_FULL_JSON = "docs/multigait_compare_full.json"
+COMPARE_FULL_COMMAND = ("gaitmend reproduce multigait-compare --particles 20 --generations 150 --arms random,paper "
+                        "--seeds 0,1,2,3,4,5 --json-out docs/multigait_compare_full.json")
 RUGGEDNESS_JSON = "docs/multigait_ruggedness.json"
 PAPER_COMMAND = "gaitmend reproduce multigait --particles 20 --generations 150 --seed S --json-out docs/multigait_paper_sS.json"
 WINDOW = 10  # generations at each end of a run whose swarm means are compared
@@ -297,6 +300,45 @@ def _full_budget_estimate(rows: list[dict]) -> str:
             "side).\n")
 
 
+def _minutes(walls: list[float]) -> str:
+    lo, hi = f"{min(walls) / 60:.0f}", f"{max(walls) / 60:.0f}"
+    return f"{lo} min" if lo == hi else f"{lo}-{hi} min"
+
+
+def render_compare_full(datas: list) -> str:
+    """PSO (the paper's coefficients) against random search at the paper's full budget: the
+    runs there are, paired by seed once two seeds have both arms, and what is left to run."""
+    from app.jobs.multigait.compare import report
+
+    rows = datas[0]
+    if not rows:
+        return missing(COMPARE_FULL_JSON, COMPARE_FULL_COMMAND)
+    want = stats.fewest_pairs()
+    paired = sorted({r["seed"] for r in rows if r["arm"] == "paper"} & {r["seed"] for r in rows if r["arm"] == "random"})
+    out = [report(rows)]
+    tab = []
+    if len(paired) >= 2:
+        for key, label in METRICS:
+            a, b = _arm_vals(rows, "paper", key), _arm_vals(rows, "random", key)
+            res = stats.paired([a[s] for s in paired], [b[s] for s in paired], names=("paper", "random search"))
+            tab.append([label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2)])
+        out.append("Paired by seed (PSO with the paper's coefficients minus random search):\n\n"
+                   + md_table(["metric", "difference [95 % interval], effect size, test: verdict"], tab) + "\n"
+                   + stats.PAIRED_NOTE + "\n")
+    walls = [float(r["wall_s"]) for r in rows if r.get("wall_s")]
+    versions = sorted({r.get("code_version") or "not recorded" for r in rows})
+    left = max(want - len(paired), 0)
+    out.append(f"{len(paired)} of the {want} seeds the signed-rank test needs to show a difference have both arms "
+               f"at this budget"
+               + ("; with fewer, no difference can be shown either way" if left else "")
+               + f". Each arm-run took {_minutes(walls)} here (wall, {len(walls)} runs; "
+               + f"code {', '.join(versions)}: `code_version` of compare.SCIENCE)"
+               + (f", so the {left} seeds left need about {2 * left * statistics.median(walls) / 3600:.1f} h of "
+                  f"one core; `{COMPARE_FULL_COMMAND}` continues them (runs in the file are kept)" if left else "")
+               + ".\n")
+    return "\n".join(out)
+
+
 def render_compare(datas: list) -> str:
     from app.jobs.multigait.compare import report, robustness_report
 
@@ -358,6 +400,7 @@ EXPERIMENTS = [Experiment("tables", "Paper 001's Tables I-IV (coverage and dista
                           _compare_params(), _compare,
                           (Section("multigait-compare", (COMPARE_JSON,), render_compare),
                            Section("multigait-compare-stats", (COMPARE_JSON,), render_compare_stats),
+                           Section("multigait-compare-full", (COMPARE_FULL_JSON,), render_compare_full),
                            Section("multigait-summary", (COMPARE_JSON,), render_summary, readme=True))),
                Experiment("ruggedness", "How much of a random gait set's coverage a search could follow: re-plans "
                                         "on other planner draws, re-simulations of slightly perturbed gaits",

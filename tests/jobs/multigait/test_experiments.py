@@ -78,3 +78,34 @@ def test_the_full_budget_cost_is_scaled_from_the_runs_own_wall_time():
     assert f"2 arms x {stats.fewest_pairs()} seeds" in text and stats.fewest_pairs() == 6
     assert "one arm's run would take about 75 min here and 2 arms x 6 seeds about 15 h" in text
     assert "these 15 runs' wall time (median 1.50 s an evaluation" in text
+
+
+def _full_rows(seeds: int, paper_only: tuple[int, ...] = ()) -> list[dict]:
+    rows = []
+    for seed in range(seeds):
+        for arm in ("random", "paper"):
+            v = 20.0 + seed + (1.5 + 0.2 * seed) * (arm == "paper")
+            rows.append({"arm": arm, "robot": "lizard", "seed": seed, "particles": 20, "generations": 150,
+                         "evaluations": 3000, "in_sample_best": v, "heldout_mean": v - 1, "heldout_std": 0.5,
+                         "dt_half_coverage": v - 2, "history": [{"mean": 5.0}, {"mean": 6.0}],
+                         "wall_s": 1800.0 + 60 * seed, "code_version": "682f10d40b77"})
+    for seed in paper_only:  # an arm whose partner has not run yet: no pair
+        rows.append(dict(rows[-1], seed=seed))
+    return rows
+
+
+def test_the_full_budget_comparison_states_what_it_has_and_what_is_left():
+    assert "No data yet" in ex.render_compare_full([[]])
+    floor = stats.fewest_pairs()
+    one = ex.render_compare_full([_full_rows(1, paper_only=(1,))])
+    # one seed with both arms (seed 1 has only the swarm): no interval, no verdict, the rest to run
+    assert "Paired by seed" not in one and "**" not in one.split("Mann-Whitney")[0] and "verdict" not in one
+    assert f"1 of the {floor} seeds the signed-rank test needs" in one
+    assert f"the {floor - 1} seeds left need about {2 * (floor - 1) * 1800 / 3600:.1f} h" in one
+    assert "code 682f10d40b77" in one and "| paper | 1 |" in one  # every run is listed
+    two = ex.render_compare_full([_full_rows(2)])
+    assert "Paired by seed" in two and two.count(": **not shown") == len(METRICS)  # 2 pairs cannot show anything
+    assert "no difference can be shown either way" in two
+    done = ex.render_compare_full([_full_rows(floor)])
+    assert "seeds left" not in done and "no difference can be shown" not in done
+    assert done.count("**paper better (shown)**") == len(METRICS) and ": **not shown" not in done  # every seed favours the swarm
