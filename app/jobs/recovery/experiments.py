@@ -230,6 +230,15 @@ def render_table2(datas: list) -> str:
     return table_markdown([r for r in _paper_budget(rows or []) if r["seed"] < 10], 60, 30, peers)
 
 
+def render_summary(datas: list) -> str:
+    """README's results-summary line for paper 000 (the rows render_table2 shows)."""
+    from app.jobs.recovery.peers_check import summary_line
+
+    rows, peers = datas
+    rows = [r for r in _paper_budget(rows or []) if r["seed"] < 10]
+    return summary_line(rows, peers, 30, 60, rows[0]["timestep_s"]) if rows else ""
+
+
 def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
     dmg = [d for d in SCENARIOS if d in fine]
     met = [d for d in dmg if fine[d]["target_met"]]
@@ -788,7 +797,8 @@ EXPERIMENTS = [
                 Section("recovery-job-time", (TABLE2_JSON,), lambda datas: jobtime.render_job_time(datas, ROW_VERSION)),
                 Section("recovery-f-scale", (TABLE2_JSON,), lambda datas: jobtime.render_f_scale(datas, ROW_VERSION)),
                 Section("readme-first-command-time", (TABLE2_JSON, "docs/readme_examples.json"),
-                        lambda datas: jobtime.render_readme_time(datas, ROW_VERSION)))),
+                        lambda datas: jobtime.render_readme_time(datas, ROW_VERSION)),
+                Section("recovery-summary", (TABLE2_JSON, PEERS_JSON), render_summary, readme=True))),
     Experiment("peers", "issue 28: scipy's differential_evolution and CMA-ES at the paper DE's budget (30 x 61 walks "
                         "of 10 s at 1 ms) on the four Table II damages over seeds, each run appended to "
                         "docs/table2_peers.json; the Table II page pairs them with our DE",

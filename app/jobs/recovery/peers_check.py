@@ -195,3 +195,26 @@ def comparisons_markdown(rows: list[dict], peers_data: dict | None, population: 
                      "ours wins", "Wilcoxon p", "F: verdict", "forward (cm): mean difference [95 % CI]",
                      "Wilcoxon p", "forward: verdict"], comparison_rows(methods))]
     return "\n".join(out)
+
+
+def summary_line(rows: list[dict], peers_data: dict | None, population: int, generations: int,
+                 timestep: float) -> str:
+    """README's line for paper 000: Table II's target rate beside its random-search control's,
+    and our DE's F against each control pooled over damages and seeds, with the verdicts of
+    the page's paired table (docs/table2.md)."""
+    if not rows:
+        return ""
+    methods = by_method(rows, peer_results(peers_data, population, generations, timestep))
+    ours = methods["ours"]
+    seeds = sorted({k[1] for k in ours})
+    met = lambda m: f"{sum(v['target_met'] for v in methods[m].values())}/{len(methods[m])}"  # noqa: E731
+    verdicts = []
+    for other in ("random_search", "scipy_de", "cmaes"):
+        if set(ours) & set(methods[other]):
+            r = compare(ours, methods[other], "fitness", (NAMES["ours"], NAMES[other]))
+            verdicts.append(f"against {NAMES[other]} ({r['n']} pairs) {r['verdict']}")
+    return (f"- **recovery** (paper 000, Table II's {len(SCENARIOS)} damages x seeds {seeds[0]}-{seeds[-1]}, "
+            f"DE {population} x {generations} at {1000 * timestep:g} ms): target met in {met('ours')} runs "
+            f"(random search at the same budget: {met('random_search')}); our DE's F, paired by damage and seed, "
+            + "; ".join(verdicts) + " ([docs/table2.md](docs/table2.md)).\n")
+

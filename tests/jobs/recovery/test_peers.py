@@ -3,10 +3,13 @@ scipy's DE and CMA-ES at our budget appended to their ledger and skipped on a re
 paired statistics of the Table II page, and the page rendered from the files alone."""
 
 import json
+from pathlib import Path
 
 import pytest
 
 from app.jobs.recovery import experiments, peers, peers_check
+
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _table2_row(lost, seed, population, generations, fitness, rs_fitness, y=0.6, rs_y=0.5):
@@ -111,3 +114,22 @@ def test_render_only_reads_the_files_and_runs_nothing(tmp_path, monkeypatch):
 def test_render_only_without_rows_says_so(tmp_path):
     md = experiments.run_table2(10, 60, 30, raw_path=tmp_path / "none.json", peers_path=None, render_only=True)
     assert md.startswith("*No Table II runs of DE 30 x 60") and not (tmp_path / "none.json").exists()
+
+
+def test_the_readme_line_states_the_pooled_verdicts_of_the_page():
+    # six seeds of one damage: our DE 2-4 above random search on every seed (shown); no peers yet
+    rows = [_table2_row((1,), s, 30, 60, fitness=10.0 + s % 3, rs_fitness=7.0 - s % 2) for s in range(6)]
+    rows[0]["target_met"] = False
+    line = peers_check.summary_line(rows, None, 30, 60, 0.001)
+    assert line.startswith("- **recovery** (paper 000, Table II's 4 damages x seeds 0-5, DE 30 x 60 at 1 ms)")
+    assert "target met in 5/6 runs (random search at the same budget: 0/6)" in line
+    assert "against random search (6 pairs) our DE better (shown)" in line and "CMA-ES" not in line
+    assert peers_check.summary_line([], None, 30, 60, 0.001) == ""
+    # the section reads the committed ledgers: its verdicts are the page's pooled rows
+    text = experiments.render_summary([json.loads((ROOT / experiments.TABLE2_JSON).read_text()),
+                                       json.loads((ROOT / peers_check.JSON).read_text())])
+    page = (ROOT / "docs/table2.md").read_text()
+    for other in ("random search", "scipy DE", "CMA-ES"):
+        row = next(line for line in page.splitlines() if line.startswith(f"| our DE vs {other} | all damages |"))
+        cells = [c.strip() for c in row.strip("|").split("|")]  # pairs in the 3rd column, the F verdict in the 8th
+        assert f"against {other} ({cells[2]} pairs) {cells[7]}" in text, (text, row)
