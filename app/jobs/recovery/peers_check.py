@@ -213,8 +213,8 @@ def summary_line(rows: list[dict], peers_data: dict | None, population: int, gen
         if set(ours) & set(methods[other]):
             r = compare(ours, methods[other], "fitness", (NAMES["ours"], NAMES[other]))
             verdicts.append(f"against {NAMES[other]} ({r['n']} pairs) {r['verdict']}")
-    return (f"- **recovery** (paper 000, Table II's {len(SCENARIOS)} damages x seeds {seeds[0]}-{seeds[-1]}, "
+    damages = len({k[0] for k in ours})
+    return (f"- **recovery** (paper 000, Table II's {damages} damage{'s' if damages > 1 else ''} x seeds {seeds[0]}-{seeds[-1]}, "
             f"DE {population} x {generations} at {1000 * timestep:g} ms): target met in {met('ours')} runs "
             f"(random search at the same budget: {met('random_search')}); our DE's F, paired by damage and seed, "
             + "; ".join(verdicts) + " ([docs/table2.md](docs/table2.md)).\n")
-

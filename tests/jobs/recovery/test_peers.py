@@ -121,7 +121,7 @@ def test_the_readme_line_states_the_pooled_verdicts_of_the_page():
     rows = [_table2_row((1,), s, 30, 60, fitness=10.0 + s % 3, rs_fitness=7.0 - s % 2) for s in range(6)]
     rows[0]["target_met"] = False
     line = peers_check.summary_line(rows, None, 30, 60, 0.001)
-    assert line.startswith("- **recovery** (paper 000, Table II's 4 damages x seeds 0-5, DE 30 x 60 at 1 ms)")
+    assert line.startswith("- **recovery** (paper 000, Table II's 1 damage x seeds 0-5, DE 30 x 60 at 1 ms)")
     assert "target met in 5/6 runs (random search at the same budget: 0/6)" in line
     assert "against random search (6 pairs) our DE better (shown)" in line and "CMA-ES" not in line
     assert peers_check.summary_line([], None, 30, 60, 0.001) == ""
