@@ -78,6 +78,10 @@ def test_the_full_budget_cost_is_scaled_from_the_runs_own_wall_time():
     assert f"2 arms x {stats.fewest_pairs()} seeds" in text and stats.fewest_pairs() == 6
     assert "one arm's run would take about 75 min here and 2 arms x 6 seeds about 15 h" in text
     assert "these 15 runs' wall time (median 1.50 s an evaluation" in text
+    # once runs at the full budget exist, their measured cost replaces the estimate
+    measured = ex.render_compare_stats([rows, _full_rows(2)])
+    assert "would take about" not in measured and "4 arm-runs took 30-31 min each (wall)" in measured
+    assert "predicted about 75 min" in measured
 
 
 def _full_rows(seeds: int, paper_only: tuple[int, ...] = ()) -> list[dict]:
