@@ -333,9 +333,15 @@ def render_compare_full(datas: list) -> str:
         for key, label in METRICS:
             a, b = _arm_vals(rows, "paper", key), _arm_vals(rows, "random", key)
             res = stats.paired([a[s] for s in paired], [b[s] for s in paired], names=("paper", "random search"))
-            tab.append([label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2)])
+            need = stats.pairs_needed(res["mean_diff"], res["sd_diff"], most=1000)
+            tab.append([label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2),
+                        num(stats.detectable(res["sd_diff"], res["n"]), "{:.1f}"),
+                        "more than 1000" if need is None else str(need)])
         out.append("Paired by seed (PSO with the paper's coefficients minus random search):\n\n"
-                   + md_table(["metric", "difference [95 % interval], effect size, test: verdict"], tab) + "\n"
+                   + md_table(["metric", "difference [95 % interval], effect size, test: verdict",
+                               "smallest true difference these seeds find with 80 % power, paired t-test alone (pts)",
+                               "seeds needed for the observed difference at 80 % power (paired t-test, and at least "
+                               f"{want})"], tab) + "\n"
                    + stats.PAIRED_NOTE + "\n")
     walls = [float(r["wall_s"]) for r in rows if r.get("wall_s")]
     versions = sorted({r.get("code_version") or "not recorded" for r in rows})
