@@ -249,6 +249,32 @@ def _arm_vals(rows: list[dict], arm: str, key: str) -> dict[int, float]:
     return {r["seed"]: r[key] for r in rows if r["arm"] == arm}
 
 
+POWER_HEADERS = ["metric", "difference [95 % interval], effect size, test: verdict",
+                 "smallest true difference these seeds find with 80 % power, paired t-test alone (pts)",
+                 "seeds needed for the observed difference at 80 % power (paired t-test, and at least "
+                 f"{stats.fewest_pairs()}: the signed-rank test cannot reject with fewer)"]
+
+
+def _paired_row(rows: list[dict], arm: str, key: str, label: str) -> tuple[int, list[str]] | None:
+    """``arm`` against random search on ``key`` over the seeds both ran (None below two): the
+    pair count and the POWER_HEADERS cells (the difference with its interval and verdict,
+    the difference these seeds find with 80 % power, the seeds the observed one needs)."""
+    a, b = _arm_vals(rows, arm, key), _arm_vals(rows, "random", key)
+    seeds = sorted(set(a) & set(b))
+    if len(seeds) < 2:
+        return None
+    res = stats.paired([a[s] for s in seeds], [b[s] for s in seeds], names=(arm, "random search"))
+    need = stats.pairs_needed(res["mean_diff"], res["sd_diff"], most=1000)
+    return len(seeds), [label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2),
+                        num(stats.detectable(res["sd_diff"], res["n"]), "{:.1f}"),
+                        "more than 1000" if need is None else str(need)]
+
+
+def _per_evaluation(rows: list[dict]) -> list[float]:
+    """Each run's wall time per evaluation (s)."""
+    return [float(r["wall_s"]) / int(r["evaluations"]) for r in rows if r.get("wall_s") and r.get("evaluations")]
+
+
 def render_compare_stats(datas: list) -> str:
     """PSO against random search, paired by seed, with the power the five seeds buy."""
     rows = datas[0]
@@ -260,20 +286,13 @@ def render_compare_stats(datas: list) -> str:
     tab, fewest = [], stats.fewest_pairs()
     for arm in ("paper", "constriction"):
         for key, label in METRICS:
-            a, b = _arm_vals(rows, arm, key), _arm_vals(rows, "random", key)
-            seeds = sorted(set(a) & set(b))
-            if len(seeds) < 2:
+            row = _paired_row(rows, arm, key, label)
+            if row is None:
                 continue
-            fewest = min(fewest, len(seeds))
-            res = stats.paired([a[s] for s in seeds], [b[s] for s in seeds], names=(arm, "random search"))
-            det = stats.detectable(res["sd_diff"], res["n"])
-            need = stats.pairs_needed(res["mean_diff"], res["sd_diff"], most=1000)
-            tab.append([f"{arm} vs random", label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2),
-                        num(det, "{:.1f}"), "more than 1000" if need is None else str(need)])
-    out.append(md_table(["comparison", "metric", "difference [95 % interval], effect size, test: verdict",
-                         "smallest true difference these seeds find with 80 % power, paired t-test alone (pts)",
-                         "seeds needed for the observed difference at 80 % power (paired t-test, and at least "
-                         f"{stats.fewest_pairs()}: the signed-rank test cannot reject with fewer)"], tab))
+            n, cells = row
+            fewest = min(fewest, n)
+            tab.append([f"{arm} vs random", *cells])
+    out.append(md_table(["comparison", *POWER_HEADERS], tab))
     out += ["", stats.PAIRED_NOTE + " \"Does not beat\" is therefore not a finding: "
             + ("at this budget and seed count, a true advantage of PSO smaller than the power column is not excluded."
                if fewest >= stats.fewest_pairs() else
@@ -286,7 +305,7 @@ def render_compare_stats(datas: list) -> str:
 def _full_budget_measured(rows: list[dict], full: list[dict]) -> str:
     """Once runs at the paper's budget exist: their measured cost beside what these runs'
     wall time would have predicted for them."""
-    per = statistics.median(float(r["wall_s"]) / int(r["evaluations"]) for r in rows if r.get("wall_s"))
+    per = statistics.median(_per_evaluation(rows))
     walls = [float(r["wall_s"]) for r in full if r.get("wall_s")]
     return (f"\nAt the paper's full budget ({FULL_BUDGET} evaluations an arm) the comparison is run below: "
             f"{len(walls)} arm-runs took {_minutes(walls)} each (wall), where these runs' wall time (median "
@@ -300,7 +319,7 @@ FULL_BUDGET = 20 * 150  # the paper's PSO: 20 particles x 150 generations, evalu
 def _full_budget_estimate(rows: list[dict]) -> str:
     """What the comparison at the paper's full budget would cost, scaled by evaluations from
     these runs' own wall time (each run's robustness block included: an estimate on the high side)."""
-    per = [float(r["wall_s"]) / int(r["evaluations"]) for r in rows if r.get("wall_s") and r.get("evaluations")]
+    per = _per_evaluation(rows)
     if not per:
         return ""
     each = statistics.median(per) * FULL_BUDGET
@@ -328,21 +347,10 @@ def render_compare_full(datas: list) -> str:
     want = stats.fewest_pairs()
     paired = sorted({r["seed"] for r in rows if r["arm"] == "paper"} & {r["seed"] for r in rows if r["arm"] == "random"})
     out = [report(rows)]
-    tab = []
-    if len(paired) >= 2:
-        for key, label in METRICS:
-            a, b = _arm_vals(rows, "paper", key), _arm_vals(rows, "random", key)
-            res = stats.paired([a[s] for s in paired], [b[s] for s in paired], names=("paper", "random search"))
-            need = stats.pairs_needed(res["mean_diff"], res["sd_diff"], most=1000)
-            tab.append([label.split(" (")[0].split(",")[0], stats.paired_text(res, "pts", 2),
-                        num(stats.detectable(res["sd_diff"], res["n"]), "{:.1f}"),
-                        "more than 1000" if need is None else str(need)])
+    tab = [row[1] for row in (_paired_row(rows, "paper", key, label) for key, label in METRICS) if row]
+    if tab:
         out.append("Paired by seed (PSO with the paper's coefficients minus random search):\n\n"
-                   + md_table(["metric", "difference [95 % interval], effect size, test: verdict",
-                               "smallest true difference these seeds find with 80 % power, paired t-test alone (pts)",
-                               "seeds needed for the observed difference at 80 % power (paired t-test, and at least "
-                               f"{want})"], tab) + "\n"
-                   + stats.PAIRED_NOTE + "\n")
+                   + md_table(POWER_HEADERS, tab) + "\n" + stats.PAIRED_NOTE + "\n")
     walls = [float(r["wall_s"]) for r in rows if r.get("wall_s")]
     versions = sorted({r.get("code_version") or "not recorded" for r in rows})
     left = max(want - len(paired), 0)
