@@ -32,10 +32,10 @@ import legged_models as lm_  # noqa: E402
 from app.cli.bench import append_measured, measured  # noqa: E402
 from app.robots.catalog import JETHEXA  # noqa: E402
 from app.robots.numik import LegIK  # noqa: E402
+from app.results.robot_figures import COMMAND  # noqa: E402
 from app.robots.upload import from_dir, prepare  # noqa: E402
 
 REPEATS = 3
-COMMAND = ".venv/bin/python scripts/robot_figures.py --json-out docs/robot_figures.json"
 
 
 def times(f, n: int = REPEATS) -> list[float]:

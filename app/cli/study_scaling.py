@@ -21,9 +21,9 @@ import time
 from pathlib import Path
 from urllib.parse import urlsplit
 
+from app.results.scaling import COMMAND, JSON
+
 ENTRY = "from app.cli import main; main()"
-JSON = "docs/study_scaling.json"
-COMMAND = "python -m app.cli.study_scaling STUDY --workers 2 --base ... --json-out docs/study_scaling.json"
 ONE_THREAD = {"GAITMEND_SIM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
