@@ -438,11 +438,10 @@ async def check(request: Request, who: Principal = Depends(principal)):
     server's measured rate (app/api/glance.py), or the API's field errors, including an
     uploaded robot's (a damage it cannot stand on), so the form never asks to confirm a
     long job that POST /api/jobs would refuse."""
-    from app.api.routes.jobs import check_robot, read_spec
+    from app.api.routes.jobs import accepted_spec
 
-    spec = await read_spec(request, settings_of(request))  # the same edges as POST /api/jobs
     db = db_of(request)
-    await check_robot(spec, who, db)
+    spec = await accepted_spec(request, settings_of(request), who, db)  # what POST /api/jobs accepts
     rate = await db.read(glance.rates)
     return _budget(spec) | {"estimate": glance.estimate(spec.kind, int(spec.evaluations_budget), rate)}
 

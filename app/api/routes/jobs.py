@@ -103,6 +103,15 @@ async def check_robot(spec, who: Principal, db: Db) -> None:
         raise ApiError(422, why, field=why.split(":", 1)[0])
 
 
+async def accepted_spec(request: Request, settings: Settings, who: Principal, db: Db):
+    """The spec POST /api/jobs would queue: every edge of ``read_spec`` and, for an uploaded
+    robot, ``check_robot``. The dashboard's dry run asks the same, so neither can refuse
+    what the other accepts."""
+    spec = await read_spec(request, settings)
+    await check_robot(spec, who, db)
+    return spec
+
+
 @router.post("", status_code=201, response_model=JobOut, responses=ERRORS | {200: {"model": JobOut,
              "description": "a retry with the same Idempotency-Key: the job created the first time"}},
              openapi_extra={"requestBody": {"required": True, "content": {
@@ -113,8 +122,7 @@ async def submit(request: Request, response: Response, who: Principal = Depends(
     """Queue a job. The body is the job spec (the same as `gaitmend run`); every field is
     checked before anything is written."""
     settings = settings_of(request)
-    spec = await read_spec(request, settings)
-    await check_robot(spec, who, db)
+    spec = await accepted_spec(request, settings, who, db)
     full = spec.model_dump(mode="json")
 
     def existing():
