@@ -124,6 +124,11 @@ def test_the_readme_line_states_the_pooled_verdicts_of_the_page():
     assert line.startswith("- **recovery** (paper 000, Table II's 1 damage x seeds 0-5, DE 30 x 60 at 1 ms)")
     assert "target met in 5/6 runs (random search at the same budget: 0/6)" in line
     assert "against random search (6 pairs) our DE better (shown)" in line and "CMA-ES" not in line
+    # what the rate stands on: the damages the nominal tripod already meets it with, and the robustness re-runs
+    assert "the nominal tripod, no search, already meets it with none lost" in line
+    assert "keep it at half the step in 6/6 and in a median 1 of the 1 robustness cases" in line
+    rows[1]["baseline_target_met"] = True
+    assert "already meets it with leg 1 lost" in peers_check.summary_line(rows, None, 30, 60, 0.001)
     assert peers_check.summary_line([], None, 30, 60, 0.001) == ""
     # the section reads the committed ledgers: its verdicts are the page's pooled rows
     text = experiments.render_summary([json.loads((ROOT / experiments.TABLE2_JSON).read_text()),
