@@ -10,6 +10,7 @@ import mujoco
 from app.robots import hexapod
 from app.robots.damage import DamageSpec, apply_damage
 from app.robots.legmap import LegMap, Robot
+from app.robots.contacts import explicit_pairs
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,8 +89,19 @@ class RobotEntry:
         robot takes (app/robots/legmap.py). The simulations still compile build() directly."""
         return Robot(name=self.name, mjcf=self.build().to_xml(), assets={}, legs=self.leg_map())
 
-    def model(self, damage: DamageSpec = DamageSpec()) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    def model(self, damage: DamageSpec = DamageSpec(), pairs: bool = True,
+              islands: bool = False) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+        """The damaged robot on its floor. Two settings make its step faster and change no
+        number (docs/recovery_speed.md, "Changes and their gains"): ``pairs``, its robot-floor
+        contacts declared as explicit pairs instead of found by the broad phase each step
+        (app/robots/contacts.py), and no constraint-island discovery (``islands`` False): the
+        robot is one kinematic tree on a static floor, so all its constraints form one island
+        and looking for more is wasted work."""
         spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage))
+        if pairs:
+            explicit_pairs(spec)
+        if not islands:
+            spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
         return spec, spec.compile()
 
     def describe(self) -> dict:

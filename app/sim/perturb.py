@@ -8,9 +8,10 @@ kind's to size); ``perturbed_model`` turns an ``MjSpec`` into the perturbed ``Mj
 
 - structural edits go through a copy of the spec (rough terrain replaces the plane geom
   named ``floor`` by a height field with the same contact settings);
-- the rest are edits of the compiled model (timestep, friction of every geom, masses and
-  inertias of every body, a payload on one body), followed by ``mj_setConst`` so that the
-  derived constants (subtree masses, inverse weights) match the new masses.
+- the rest are edits of the compiled model (timestep, friction of every geom and explicit
+  contact pair, masses and inertias of every body, a payload on one body), followed by
+  ``mj_setConst`` so that the derived constants (subtree masses, inverse weights) match the
+  new masses.
 
 Models that differ only in model-level edits keep the nominal model's size signature, so
 ``mujoco.rollout`` can run them side by side, one model per batch element
@@ -110,6 +111,7 @@ def edit_model(model: mujoco.MjModel, p: Perturbation) -> mujoco.MjModel:
     m = copy.copy(model)
     m.opt.timestep = model.opt.timestep * p.timestep_scale
     m.geom_friction[:, 0] *= p.friction_scale
+    m.pair_friction[:, :2] *= p.friction_scale  # explicit pairs (app/robots/contacts.py): both tangent directions
     if p.mass_scale != 1.0:
         m.body_mass[1:] *= p.mass_scale
         m.body_inertia[1:] *= p.mass_scale

@@ -13,10 +13,11 @@ from app.jobs.recovery.spec import RecoverySpec
 
 
 def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10.0,
-                    edit: Callable | None = None) -> dict[str, np.ndarray]:
+                    edit: Callable | None = None, settings: dict | None = None) -> dict[str, np.ndarray]:
     """Re-simulates answers ({"lost_legs", "best_params"}) at ``timestep``; metrics (N,)
     in the answers' order. Answers of one damage run as one batch. ``edit`` changes each
-    compiled model first (a physics setting under test)."""
+    compiled model first (a physics setting under test); ``settings``: run.sim_model's step
+    settings (``pairs``, ``islands``; default: the fast ones)."""
     from app.jobs.recovery.sequences import plan_hexapod
     from app.jobs.recovery.run import sim_config, sim_model
     from app.robots.catalog import get_robot
@@ -29,7 +30,7 @@ def answers_metrics(answers: list[dict], timestep: float, duration_s: float = 10
     for lost, idx in groups.items():
         spec = RecoverySpec(damage={"lost_legs": list(lost)}, sim={"timestep_s": timestep, "duration_s": duration_s})
         robot = get_robot(spec.robot)
-        _, model = sim_model(spec, robot)
+        _, model = sim_model(spec, robot, **(settings or {}))
         seq = plan_hexapod(lost, robot.nominal_feet_xy(), robot.stance_com_xy(model, spec.gait.stance_height_m))
         if edit is not None:
             edit(model)

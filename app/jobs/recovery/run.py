@@ -61,10 +61,12 @@ def nominal_params(robot: RobotEntry, legs: list[int]) -> np.ndarray:
                     + [robot.nominal_step_length, robot.nominal_step_height])
 
 
-def sim_model(spec: RecoverySpec, robot: RobotEntry):
+def sim_model(spec: RecoverySpec, robot: RobotEntry, pairs: bool = True, islands: bool = False):
     """The damaged robot's spec and model at the spec's timestep (the bundle's robot.xml
-    is the spec, so the timestep is set there, not only in the compiled model)."""
-    mspec, _ = robot.model(damage_spec(spec))
+    is the spec, so the timestep is set there, not only in the compiled model); ``pairs``
+    and ``islands``: the step's settings of RobotEntry.model (the defaults are the fast ones;
+    the others give the same numbers, slower)."""
+    mspec, _ = robot.model(damage_spec(spec), pairs=pairs, islands=islands)
     mspec.option.timestep = spec.sim.timestep_s
     return mspec, mspec.compile()
 

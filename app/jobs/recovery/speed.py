@@ -29,11 +29,14 @@ PAPER = {"search": {"population": 30, "generations": 60}}
 EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}
 # Other configurations at about the equal-quality budget (730-745 walks), tried where it fell
 # short (legs 3 & 4): a wider and a narrower CMA-ES generation, and the paper's DE itself
-# with a population of 12 and cut walks (part name "alt_<name>").
+# with a population of 12 and cut walks; and CMA-ES at a larger budget (part name "alt_<name>").
 ALTERNATIVES = {
     "cmaes_20x36": {"search": {"optimizer": "cmaes", "population": 20, "generations": 36}},
     "cmaes_8x90": {"search": {"optimizer": "cmaes", "population": 8, "generations": 90}},
     "de_12x60_cut": {"search": {"population": 12, "generations": 60, "cut_walks": True}},
+    # the budget 60 s buys on two idle cores once the step was 1.19x faster (explicit pairs, no
+    # island discovery): about 1,000 walks
+    "cmaes_12x82": {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}},
 }
 STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER_POS_INERTIA",
           "mjTIMER_POS_COLLISION", "mjTIMER_COL_BROAD", "mjTIMER_COL_NARROW", "mjTIMER_POS_MAKE", "mjTIMER_VELOCITY",
@@ -155,24 +158,28 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
     per step against the model as it is, and what it does to the documented answers
     (re-simulated at the default step: bit-identical, or the largest change)."""
     from app.jobs.recovery.answers import answers_metrics, documented_answers
-    from app.jobs.recovery.run import set_up
+    from app.jobs.recovery.run import set_up, sim_model
 
     job = set_up(RecoverySpec(**ONLY_SEARCH))
     x = job.lower + np.random.default_rng(0).random((8, job.lower.size)) * (job.upper - job.lower)
     ctrl, state = job.ev.controls(x)
     job.close()
-    models = {"as it is": job.model}
+    # the model as these settings were tried: before the explicit contact pairs (pairs_row), so
+    # "feet the only colliding geoms" still has a broad phase to act on
+    broad = sim_model(job.spec, job.robot, **STEP_SETTINGS["broad phase, island discovery (before)"])[1]
+    models = {"as it is": broad}
     for name, edit in VARIANTS.items():
-        m = job.model.__copy__()
+        m = broad.__copy__()
         edit(m)
         models[name] = m
     us = _cpu_us_per_step(models, state, ctrl[:, :1500], reps)
     dt = RecoverySpec().sim.timestep_s
     answers = documented_answers(dt, docs)
-    base = answers_metrics(answers, dt)
+    before = STEP_SETTINGS["broad phase, island discovery (before)"]
+    base = answers_metrics(answers, dt, settings=before)
     rows = []
     for name, edit in VARIANTS.items():
-        got = answers_metrics(answers, dt, edit=edit)
+        got = answers_metrics(answers, dt, edit=edit, settings=before)
         same = all(np.array_equal(base[k], got[k]) for k in base)
         rows.append({"variant": name, "us_per_step": us[name], "speedup": us["as it is"] / us[name], "identical": same,
                      "max_forward_cm": float(100 * np.max(np.abs(got["y_f_m"] - base["y_f_m"]))),
@@ -180,6 +187,40 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
                      "max_yaw_deg": float(np.max(np.abs(got["yaw_f_deg"] - base["yaw_f_deg"])))})
     return {"part": "variants", "reference_us_per_step": us["as it is"], "answers": len(answers), "rows": rows,
             "load": os.getloadavg()[0]}
+
+
+# the step's settings, from before to now (RobotEntry.model): each adds one change to the last
+STEP_SETTINGS = {"broad phase, island discovery (before)": {"pairs": False, "islands": True},
+                 "explicit contact pairs": {"pairs": True, "islands": True},
+                 "explicit contact pairs, no island discovery (now)": {"pairs": True, "islands": False}}
+
+
+def pairs_row(reps: int = 15, docs: Path = Path("docs")) -> dict:
+    """The step's settings of STEP_SETTINGS (app/robots/contacts.py's explicit robot-floor
+    pairs, then no constraint-island discovery), each against the one before: single-thread
+    CPU time per step on each Table II damage (8 random candidates, 1.5 s walks, all
+    settings interleaved), and whether every documented answer re-simulated at the default
+    step is the same bit for bit as before them."""
+    from app.jobs.recovery.answers import answers_metrics, documented_answers
+    from app.jobs.recovery.run import set_up, sim_model
+    from app.robots.catalog import get_robot
+
+    damages = []
+    for lost in SCENARIOS:
+        spec = RecoverySpec(damage={"lost_legs": list(lost)}, **ONLY_SEARCH)
+        job = set_up(spec)
+        x = job.lower + np.random.default_rng(0).random((8, job.lower.size)) * (job.upper - job.lower)
+        ctrl, state = job.ev.controls(x)
+        job.close()
+        models = {name: sim_model(spec, get_robot(spec.robot), **s)[1] for name, s in STEP_SETTINGS.items()}
+        damages.append({"lost_legs": list(lost), "us_per_step": _cpu_us_per_step(models, state, ctrl[:, :1500], reps)})
+    dt = RecoverySpec().sim.timestep_s
+    answers = documented_answers(dt, docs)
+    got = {name: answers_metrics(answers, dt, settings=s) for name, s in STEP_SETTINGS.items()}
+    before = got[next(iter(STEP_SETTINGS))]
+    return {"part": "pairs", "damages": damages, "answers": len(answers),
+            "identical": {name: all(np.array_equal(before[k], m[k]) for k in before) for name, m in got.items()},
+            "load": os.getloadavg()[0], "cores": os.cpu_count()}
 
 
 # -- the cut walks' speed cap ----------------------------------------------------------------------
@@ -318,7 +359,10 @@ def throughput(spec: RecoverySpec, repeats: int = 2) -> dict:
     finally:
         job.close()
     a, b = float(np.median(raw)), float(np.median(evaluator))
-    return {"raw_steps_per_s": a, "evaluator_steps_per_s": b, "ratio": b / a, "threads": ev.nthread}
+    # the step's settings measured (RobotEntry.model: explicit contact pairs, island discovery)
+    step = {"contact_pairs": int(job.model.npair),
+            "island_discovery": not job.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ISLAND}
+    return {"raw_steps_per_s": a, "evaluator_steps_per_s": b, "ratio": b / a, "threads": ev.nthread, "step": step}
 
 
 def throughput_row() -> dict:
@@ -355,6 +399,10 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
     if "throughput" in parts:
         rows = [r for r in rows if r["part"] != "throughput"] + [throughput_row()]
         _save(rows, raw)
+    if "pairs" in parts:  # kept beside earlier ones, as the variants
+        rows.append(pairs_row(docs=docs))
+        _save(rows, raw)
+        log(f"step settings: {rows[-1]['damages']}, answers identical: {rows[-1]['identical']}")
     if "variants" in parts:  # each measurement is kept: the machine's noise shows between them
         rows.append(variants(docs=docs))
         _save(rows, raw)
@@ -428,10 +476,12 @@ def variants_markdown(blocks: list[dict]) -> list[str]:
     ref = ", ".join(f"{b['reference_us_per_step']:.1f}" for b in blocks)
     last = blocks[-1]
     out = [f"Physics settings tried on the default damaged model (legs 1 & 6): single-thread CPU time per step "
-           f"against the model as it is ({ref} us in the measurements below), each measured {len(blocks)} time(s) "
+           f"against the model as it was then (MuJoCo's broad phase and island discovery, before the two changes "
+           f"above; {ref} us in the measurements below), each measured {len(blocks)} time(s) "
            f"on the shared machine (the unchanged copy shows the noise), and the {last['answers']} documented "
-           "answers re-simulated at the default step with the setting. None is both faster beyond the noise and "
-           "free of changes to the answers, so none was adopted:", "",
+           "answers re-simulated at the default step with the setting. At these loads none was both faster beyond "
+           "the noise and free of changes to the answers; no island discovery, measured again on an idle machine "
+           "with the changes table's method, is the one adopted since (its row above):", "",
            f"| setting | {loads} | documented answers | largest change forward / lateral (cm) / yaw (deg) |",
            "|---" * (len(blocks) + 3) + "|"]
     for i, r in enumerate(last["rows"]):
@@ -585,8 +635,17 @@ def _frac(num: float, den: float) -> str:
 
 def gains_markdown(rows: list[dict]) -> list[str]:
     """The table of changes: what each saves, from the runs on this page."""
-    by = {p: [r for r in rows if r["part"] == p] for p in ("throughput", "check", "paper", "fast", "equal")}
+    by = {p: [r for r in rows if r["part"] == p] for p in ("throughput", "check", "paper", "fast", "equal", "pairs")}
     out = ["| change | default job | measured here | command |", "|---|---|---|---|"]
+    for r in by["pairs"][-1:]:
+        names = list(STEP_SETTINGS)
+        for prev, name in zip(names, names[1:]):
+            ups = ", ".join(f"{_name(d['lost_legs'])} {d['us_per_step'][prev]:.1f} -> {d['us_per_step'][name]:.1f} us "
+                            f"({d['us_per_step'][prev] / d['us_per_step'][name]:.2f}x)" for d in r["damages"])
+            out.append(f"| {STEP_TEXT[name]} | yes | single-thread CPU per step {ups} (load {r['load']:.1f}); the "
+                       f"{r['answers']} documented answers "
+                       f"{'bit-identical to before' if r['identical'][name] else '**not** identical to before'} | "
+                       f"`gaitmend reproduce recovery-speed --parts pairs` |")
     for r in by["throughput"][-1:]:
         out.append(f"| evaluator: each chunk's controls from one gait period, the rollout's output buffers kept "
                    f"(same numbers bit for bit) | yes | through the evaluator {r['evaluator_steps_per_s']:,.0f} "
@@ -623,6 +682,10 @@ def gains_markdown(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
+STEP_TEXT = {"explicit contact pairs": "explicit contact pairs: the robot-floor pairs declared once "
+                                      "(app/robots/contacts.py) instead of found by MuJoCo's broad phase every step",
+             "explicit contact pairs, no island discovery (now)": "no constraint-island discovery (the robot is one "
+                                                                  "island on a static floor)"}
 TITLE = "# Recovery speed (issue 22)"
 JSON, TABLE2_JSON = "docs/recovery_speed.json", "docs/table2.json"
 SECTION, COMMAND = "recovery-speed", "gaitmend reproduce recovery-speed"

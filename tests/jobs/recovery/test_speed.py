@@ -193,6 +193,13 @@ def test_the_speed_page_renders_from_its_rows():
     assert ('| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 8, "generations": 90}}` | 728 | '
             "12.00 [11.00, 13.00] (2) | 12.00 [12.00, 12.00] (1) | 0 of 1 | 2 (0) of 2 |") in md
     assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 732 | 12.50 [12.50, 12.50] (1) |" in md
+    # the step's settings: one row per change, each against the one before it
+    names = list(speed.STEP_SETTINGS)
+    settings = {"part": "pairs", "damages": [{"lost_legs": [1, 6], "us_per_step": dict(zip(names, (13.2, 12.0, 11.0)))}],
+                "answers": 63, "identical": dict.fromkeys(names, True) | {names[2]: False}, "load": 0.5}
+    md = speed.speed_markdown(rows + [settings], Path("/nonexistent"))
+    assert "legs 1 & 6 13.2 -> 12.0 us (1.10x) (load 0.5); the 63 documented answers bit-identical to before" in md
+    assert "legs 1 & 6 12.0 -> 11.0 us (1.09x) (load 0.5); the 63 documented answers **not** identical" in md
 
 
 def test_every_alternative_configuration_is_a_part_the_command_accepts():
