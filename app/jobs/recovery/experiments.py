@@ -741,7 +741,7 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
 _SPEED_PARTS = ("bench|profile|pairs|variants|throughput|cap|check|fast|equal|paper|coarse"
-                "|alt_cmaes_20x36|alt_cmaes_8x90|alt_de_12x60_cut|alt_cmaes_12x82")
+                "|alt_cmaes_12x60|alt_cmaes_20x36|alt_cmaes_8x90|alt_de_12x60_cut")
 
 
 class SpeedParams(BaseModel):

@@ -25,18 +25,19 @@ SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
 ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": ["dt_half"], "held_out": 0}}
 PAPER = {"search": {"population": 30, "generations": 60}}
 # The equal-quality configuration: CMA-ES (the `cma` package behind the same ask/tell
-# interface), 12 per generation, 1 ms, full 10 s walks (docs/recovery_speed.md).
-EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}
-# Other configurations at about the equal-quality budget (730-745 walks), tried where it fell
-# short (legs 3 & 4): a wider and a narrower CMA-ES generation, and the paper's DE itself
-# with a population of 12 and cut walks; and CMA-ES at a larger budget (part name "alt_<name>").
+# interface), 12 per generation, 1 ms, full 10 s walks (docs/recovery_speed.md): about 1,000
+# walks, what 60 s buys on two idle cores at the step of the explicit contact pairs.
+EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}}
+# Other configurations (part name "alt_<name>"): the equal-quality configuration of before the
+# faster step (CMA-ES 12 x 60, about 730 walks), and at about its budget, tried where it fell
+# short (legs 3 & 4), a wider and a narrower CMA-ES generation and the paper's DE itself with a
+# population of 12 and cut walks. A run is labelled by the configuration it ran (its spec), so
+# the runs of a configuration keep their label when EQUAL changes (``by_config``).
 ALTERNATIVES = {
+    "cmaes_12x60": {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}},
     "cmaes_20x36": {"search": {"optimizer": "cmaes", "population": 20, "generations": 36}},
     "cmaes_8x90": {"search": {"optimizer": "cmaes", "population": 8, "generations": 90}},
     "de_12x60_cut": {"search": {"population": 12, "generations": 60, "cut_walks": True}},
-    # the budget 60 s buys on two idle cores once the step was 1.19x faster (explicit pairs, no
-    # island discovery): about 1,000 walks
-    "cmaes_12x82": {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}},
 }
 STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER_POS_INERTIA",
           "mjTIMER_POS_COLLISION", "mjTIMER_COL_BROAD", "mjTIMER_COL_NARROW", "mjTIMER_POS_MAKE", "mjTIMER_VELOCITY",
@@ -371,6 +372,24 @@ def throughput_row() -> dict:
     return {"part": "throughput"} | throughput(spec, repeats=3) | {"load": os.getloadavg()[0]}
 
 
+def _config(row: dict) -> dict:
+    return {k: v for k, v in row["spec"]["search"].items() if k != "seed"}
+
+
+def by_config(rows: list[dict]) -> list[dict]:
+    """The rows with each equal-quality or alternative run labelled by the configuration its
+    spec holds: "equal" for EQUAL's, "alt_<name>" for ALTERNATIVES' (what the label was when
+    it ran does not matter)."""
+    labels = [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
+    out = []
+    for r in rows:
+        if r["part"] == "equal" or r["part"].startswith("alt_"):
+            part = next((name for name, cfg in labels if _config(r) == cfg["search"]), r["part"])
+            r = r | {"part": part}
+        out.append(r)
+    return out
+
+
 PARTS: dict[str, Callable[..., dict]] = {
     "coarse": coarse_row,
     "cap": lambda lost, seed, docs: speed_ratios(lost, seed=seed + 1),
@@ -386,14 +405,15 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
     """Every (part, damage, seed) not yet in ``raw``, seed by seed, each written at once;
     "profile" measures the step again."""
     rows = json.loads(raw.read_text()) if raw.exists() else []
+    done = {(r["part"], tuple(r["lost_legs"]), r["seed"]) for r in by_config(rows) if r["part"] in PARTS}
     if "profile" in parts:
         rows = [r for r in rows if r["part"] != "profile"] + [{"part": "profile", "rows": profiles(),
                                                               "load": os.getloadavg()[0], "cores": os.cpu_count()}]
         _save(rows, raw)
         log("step profile measured")
     if "check" in parts:
-        done = {tuple(r["lost_legs"]) for r in rows if r["part"] == "check"}
-        for r in check_rows(docs, log, done):
+        checked = {tuple(r["lost_legs"]) for r in rows if r["part"] == "check"}
+        for r in check_rows(docs, log, checked):
             rows.append(r)
             _save(rows, raw)
     if "throughput" in parts:
@@ -407,7 +427,6 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
         rows.append(variants(docs=docs))
         _save(rows, raw)
         log("physics variants measured")
-    done = {(r["part"], tuple(r["lost_legs"]), r["seed"]) for r in rows if r["part"] in PARTS}
     seeds_of = {"cap": 1, "coarse": 1}  # the speed cap and the coarse search: once per damage
     for seed in range(seeds):
         for lost in damages:
@@ -492,8 +511,10 @@ def variants_markdown(blocks: list[dict]) -> list[str]:
 
 
 def coarse_markdown(rows: list[dict]) -> list[str]:
-    out = ["Coarse-to-fine, first half: the equal-quality configuration searched at twice the default step for "
-           "twice the generations (about as many steps), its answer judged at the default step. The refinement at "
+    cfg = {k: v for k, v in rows[0]["spec"]["search"].items() if k not in ("seed", "generations")}
+    out = [f"Coarse-to-fine, first half: the equal-quality configuration of its time (`{json.dumps(cfg)}`) searched "
+           "at twice the default step for twice the generations (about as many steps), its answer judged at the "
+           "default step. The refinement at "
            "the default step would have to recover more F than searching at the default step from the start gives "
            "for the same steps, so coarse-to-fine was not built:", "",
            "| damage | seed | F at the coarse step | F at the default step | target at the coarse step / default "
@@ -509,8 +530,8 @@ def coarse_markdown(rows: list[dict]) -> list[str]:
 def alternatives_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage and configuration: F over its seeds against the paper DE's on the same
     seeds, and its answers meeting the target at the default step and at half of it."""
-    out = ["Other configurations at about the equal-quality budget, on the damages they were run on (the paper DE's "
-           "F: its runs on this page, else docs/table2.json's for that seed; a configuration counts as equal quality "
+    out = ["The equal-quality configuration and every other one tried, on the damages they were run on (walks: its "
+           "budget; the paper DE's F: its runs on this page, else docs/table2.json's for that seed; a configuration counts as equal quality "
            "when its median F over the seeds is at least the paper DE's median over the same seeds and its answers "
            "meet the target also at half the step):", "",
            "| damage | configuration | walks | F, median [range] (seeds) | paper DE F on those seeds | "
@@ -599,6 +620,13 @@ def _at_budget(rows: list[dict], lost, eq: list[dict]) -> list[float]:
     return out
 
 
+def _walks_to(run: dict, f: float) -> str:
+    """How many walks ``run`` had evaluated when its best first reached ``f`` (its history),
+    with the share of its whole budget, or "not reached"."""
+    hit = next((n for _, b, n in run["curve"] if b >= f), None)
+    return "not reached" if hit is None else f"{hit:,} ({100 * hit / run['evaluations']:.0f} %)"
+
+
 def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage: the paper DE's F against the equal-quality configuration's on the same
     seeds, and the fast preset's time to the target, in steps (machine-independent) and
@@ -606,8 +634,9 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     out = ["| damage | paper DE F, median [range] (seeds) | equal-quality F | equal >= paper, same seed | "
            "paper DE F after as many walks as the equal-quality search | "
            "equal-quality answers meeting the target (also at half the step) | equal-quality steps / paper DE steps | "
+           "equal-quality run, whole budget (s) | equal-quality walks to the same seed's paper DE F | "
            "fast preset: steps to the target | fast preset: time to the target (s) | fast preset: met at half the "
-           "step |", "|---" * 10 + "|"]
+           "step |", "|---" * 12 + "|"]
     for lost in SCENARIOS:
         eq = [r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == lost]
         fast = [r for r in rows if r["part"] == "fast" and tuple(r["lost_legs"]) == lost]
@@ -621,10 +650,12 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
         met = f"{sum(r['target_met'] for r in eq)} ({sum(bool(r['half_step_met']) for r in eq)}) of {len(eq)}"
         ttt = [r["time_to_target_s"] for r in fast if r["time_to_target_s"] is not None]
         early = _at_budget(rows, lost, eq)
+        reach = ", ".join(_walks_to(r, paper[r["seed"]]) for r in eq if r["seed"] in paper) or "-"
         out.append(f"| {_name(lost)} | {_spread(list(paper.values()), '{:.2f}')} ({len(paper)}) | "
                    f"{_spread([r['fitness'] for r in eq], '{:.2f}')} ({len(eq)}) | {wins} of {pairs} | "
                    f"{_spread(early, '{:.2f}')} ({len(early)}) | {met} | {ratio} | "
-                   f"{_spread([r['sim_steps'] for r in fast], '{:,.0f}')} | {_spread(ttt)} | "
+                   f"{_spread([r['wall_s'] for r in eq], '{:.0f}')} at load {_spread([r['load'] for r in eq])} | "
+                   f"{reach} | {_spread([r['sim_steps'] for r in fast], '{:,.0f}')} | {_spread(ttt)} | "
                    f"{sum(bool(r['half_step_met']) for r in fast)} of {len(fast)} |")
     return out + [""]
 
@@ -768,6 +799,7 @@ def page(md: str) -> str:
 def render_markdown(rows: list[dict], table2: list[dict]) -> str:
     """Everything below the title, from the runs (docs/recovery_speed.json) and Table II's rows
     (docs/table2.json, the paper DE's F where this page has no run of it): nothing is measured here."""
+    rows = by_config(rows)
     runs = [r for r in rows if r["part"] in ("paper", "fast", "equal") or r["part"].startswith("alt_")]
     out = [INTRO]
     benches = [r for r in rows if r["part"] == "bench"]

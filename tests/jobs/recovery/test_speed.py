@@ -177,8 +177,9 @@ def test_the_speed_page_renders_from_its_rows():
                "search": {"stop_reason": "generations", "generations_run": 61}, "evaluations": 1830,
                "sim_steps": 18_000_000, "cut_steps_saved": 1_000_000, "time_to_target_s": None, "wall_s": 170.0,
                "load": 1.0, "identical_to_documented": True, "curve": [[0, 1.0, 30], [20, 8.0, 630], [60, 12.0, 1830]]}
+    equal = {"search": speed.EQUAL["search"] | {"seed": 0}}
     rows = [run_row | {"part": "paper"}, run_row | {"part": "equal", "fitness": 12.5, "sim_steps": 6_000_000,
-                                                    "evaluations": 700,
+                                                    "evaluations": 700, "spec": equal,
                                                     "cut_steps_saved": 0, "identical_to_documented": None},
             run_row | {"part": "fast", "sim_steps": 400_000, "time_to_target_s": 4.0,
                        "search": {"stop_reason": "target_met", "generations_run": 2}}]
@@ -188,11 +189,17 @@ def test_the_speed_page_renders_from_its_rows():
     assert "(= docs)" in md and "48x fewer" in md
     assert "Other configurations" not in md  # no alternative run, no table
     alt = run_row | {"part": "alt_cmaes_8x90", "fitness": 11.0, "identical_to_documented": None,
-                     "half_step_met": False}
+                     "half_step_met": False, "spec": {"search": speed.ALTERNATIVES["cmaes_8x90"]["search"] | {"seed": 0}}}
     md = speed.speed_markdown(rows + [alt, alt | {"seed": 1, "fitness": 13.0}], Path("/nonexistent"))
     assert ('| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 8, "generations": 90}}` | 728 | '
             "12.00 [11.00, 13.00] (2) | 12.00 [12.00, 12.00] (1) | 0 of 1 | 2 (0) of 2 |") in md
-    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 732 | 12.50 [12.50, 12.50] (1) |" in md
+    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 996 | 12.50 [12.50, 12.50] (1) |" in md
+    # a run is labelled by the configuration it ran: an "equal" run of another configuration
+    # (the equal-quality one of its time) shows as that alternative, whatever its label said
+    old = rows[1] | {"spec": {"search": speed.ALTERNATIVES["cmaes_12x60"]["search"] | {"seed": 0}}}
+    md = speed.speed_markdown([rows[0], old, rows[2], alt], Path("/nonexistent"))
+    assert '| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}` | 732 |' in md
+    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` |" not in md
     # the step's settings: one row per change, each against the one before it
     names = list(speed.STEP_SETTINGS)
     settings = {"part": "pairs", "damages": [{"lost_legs": [1, 6], "us_per_step": dict(zip(names, (13.2, 12.0, 11.0)))}],
