@@ -274,10 +274,11 @@ class GaitEvaluator:
             else:
                 ctrl = loop.ctrl(alive, start, stop, state)
             st, sd = self._rollout(list(models[alive]), state[alive], ctrl)
-            sens[alive, start:stop] = sd
+            rows = slice(None) if alive.size == P else alive  # a plain slice copies 4x faster than an index array
+            sens[rows, start:stop] = sd
             if record:
-                states[alive, start:stop] = st
-                ctrls[alive, start:stop] = ctrl
+                states[rows, start:stop] = st
+                ctrls[rows, start:stop] = ctrl
             steps += alive.size * (stop - start)
             state[alive] = st[:, -1]
             done = self._fell(sd)
