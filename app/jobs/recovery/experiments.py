@@ -740,15 +740,16 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
-_SPEED_PARTS = ("bench|profile|pairs|variants|throughput|cap|check|fast|equal|paper|coarse"
+_SPEED_PARTS = ("bench|profile|pairs|scaling|variants|throughput|cap|check|fast|equal|paper|coarse"
                 "|alt_cmaes_12x60|alt_cmaes_20x36|alt_cmaes_8x90|alt_de_12x60_cut")
 
 
 class SpeedParams(BaseModel):
-    parts: str = Field("bench,profile,pairs,variants,throughput,cap,check,fast,equal,paper,coarse",
+    parts: str = Field("bench,profile,pairs,scaling,variants,throughput,cap,check,fast,equal,paper,coarse",
                        pattern=rf"^({_SPEED_PARTS})(,({_SPEED_PARTS}))*$",
                        description="what to measure: the recovery bench (the issue's targets); the step profile; "
                                    "explicit contact pairs against the broad phase (CPU time, documented answers); "
+                                   "where the paper DE's time goes (inside the rollout or not; thread scaling); "
                                    "physics settings tried (CPU time, what "
                                    "they do to the documented answers); raw and evaluator steps/s; the cut walks' "
                                    "speed cap on random walks; cut walks on every documented damage (same answers?); "

@@ -224,6 +224,76 @@ def pairs_row(reps: int = 15, docs: Path = Path("docs")) -> dict:
             "load": os.getloadavg()[0], "cores": os.cpu_count()}
 
 
+def scaling_row(generations: int = 5, reps: int = 3) -> dict:
+    """Where the exact paper DE's time goes, on legs 1 & 6: a DE of the paper's population
+    for ``generations`` generations with every rollout call timed (the share of its wall time
+    inside mujoco.rollout, steps/s there and overall), and one 1000-step chunk of 30 random
+    candidates rolled out on one thread and on the evaluator's threads (medians of ``reps``,
+    interleaved): how far the threads scale on this machine."""
+    from app.jobs.evidence import Phases
+    from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
+    from app.jobs.recovery.run import phase_sizes, search, set_up
+
+    spec = RecoverySpec(damage={"lost_legs": [1, 6]}, search={"population": PAPER["search"]["population"],
+                                                              "generations": generations}, **ONLY_SEARCH)
+    job = set_up(spec)
+    inside = [0.0]
+
+    def timed(call):
+        def run_timed(*args):
+            t = time.perf_counter()
+            try:
+                return call(*args)
+            finally:
+                inside[0] += time.perf_counter() - t
+        return run_timed
+
+    try:
+        for e in job.score.ev.evaluators:
+            e._rollout = timed(e._rollout)
+        t = time.perf_counter()
+        search(job, Phases(MemoryContext(), phase_sizes(spec)))
+        wall = time.perf_counter() - t
+        steps = int(job.searches["search"].totals.get("sim_steps", 0))
+        x = job.lower + np.random.default_rng(0).random((30, job.lower.size)) * (job.upper - job.lower)
+        one = GaitEvaluator(job.robot, job.model, job.seq, SimConfig(nthread=1))
+        ctrl, state = job.ev.controls(x)
+        ctrl = np.ascontiguousarray(ctrl[:, :1000])
+        rates: dict[int, list[float]] = {1: [], job.ev.nthread: []}
+        for _ in range(reps):
+            for ev in (one, job.ev):
+                t = time.perf_counter()
+                ev._rollout([job.model], state, ctrl)
+                rates[ev.nthread].append(ctrl.shape[0] * ctrl.shape[1] / (time.perf_counter() - t))
+        one.close()
+    finally:
+        job.close()
+    single, multi = statistics.median(rates[1]), statistics.median(rates[job.ev.nthread])
+    return {"part": "scaling", "generations": generations, "population": spec.search.population, "wall_s": wall,
+            "in_rollout_s": inside[0], "sim_steps": steps, "threads": job.ev.nthread, "one_thread_steps_per_s": single,
+            "threads_steps_per_s": multi, "load": os.getloadavg()[0], "cores": os.cpu_count()}
+
+
+def scaling_markdown(r: dict, paper_steps: float | None = None, bench_s: float | None = None) -> list[str]:
+    """``paper_steps``: the exact paper DE's simulated steps (its runs on the page), for the
+    wall time this run's overall rate gives it; ``bench_s``: the last bench's measured one."""
+    share = r["in_rollout_s"] / r["wall_s"]
+    overall = r["sim_steps"] / r["wall_s"]
+    at_rate = ("" if paper_steps is None else
+               f" The exact paper DE simulates {paper_steps / 1e6:.2f} M steps (median of its runs below): "
+               f"{paper_steps / overall:.0f} s at this run's overall rate"
+               + ("." if bench_s is None else f", against {bench_s:.1f} s measured by the last bench "
+                                              f"({paper_steps / bench_s:,.0f} steps/s over the whole run)."))
+    return [f"Where the exact paper DE's time goes (`gaitmend reproduce recovery-speed --parts scaling`, load "
+            f"{r['load']:.1f} on {r['cores']} cores): a DE of {r['population']} for {r['generations']} generations on "
+            f"legs 1 & 6 spent {100 * share:.1f} % of its {r['wall_s']:.1f} s inside `mujoco.rollout`, at "
+            f"{r['sim_steps'] / r['in_rollout_s']:,.0f} steps/s there and {overall:,.0f} overall; "
+            f"the rest is the evaluator's Python (controls, copies, fall tests, metrics) and the search's. One "
+            f"1000-step chunk of 30 candidates rolls out at {r['one_thread_steps_per_s']:,.0f} steps/s on one thread "
+            f"and {r['threads_steps_per_s']:,.0f} on {r['threads']}: the threads scale "
+            f"{r['threads_steps_per_s'] / r['one_thread_steps_per_s']:.2f}x.{at_rate}", ""]
+
+
 # -- the cut walks' speed cap ----------------------------------------------------------------------
 
 def speed_ratios(lost, n: int = 60, seed: int = 1) -> dict:
@@ -419,6 +489,10 @@ def measure(parts: list[str], seeds: int, damages: list[tuple[int, ...]], raw: P
     if "throughput" in parts:
         rows = [r for r in rows if r["part"] != "throughput"] + [throughput_row()]
         _save(rows, raw)
+    if "scaling" in parts:  # kept beside earlier ones, as the variants
+        rows.append(scaling_row())
+        _save(rows, raw)
+        log(scaling_markdown(rows[-1])[0])
     if "pairs" in parts:  # kept beside earlier ones, as the variants
         rows.append(pairs_row(docs=docs))
         _save(rows, raw)
@@ -809,6 +883,11 @@ def render_markdown(rows: list[dict], table2: list[dict]) -> str:
         for bench in benches:
             out += bench_markdown(bench)
     out += ["## Changes and their gains", ""] + gains_markdown(rows)
+    scaling = [r for r in rows if r["part"] == "scaling"]
+    if scaling:
+        paper = [r["sim_steps"] + r["cut_steps_saved"] for r in rows if r["part"] == "paper"]
+        out += scaling_markdown(scaling[-1], statistics.median(paper) if paper else None,
+                                benches[-1]["figures"]["paper_recovery_wall_s"] if benches else None)
     out += ["## Equal quality and time to the target", "",
             "Paper DE F: the runs below, else docs/table2.json's full-walk run for that seed. Steps count every walk "
             "the search simulated (a cut walk's steps up to its cut); the paper DE's include the steps its cut walks "

@@ -207,6 +207,13 @@ def test_the_speed_page_renders_from_its_rows():
     md = speed.speed_markdown(rows + [settings], Path("/nonexistent"))
     assert "legs 1 & 6 13.2 -> 12.0 us (1.10x) (load 0.5); the 63 documented answers bit-identical to before" in md
     assert "legs 1 & 6 12.0 -> 11.0 us (1.09x) (load 0.5); the 63 documented answers **not** identical" in md
+    # where the paper DE's time goes: shares and rates from the row, the paper DE's steps from its runs
+    scaling = {"part": "scaling", "generations": 5, "population": 30, "wall_s": 10.0, "in_rollout_s": 9.0,
+               "sim_steps": 1_500_000, "threads": 2, "one_thread_steps_per_s": 90_000.0,
+               "threads_steps_per_s": 160_000.0, "load": 0.5, "cores": 2}
+    md = speed.speed_markdown(rows + [scaling], Path("/nonexistent"))
+    assert ("spent 90.0 % of its 10.0 s inside `mujoco.rollout`, at 166,667 steps/s there and 150,000 overall" in md
+            and "the threads scale 1.78x" in md and "simulates 19.00 M steps (median of its runs below): 127 s" in md)
 
 
 def test_every_alternative_configuration_is_a_part_the_command_accepts():
@@ -220,3 +227,13 @@ def test_every_alternative_configuration_is_a_part_the_command_accepts():
         assert SpeedParams(parts=f"equal,alt_{name}", damages="3-4").parts.endswith(name)
     with pytest.raises(ValidationError):
         SpeedParams(parts="alt_unknown")
+
+
+def test_the_scaling_part_times_the_rollout_inside_a_real_search():
+    from app.jobs.recovery import speed
+
+    r = speed.scaling_row(generations=1, reps=1)
+    assert r["sim_steps"] > 30 * 10_000  # two generations of 30 walks, most of them whole
+    assert 0 < r["in_rollout_s"] < r["wall_s"]
+    assert r["one_thread_steps_per_s"] > 0 and r["threads_steps_per_s"] > 0 and r["threads"] >= 1
+    json.dumps(r)
