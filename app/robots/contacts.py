@@ -48,8 +48,8 @@ def candidate_pairs(model: mujoco.MjModel) -> list[tuple[int, int]]:
                 continue
             if filterparent and w1 != 0 and w2 != 0 and (w1 == wparent[w2] or w2 == wparent[w1]):
                 continue
-            lo, hi = min(b1, b2), max(b1, b2)
-            if (lo << 16) + hi in excluded or (g1, g2) in explicit or (g2, g1) in explicit:
+            if ((b1 << 16) + b2 in excluded or (b2 << 16) + b1 in excluded  # either order of the signature
+                    or (g1, g2) in explicit or (g2, g1) in explicit):
                 continue
             out.append((g1, g2))
     return out

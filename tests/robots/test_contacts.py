@@ -130,3 +130,14 @@ def test_worlds_where_pairs_would_not_be_exact_are_left_alone():
     before = spec.to_xml()
     assert not explicit_pairs(spec)
     assert spec.to_xml() == before
+
+
+def test_an_excluded_body_pair_is_no_pair_to_keep():
+    """Two free bodies whose pair the model excludes only ever touch the floor: converted."""
+    spec = _ball_world(self_collide=True)
+    spec.add_exclude(bodyname1="other", bodyname2="ball")
+    spec.add_exclude(bodyname1="other", bodyname2="arm")
+    model = spec.copy().compile()
+    assert all(model.geom_bodyid[a] == 0 for a, _ in candidate_pairs(model))
+    assert explicit_pairs(spec)
+    assert spec.compile().npair == len(candidate_pairs(model)) == 6
