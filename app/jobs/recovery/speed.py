@@ -44,6 +44,11 @@ STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER
           "mjTIMER_ACTUATION", "mjTIMER_CONSTRAINT", "mjTIMER_ADVANCE")
 
 
+def _uniform(job, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` candidates drawn uniformly in ``job``'s bounds from ``seed`` (the measurements' batches)."""
+    return job.lower + np.random.default_rng(seed).random((n, job.lower.size)) * (job.upper - job.lower)
+
+
 # -- where a step's time goes ------------------------------------------------------------------
 
 def step_profile(model: mujoco.MjModel, d: mujoco.MjData | None = None, ctrl: np.ndarray | None = None,
@@ -162,7 +167,7 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
     from app.jobs.recovery.run import set_up, sim_model
 
     job = set_up(RecoverySpec(**ONLY_SEARCH))
-    x = job.lower + np.random.default_rng(0).random((8, job.lower.size)) * (job.upper - job.lower)
+    x = _uniform(job, 8)
     ctrl, state = job.ev.controls(x)
     job.close()
     # the model as these settings were tried: before the explicit contact pairs (pairs_row), so
@@ -210,7 +215,7 @@ def pairs_row(reps: int = 15, docs: Path = Path("docs")) -> dict:
     for lost in SCENARIOS:
         spec = RecoverySpec(damage={"lost_legs": list(lost)}, **ONLY_SEARCH)
         job = set_up(spec)
-        x = job.lower + np.random.default_rng(0).random((8, job.lower.size)) * (job.upper - job.lower)
+        x = _uniform(job, 8)
         ctrl, state = job.ev.controls(x)
         job.close()
         models = {name: sim_model(spec, get_robot(spec.robot), **s)[1] for name, s in STEP_SETTINGS.items()}
@@ -255,7 +260,7 @@ def scaling_row(generations: int = 5, reps: int = 3) -> dict:
         search(job, Phases(MemoryContext(), phase_sizes(spec)))
         wall = time.perf_counter() - t
         steps = int(job.searches["search"].totals.get("sim_steps", 0))
-        x = job.lower + np.random.default_rng(0).random((30, job.lower.size)) * (job.upper - job.lower)
+        x = _uniform(job, 30)
         one = GaitEvaluator(job.robot, job.model, job.seq, SimConfig(nthread=1))
         ctrl, state = job.ev.controls(x)
         ctrl = np.ascontiguousarray(ctrl[:, :1000])
@@ -305,7 +310,7 @@ def speed_ratios(lost, n: int = 60, seed: int = 1) -> dict:
     job = set_up(RecoverySpec(damage={"lost_legs": list(lost)}, **ONLY_SEARCH))
     try:
         ev = job.ev
-        x = job.lower + np.random.default_rng(seed).random((n, job.lower.size)) * (job.upper - job.lower)
+        x = _uniform(job, n, seed)
         sens, end, _, steps = ev.simulate(x)
     finally:
         job.close()
@@ -410,7 +415,7 @@ def throughput(spec: RecoverySpec, repeats: int = 2) -> dict:
 
     job = set_up(spec)
     ev = job.ev
-    x = job.lower + np.random.default_rng(0).random((spec.search.population, job.lower.size)) * (job.upper - job.lower)
+    x = _uniform(job, spec.search.population)
     ctrl, state = ev.controls(x)
     # the raw rollout writes into arrays allocated and touched beforehand, so it times the
     # simulation, not the first touch of a few hundred MB of fresh output
@@ -442,6 +447,11 @@ def throughput_row() -> dict:
     return {"part": "throughput"} | throughput(spec, repeats=3) | {"load": os.getloadavg()[0]}
 
 
+def _labels() -> list[tuple[str, dict]]:
+    """Each searched configuration's part name: "equal" for EQUAL, "alt_<name>" for ALTERNATIVES."""
+    return [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
+
+
 def _config(row: dict) -> dict:
     return {k: v for k, v in row["spec"]["search"].items() if k != "seed"}
 
@@ -450,11 +460,10 @@ def by_config(rows: list[dict]) -> list[dict]:
     """The rows with each equal-quality or alternative run labelled by the configuration its
     spec holds: "equal" for EQUAL's, "alt_<name>" for ALTERNATIVES' (what the label was when
     it ran does not matter)."""
-    labels = [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
     out = []
     for r in rows:
         if r["part"] == "equal" or r["part"].startswith("alt_"):
-            part = next((name for name, cfg in labels if _config(r) == cfg["search"]), r["part"])
+            part = next((name for name, cfg in _labels() if _config(r) == cfg["search"]), r["part"])
             r = r | {"part": part}
         out.append(r)
     return out
@@ -585,7 +594,7 @@ def variants_markdown(blocks: list[dict]) -> list[str]:
 
 
 def coarse_markdown(rows: list[dict]) -> list[str]:
-    cfg = {k: v for k, v in rows[0]["spec"]["search"].items() if k not in ("seed", "generations")}
+    cfg = {k: v for k, v in _config(rows[0]).items() if k != "generations"}
     out = [f"Coarse-to-fine, first half: the equal-quality configuration of its time (`{json.dumps(cfg)}`) searched "
            "at twice the default step for twice the generations (about as many steps), its answer judged at the "
            "default step. The refinement at "
@@ -610,7 +619,7 @@ def alternatives_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
            "meet the target also at half the step):", "",
            "| damage | configuration | walks | F, median [range] (seeds) | paper DE F on those seeds | "
            ">= paper, same seed | target met (also at half the step) |", "|---|---|---|---|---|---|---|"]
-    configs = [("equal", EQUAL)] + [(f"alt_{n}", c) for n, c in ALTERNATIVES.items()]
+    configs = _labels()
     rows = [r for r in rows if "lost_legs" in r]  # searches only (not the bench, profile or variants)
     for lost in SCENARIOS:
         paper = _paper_fitness(rows, lost, table2)
