@@ -47,7 +47,7 @@ def test_a_kind_section_shows_its_latest_run_with_targets_load_and_provenance():
     assert "| `tipping.steps` | 500 | - | - |" in text and "| `tipping.constrained` | yes | - | - |" in text
     assert "9.99" not in text  # the earlier run is kept in the file, not shown
     assert "1 earlier run(s)" in text
-    assert ("finished 2026-12-03 14:00 UTC, commit 0123456789, Test CPU (2 cores), nice 10; 1-minute load average 3.2 "
+    assert ("finished 2026-12-03 14:00 UTC, commit 0123456789, Test CPU, 2 cores, nice 10; 1-minute load average 3.2 "
             "before and 4.5 after") in text
 
 
@@ -152,7 +152,7 @@ def test_the_study_dispatch_section_shows_the_latest_run_with_its_deployment_and
         "| points | 200 (succeeded) |\n"
         "| deployment | broker redis://127.0.0.1:6379, database postgresql://127.0.0.1:5432 |\n"
         "| 1-minute load average before / after | 4.6 / 5.0 |\n"
-        "| machine | Test CPU (2 cores), nice 10 |\n"
+        "| machine | Test CPU, 2 cores, nice 10 |\n"
         "| commit | fedcba9876 (uncommitted changes) |\n"
         "| finished | 2026-12-03 17:40 UTC |\n"
         "\n`gaitmend bench --studies --json` as `gaitmend reproduce bench --kinds studies --write-docs` ran it; "
@@ -205,3 +205,18 @@ def test_study_points_need_the_studies_bench():
         BenchParams(kinds="tipping", study_points=6)
     with pytest.raises(ValueError, match="or studies: a study's dispatch overhead"):
         BenchParams(kinds="studies,nope")
+
+
+def test_a_run_names_its_host_by_cpu_family_and_model_where_the_machine_says():
+    from pathlib import Path
+
+    from app.core.host import machine, machine_text
+
+    m = machine()
+    info = Path("/proc/cpuinfo").read_text() if Path("/proc/cpuinfo").exists() else ""
+    if "cpu family" in info:  # x86 Linux: two hosts sold as "AMD EPYC" differ by family
+        assert isinstance(m["cpu_family"], int) and isinstance(m["cpu_model"], int)
+        assert machine_text(m).startswith(f"{m['cpu']}, family {m['cpu_family']} model {m['cpu_model']}, ")
+    assert machine_text({"cpu": "AMD EPYC", "cpu_family": 26, "cpu_model": 2, "cores": 2}) == \
+        "AMD EPYC, family 26 model 2, 2 cores"
+    assert machine_text({"cpu": "AMD EPYC", "cores": 2}) == "AMD EPYC, 2 cores"  # runs recorded before

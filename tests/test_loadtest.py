@@ -39,10 +39,10 @@ HEAD = ("| database | p50 | p99 | max | throughput | failures | clients x reques
 def test_the_latest_run_per_database_in_the_order_first_measured():
     text = loadtest.render(FIXTURE)
     assert text.startswith(
-        HEAD + "| sqlite | 234.6 ms | 612.3 ms | 700.0 ms | 148.3/s | 0 | 50 x 10 | 0.5 / 1.2 | Test CPU (2 cores), nice 10 "
+        HEAD + "| sqlite | 234.6 ms | 612.3 ms | 700.0 ms | 148.3/s | 0 | 50 x 10 | 0.5 / 1.2 | Test CPU, 2 cores, nice 10 "
           "| fedcba9876 (uncommitted changes) | 2026-12-03 17:00 UTC |\n"
           "| postgresql://127.0.0.1:5432 | 321.0 ms | 612.3 ms | 700.0 ms | 148.3/s | 0 | 50 x 10 | 3.9 / 4.3 "
-          "| Test CPU (2 cores), nice 10 | 0123456789 | 2026-12-02 10:00 UTC |\n\n")
+          "| Test CPU, 2 cores, nice 10 | 0123456789 | 2026-12-02 10:00 UTC |\n\n")
     assert "999.9" not in text  # the earlier SQLite run: kept in the file, counted, not shown
     assert text.endswith("1 earlier run kept in [loadtest.json](loadtest.json), not shown.\n")
     assert "only submission is timed" in text

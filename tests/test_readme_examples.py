@@ -84,7 +84,7 @@ def test_the_table_shows_each_example_latest_run_with_its_load():
     assert "| tipping | `{\"kind\": \"tipping\"}` | 93 s | 84 s | 4.2 / 5.5 | 2026-12-03 15:00 UTC | 0123456789 |" in text
     assert "300 s" not in text  # the earlier tipping run stays in the file, not shown
     assert "| 150 s | 135 s | 3.0 / 6.8 |" in text and "fedcba9876 (uncommitted changes)" in text
-    assert "Test CPU (2 cores), nice 10" in text
+    assert "Test CPU, 2 cores, nice 10" in text
     assert "No data yet" in examples.render_table(None) and "No data yet" in examples.render_sentence({"runs": []})
 
 

@@ -26,7 +26,8 @@ from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import KINDS
 from app.results import benchmarks
-from app.results.provenance import git_commit, machine
+from app.core.host import machine
+from app.results.provenance import git_commit
 
 
 def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: list[str] | None = None) -> dict:

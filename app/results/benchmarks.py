@@ -23,6 +23,7 @@ from typing import Any
 from app.jobs.registry import KINDS
 from app.jobs.reporting import Section, md_table, missing
 from app.results.examples import commit_text
+from app.core.host import machine_text
 
 JSON = "docs/benchmarks.json"
 COMMAND = "gaitmend reproduce bench --write-docs"
@@ -108,7 +109,7 @@ def provenance(run: dict) -> str:
     m = run["machine"]
     commit = run.get("commit") or "unknown"
     return (f"`gaitmend bench --kind {run['kind']} --json`, finished {run['date']}, commit {commit[:10]}"
-            f"{' (with uncommitted changes)' if commit.endswith('+dirty') else ''}, {m['cpu']} ({m['cores']} cores), "
+            f"{' (with uncommitted changes)' if commit.endswith('+dirty') else ''}, {machine_text(m)}, "
             f"nice {run['nice']}; 1-minute load average {run['load_before']:.1f} before and {run['load_after']:.1f} "
             f"after (wall times carry that load); the bench took {value('wall_s', run['wall_s'])}.")
 
@@ -170,7 +171,7 @@ def render_studies(data: dict | None) -> str:
             ["points", f"{f['points']} ({f['status']})"],
             ["deployment", f"broker {d['broker']}, database {d['database']}"],
             ["1-minute load average before / after", load_text(run)],
-            ["machine", f"{m['cpu']} ({m['cores']} cores), nice {run['nice']}"],
+            ["machine", f"{machine_text(m)}, nice {run['nice']}"],
             ["commit", commit_text(run)],
             ["finished", run["date"]]]
     earlier = len(runs) - 1

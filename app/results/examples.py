@@ -8,6 +8,7 @@ the date. ``whole-jobs`` is docs/benchmarks.md's table (the latest run of each e
 from __future__ import annotations
 
 from app.jobs.reporting import Section, md_table, missing
+from app.core.host import machine_text
 
 JSON = "docs/readme_examples.json"
 COMMAND = "gaitmend reproduce readme-examples --write-docs"
@@ -45,7 +46,7 @@ def render_table(data: dict | None) -> str:
     rows = [[r["kind"] + (" (the first command)" if r["key"] == FIRST_KEY else ""),
              f"`{r['command'] if r['key'] == FIRST_KEY else r['spec']}`", duration(r["wall_s"]), duration(r["cpu_s"]),
              f"{r['load_before']:.1f} / {r['load_after']:.1f}", r["date"], commit_text(r)] for r in runs]
-    machines = sorted({f"{r['machine']['cpu']} ({r['machine']['cores']} cores), nice {r['nice']}" for r in runs})
+    machines = sorted({f"{machine_text(r['machine'])}, nice {r['nice']}" for r in runs})
     return (md_table(["kind", "spec", "wall", "CPU", "load before / after", "finished", "commit"], rows)
             + f"\nEach line as the README shows it, run alone, on {'; '.join(machines)}. Wall: the whole command "
               f"(start-up, search, controls, robustness re-runs, bundle), at the 1-minute load shown; CPU: the "

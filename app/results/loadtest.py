@@ -10,6 +10,7 @@ from __future__ import annotations
 from app.jobs.reporting import Section, md_table, missing
 from app.results.benchmarks import load_text
 from app.results.examples import commit_text
+from app.core.host import machine_text
 
 JSON = "docs/loadtest.json"
 COMMAND = "python scripts/loadtest.py --json-out docs/loadtest.json"
@@ -29,7 +30,7 @@ def _row(r: dict) -> list[str]:
     m = r["machine"]
     return [r["database"], f"{r['p50_ms']:.1f} ms", f"{r['p99_ms']:.1f} ms", f"{r['max_ms']:.1f} ms",
             f"{r['throughput_per_s']:.1f}/s", str(r["errors"]), f"{r['clients']} x {r['per_client']}", load_text(r),
-            f"{m['cpu']} ({m['cores']} cores), nice {r['nice']}", commit_text(r), r["date"]]
+            f"{machine_text(m)}, nice {r['nice']}", commit_text(r), r["date"]]
 
 
 def render(data: dict | None) -> str:

@@ -29,7 +29,8 @@ from typing import Any
 
 from app.jobs.reporting import Section, md_table
 from app.results.examples import commit_text
-from app.results.provenance import git_commit, machine
+from app.core.host import machine, machine_text
+from app.results.provenance import git_commit
 
 JSON = "docs/observed.json"
 ENV = "GAITMEND_OBSERVED"
@@ -141,7 +142,7 @@ def render(data: dict | None, group: str) -> str:
         return (f"*No data yet: `{COMMAND}` (from a copy of {JSON}, copied back afterwards) records "
                 f"these figures.*\n")
     rows = [[f"`{f}`", FIGURES[f][0], spread(r), _setup(r), f"`{r['test'] or '-'}`",
-             f"{r['machine']['cpu']} ({r['machine']['cores']} cores), nice {r['nice']}, load {r['load']:.1f}",
+             f"{machine_text(r['machine'])}, nice {r['nice']}, load {r['load']:.1f}",
              commit_text(r), r["date"]] for f, r in shown.items()]
     earlier = sum(1 for r in data["runs"] if FIGURES.get(r["figure"], ("", "", ""))[2] == group) - len(shown)
     name = JSON.split("/")[-1]

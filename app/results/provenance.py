@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
-import platform
 import subprocess
 from pathlib import Path
 
@@ -34,16 +32,3 @@ def git_commit(root: Path) -> str | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return sha + ("+dirty" if dirty else "")
-
-
-def machine() -> dict:
-    """The CPU model (/proc/cpuinfo's, else the platform's word for it) and the core count."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from app.jobs.reporting import Section, md_table, missing
 from app.results.examples import commit_text
+from app.core.host import machine_text
 
 JSON = "docs/robot_figures.json"
 COMMAND = ".venv/bin/python scripts/robot_figures.py --json-out docs/robot_figures.json"
@@ -40,7 +41,7 @@ def render(data: dict | None) -> str:
                  " / ".join(f"{v:,.0f}" for v in rates.values()) + " steps/s"])
     m = r["machine"]
     return (md_table(["what", f"time, best of {r['repeats']}"], rows)
-            + f"\nMeasured {r['date']} on {m['cpu']} ({m['cores']} cores), nice {r['nice']}, 1-minute load "
+            + f"\nMeasured {r['date']} on {machine_text(m)}, nice {r['nice']}, 1-minute load "
               f"{r['load_before']:.1f} before and {r['load_after']:.1f} after (other work on the machine makes "
               f"these upper bounds), commit {commit_text(r)}. "
               f"{len(runs) - 1} earlier run{'' if len(runs) == 2 else 's'} kept in "

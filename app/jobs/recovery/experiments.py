@@ -13,6 +13,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, Field, field_validator
 
+from app.core.host import machine
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery import atlas_check, curves, jobtime, loop_check, peers_check, prose, randomised_check
 from app.jobs.reporting import Section, marked, missing
@@ -774,7 +775,7 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
         before = os.getloadavg()[0]
         figures = bench_recovery(log=log)
         speed.append_part(p.raw, {"part": "bench", "figures": figures, "load_before": before,
-                                  "load_after": os.getloadavg()[0], "cores": os.cpu_count()})
+                                  "load_after": os.getloadavg()[0], "cores": os.cpu_count(), "machine": machine()})
     rows = speed.measure(p.parts.split(","), p.seeds, damages, p.raw, Path("docs"), log=log)
     md = speed.speed_markdown(rows, Path("docs"))
     p.out.parent.mkdir(parents=True, exist_ok=True)

@@ -16,6 +16,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from app.core.host import machine_text
 from app.jobs.base import MemoryContext
 from app.jobs.reporting import marked, missing
 from app.jobs.recovery.run import run
@@ -854,8 +855,9 @@ def bench_markdown(row: dict) -> list[str]:
          "<= 60 s", yes[t.get("equal_quality_met", False)]),
         ("the bench itself", f"{f['bench_wall_s']:.0f} s", "< 240 s", yes[t.get("bench_met", False)]),
     ]
-    out = [f"`gaitmend bench --kind recovery --json` on this machine at load {row['load_before']:.1f} before and "
-           f"{row['load_after']:.1f} after ({row['cores']} cores; the bench's own two threads count in the load):", "",
+    host = machine_text(row["machine"]) if "machine" in row else f"a machine of {row['cores']} cores not recorded further"
+    out = [f"`gaitmend bench --kind recovery --json` on {host}, at load {row['load_before']:.1f} before and "
+           f"{row['load_after']:.1f} after (the bench's own two threads count in the load):", "",
            "| figure | measured | issue 22's target | |", "|---|---|---|---|"]
     return out + [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in cells] + [""]
 
