@@ -40,6 +40,14 @@ class RandomSearch(Optimizer):
         self._asked = False
         self.generation += 1
 
+    def selection_thresholds(self) -> np.ndarray | None:
+        """Only a candidate above the best so far changes what this search keeps (its draws
+        never depend on fitness): every candidate's threshold is that best; before the
+        first generation is told there is none."""
+        if not self._asked or self.best_x is None:
+            return None
+        return np.full(self.population, self.best_f)
+
     @property
     def population_fitness(self) -> np.ndarray:
         return self.last_f

@@ -741,7 +741,7 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
-_SPEED_PARTS = ("bench|profile|pairs|scaling|variants|throughput|cap|check|fast|equal|paper|coarse"
+_SPEED_PARTS = ("bench|profile|pairs|scaling|variants|throughput|cap|check|fast|equal|paper|control|coarse"
                 "|alt_cmaes_12x60|alt_cmaes_20x36|alt_cmaes_8x90|alt_de_12x60_cut")
 
 
@@ -754,6 +754,7 @@ class SpeedParams(BaseModel):
                                    "physics settings tried (CPU time, what "
                                    "they do to the documented answers); raw and evaluator steps/s; the cut walks' "
                                    "speed cap on random walks; cut walks on every documented damage (same answers?); "
+                                   "the random-search control with cut walks against full walks (same best?); "
                                    "coarse-to-fine's coarse search judged at the default step; the fast preset's time "
                                    "to the target; the equal-quality configuration; the paper DE with cut walks "
                                    "(checked against Table II); alt_<name>: another configuration of about the "

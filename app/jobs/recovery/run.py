@@ -112,12 +112,13 @@ class _Scorer:
         models = [model] + case_models(mspec, model, self.cases)
         self.ev = MultiModelEvaluator(robot, models, seq, cfg)
         self.period_s = cfg.period_s
-        self.cut_walks = spec.search.cut_walks and spec.robust is None  # its history then has a "cut" column
+        self.cut_walks = spec.search.cut_walks  # its history then has a "cut" column (one model only: generation)
         self.last: tuple[np.ndarray, dict[str, np.ndarray]] | None = None
 
     def cutoff(self, x: np.ndarray, thresholds: np.ndarray | None) -> Cutoff | None:
-        """Early termination against ``thresholds`` (DE's parents), on the nominal model only."""
-        if thresholds is None or not self.cut_walks:
+        """Early termination against ``thresholds`` (DE's parents, random search's best so
+        far), on the nominal model only."""
+        if thresholds is None or self.robust is not None:
             return None
         cap = CUT_SPEED_FACTOR * np.atleast_2d(x)[:, -2] / self.period_s  # step length per gait period
         return Cutoff(np.asarray(thresholds, dtype=float), cap, tuple(self.weights), self.units)
@@ -133,11 +134,14 @@ class _Scorer:
         f = fitness(m, self.weights, self.units)
         return (f, m, r.sim_steps, None) if cut is None else (np.where(cut.cut, cut.bound, f), m, r.sim_steps, cut)
 
-    def generation(self, x: np.ndarray, thresholds: np.ndarray | None = None) -> Generation:
-        """One generation of a search: fitness, falls, simulated steps (and walks cut short)."""
-        f, m, steps, cut = self(x, thresholds)
+    def generation(self, x: np.ndarray, thresholds: np.ndarray | None = None, cuts: bool | None = None) -> Generation:
+        """One generation of a search: fitness, falls, simulated steps (and walks cut short).
+        ``cuts``: whether this search cuts walks against ``thresholds`` (default: the search's
+        own setting, ``search.cut_walks``); its rows then have the cut columns."""
+        cuts = (self.cut_walks if cuts is None else cuts) and self.robust is None
+        f, m, steps, cut = self(x, thresholds if cuts else None)
         cols, totals = {"fell": int(np.sum(m["fell"]))}, {"sim_steps": steps}  # a walk cut short has not fallen
-        if self.cut_walks:  # every row (generation 0 has no parents: nothing cut), so the history is one table
+        if cuts:  # every row (generation 0 has no thresholds: nothing cut), so the history is one table
             cols["cut"] = 0 if cut is None else int(np.sum(cut.cut))
             totals["cut_steps_saved"] = 0 if cut is None else cut.saved_steps
         return Generation(f, cols, totals, evaluations=len(f) * self.models_per_candidate,
@@ -279,18 +283,30 @@ def search(job: _Job, phases: Phases) -> None:
     job.searches["search"] = run_search(opt, evaluate, s.generations, phases.context("search"), stop, goal=goal,
                                         stop_at_goal=stop.at_target)
     if job.spec.controls.random_search:
-        # its own stream of the job's seed, so adding the control leaves the search's draws alone
-        rnd = make_optimizer("random", job.lower, job.upper, s.population, control_seed(s.seed))
         gens = job.searches["search"].generations_run - 1
-        if job.spec.randomised is not None:  # each generation on its draw; twice the generations: the same walks
-            score, gens = (lambda x: job.score.redrawn(rnd, x)), 2 * gens
-        else:
-            score = job.score.generation
-        job.searches["random_search"] = run_search(rnd, score, gens, phases.context("random_search"))
+        job.searches["random_search"] = random_control(job, gens, phases.context("random_search"))
     done = job.searches.values()
     job.evaluations = sum(o.evaluations for o in done)
     job.sim_steps = sum(int(o.totals.get("sim_steps", 0)) for o in done)
     job.wall_s = sum(o.wall_s for o in done)
+
+
+def random_control(job: _Job, generations: int, ctx: RunContext, cuts: bool | None = None) -> SearchOutcome:
+    """The uniform random search over the search's bounds for ``generations`` generations
+    after the first, on its own stream of the job's seed (adding the control leaves the
+    search's draws alone). Its walks end once they cannot beat its best so far when
+    ``cuts`` (default: ``controls.cut_walks``); a randomised search's control runs each
+    generation on its draw, twice the generations: the same walks."""
+    s = job.spec.search
+    rnd = make_optimizer("random", job.lower, job.upper, s.population, control_seed(s.seed))
+    if job.spec.randomised is not None:
+        return run_search(rnd, lambda x: job.score.redrawn(rnd, x), 2 * generations, ctx)
+    cuts = job.spec.controls.cut_walks if cuts is None else cuts
+
+    def score(x: np.ndarray) -> Generation:
+        return job.score.generation(x, rnd.selection_thresholds(), cuts=cuts)
+
+    return run_search(rnd, score, generations, ctx)
 
 
 def _enter(job: _Job, phases: Phases, name: str) -> PhaseContext:

@@ -193,6 +193,10 @@ class Randomised(StrictModel):
 
 class Controls(StrictModel):
     random_search: bool = True  # uniform sampling of the same bounds at the search's budget
+    cut_walks: bool = Field(True, description=(
+        "the random-search control ends a walk once its F can no longer beat the control's best so far: the same "
+        "best as with full walks whenever the cut rule's speed cap holds (docs/recovery_speed.md), its history's "
+        "mean and worst skip the cut walks; on the nominal model only (a robust or randomised control walks in full)"))
 
 
 class Robustness(StrictModel):

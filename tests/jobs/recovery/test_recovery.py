@@ -79,11 +79,15 @@ def test_same_seed_same_numbers(small_run, tmp_path):
     assert numbers(again.summary) == numbers(res.summary)
 
 
-def test_resume_from_checkpoint_gives_the_uninterrupted_result(small_run, tmp_path):
+@pytest.mark.parametrize("stop_after, phase", [(2, "search"), (56, "random_search")])
+def test_resume_from_checkpoint_gives_the_uninterrupted_result(small_run, tmp_path, stop_after, phase):
+    """Killed in the search, or in the control between generations whose walks were cut
+    against its best so far (8 x 5 walks of search, then the control's)."""
     spec, res = small_run
-    ctx = Ctx(tmp_path, stop_after=2)
+    ctx = Ctx(tmp_path, stop_after=stop_after)
     with pytest.raises(KeyboardInterrupt):
         run(spec, ctx)
+    assert ctx.progress_calls[-1][2]["phase"] == phase
     resumed = run(spec, Ctx(tmp_path, checkpoint=ctx.checkpoints[-1]))
     assert numbers(resumed.summary) == numbers(res.summary)
 

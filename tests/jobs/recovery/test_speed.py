@@ -1,5 +1,6 @@
-"""Issue 22: walks cut short once they cannot win DE's selection, the stop rule on the
-recovery target (confirmed at half the step), and the fast preset."""
+"""Issue 22: walks cut short once they cannot win DE's selection (or beat the random-search
+control's best so far), the stop rule on the recovery target (confirmed at half the step),
+and the fast preset."""
 
 import copy
 import json
@@ -15,6 +16,7 @@ from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import PRESETS, RecoverySpec
 from app.jobs.registry import parse_spec
 from app.optim.de import DifferentialEvolution
+from app.optim.random_search import RandomSearch
 
 W = [1.0, 1.0, 10.0, 100.0, 100.0]
 
@@ -56,13 +58,38 @@ def test_cut_walks_give_the_answer_of_the_full_walks_for_fewer_steps(full_and_cu
     assert cut["timing"]["evaluations"] == full["timing"]["evaluations"]  # a cut walk still counts
 
 
-def test_only_de_hands_out_thresholds():
+def test_de_and_random_search_hand_out_thresholds():
     de = DifferentialEvolution(np.zeros(3), np.ones(3), population=5, seed=0)
     de.ask()
     assert de.selection_thresholds() is None  # generation 0: no parents
     de.tell(np.arange(5.0))
     de.ask()
     np.testing.assert_array_equal(de.selection_thresholds(), np.arange(5.0))
+    rnd = RandomSearch(np.zeros(3), np.ones(3), population=4, seed=0)
+    rnd.ask()
+    assert rnd.selection_thresholds() is None  # nothing told: no best to beat
+    rnd.tell(np.array([1.0, 3.0, 2.0, -1.0]))
+    assert rnd.selection_thresholds() is None  # nothing asked
+    rnd.ask()
+    np.testing.assert_array_equal(rnd.selection_thresholds(), np.full(4, 3.0))  # the best so far, for every draw
+
+
+def test_the_control_with_cut_walks_keeps_the_full_walks_best_for_fewer_steps():
+    from app.jobs.recovery.run import random_control, set_up
+
+    spec = RecoverySpec(damage={"lost_legs": [1, 6]}, search={"population": 8, "generations": 4, "seed": 3},
+                        sim={"duration_s": 4.0}, robustness={"cases": [], "held_out": 0})
+    assert spec.controls.cut_walks  # on by default
+    job = set_up(spec)
+    try:
+        cut, full = (random_control(job, 4, MemoryContext(), cuts=c) for c in (True, False))
+    finally:
+        job.close()
+    assert np.array_equal(cut.best_x, full.best_x) and cut.best_fitness == full.best_fitness
+    assert [r["best"] for r in cut.history] == [r["best"] for r in full.history]
+    assert cut.history[0]["cut"] == 0 and sum(r["cut"] for r in cut.history) > 0  # nothing to beat in generation 0
+    assert "cut" not in full.history[0]
+    assert cut.totals["sim_steps"] < full.totals["sim_steps"] and cut.evaluations == full.evaluations
 
 
 class _Toy:
@@ -214,6 +241,16 @@ def test_the_speed_page_renders_from_its_rows():
     md = speed.speed_markdown(rows + [scaling], Path("/nonexistent"))
     assert ("spent 90.0 % of its 10.0 s inside `mujoco.rollout`, at 166,667 steps/s there and 150,000 overall" in md
             and "the threads scale 1.78x" in md and "simulates 19.00 M steps (median of its runs below): 127 s" in md)
+    # the control with cut walks against full walks: a gains row and its own table
+    control = {"part": "control", "lost_legs": [3, 4], "seed": 1, "identical": True, "documented_fitness": None,
+               "cut": {"fitness": 16.5, "sim_steps": 5_000_000, "walks_cut": 1500, "wall_s": 30.0},
+               "full": {"fitness": 16.5, "sim_steps": 15_000_000, "wall_s": 75.0}, "load": 1.5}
+    md = speed.speed_markdown(rows + [control, control | {"seed": 2, "identical": False, "documented_fitness": 17.0}],
+                              Path("/nonexistent"))
+    assert ("1 of 2 controls (30 x 60) the same best as with full walks, bit for bit; 10,000,000 steps against "
+            "30,000,000 (3.0x fewer), 60 s against 150 s in all") in md
+    assert "| legs 3 & 4 | 1 | yes | 16.50 | 5,000,000 / 15,000,000 | 1500 | 30 / 75 | 1.5 | - |" in md
+    assert "| legs 3 & 4 | 2 | **no** | 16.50 | 5,000,000 / 15,000,000 | 1500 | 30 / 75 | 1.5 | 17.00 |" in md
 
 
 def test_every_alternative_configuration_is_a_part_the_command_accepts():
