@@ -931,7 +931,7 @@ def bench_markdown(row: dict) -> list[str]:
          "<= 60 s", yes[t.get("equal_quality_met", False)]),
         ("the bench itself", f"{f['bench_wall_s']:.0f} s", "< 240 s", yes[t.get("bench_met", False)]),
     ]
-    host = machine_text(row["machine"]) if "machine" in row else f"a machine of {row['cores']} cores not recorded further"
+    host = machine_text(row["machine"]) if "machine" in row else f"{row['cores']} cores (the CPU not recorded)"
     out = [f"`gaitmend bench --kind recovery --json` on {host}, at load {row['load_before']:.1f} before and "
            f"{row['load_after']:.1f} after (the bench's own two threads count in the load):", "",
            "| figure | measured | issue 22's target | |", "|---|---|---|---|"]
@@ -965,8 +965,11 @@ def render_markdown(rows: list[dict], table2: list[dict]) -> str:
     out = [INTRO]
     benches = [r for r in rows if r["part"] == "bench"]
     if benches:
-        out += ["## The issue's targets", "", "Every run of the bench, oldest first (the machine's load is the "
-                "difference between them; the equal-quality configuration is the one of its time):", ""]
+        out += ["## The issue's targets", "", "Every run of the bench, oldest first (the equal-quality configuration "
+                "is the one of its time). Runs differ by the machine's load and by the host: sessions run on hosts "
+                "sold under one CPU name but of different speed, so each run's raw rollout steps/s (its first row: "
+                "the same workload every time) says how fast its host was; the runs before the CPU's family and "
+                "model were recorded name only their cores.", ""]
         for bench in benches:
             out += bench_markdown(bench)
     out += ["## Changes and their gains", ""] + gains_markdown(rows)
