@@ -22,11 +22,11 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from app.cli.study_bench import POINTS, study_bench
+from app.core.host import machine
 from app.jobs.base import Experiment
 from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import KINDS
 from app.results import benchmarks
-from app.core.host import machine
 from app.results.provenance import git_commit
 
 

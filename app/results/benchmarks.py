@@ -20,10 +20,10 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from app.core.host import machine_text
 from app.jobs.registry import KINDS
 from app.jobs.reporting import Section, md_table, missing
 from app.results.examples import commit_text
-from app.core.host import machine_text
 
 JSON = "docs/benchmarks.json"
 COMMAND = "gaitmend reproduce bench --write-docs"

@@ -7,8 +7,8 @@ the date. ``whole-jobs`` is docs/benchmarks.md's table (the latest run of each e
 
 from __future__ import annotations
 
-from app.jobs.reporting import Section, md_table, missing
 from app.core.host import machine_text
+from app.jobs.reporting import Section, md_table, missing
 
 JSON = "docs/readme_examples.json"
 COMMAND = "gaitmend reproduce readme-examples --write-docs"

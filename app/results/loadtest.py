@@ -7,10 +7,10 @@ table of the latest run per database. Earlier runs stay in the file and are coun
 
 from __future__ import annotations
 
+from app.core.host import machine_text
 from app.jobs.reporting import Section, md_table, missing
 from app.results.benchmarks import load_text
 from app.results.examples import commit_text
-from app.core.host import machine_text
 
 JSON = "docs/loadtest.json"
 COMMAND = "python scripts/loadtest.py --json-out docs/loadtest.json"

@@ -27,9 +27,9 @@ import os
 from pathlib import Path
 from typing import Any
 
+from app.core.host import machine, machine_text
 from app.jobs.reporting import Section, md_table
 from app.results.examples import commit_text
-from app.core.host import machine, machine_text
 from app.results.provenance import git_commit
 
 JSON = "docs/observed.json"

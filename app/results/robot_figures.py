@@ -5,9 +5,9 @@ date; the page shows the latest."""
 
 from __future__ import annotations
 
+from app.core.host import machine_text
 from app.jobs.reporting import Section, md_table, missing
 from app.results.examples import commit_text
-from app.core.host import machine_text
 
 JSON = "docs/robot_figures.json"
 COMMAND = ".venv/bin/python scripts/robot_figures.py --json-out docs/robot_figures.json"

@@ -13,9 +13,9 @@ import json
 import math
 import statistics
 
+from app.core.host import machine_text
 from app.jobs.reporting import Section, md_table
 from app.results.examples import commit_text
-from app.core.host import machine_text
 
 JSON = "docs/study_scaling.json"
 COMMAND = "python -m app.cli.study_scaling STUDY --workers 2 --base ... --json-out docs/study_scaling.json"
@@ -68,8 +68,8 @@ def render_table(data: dict | None) -> str:
             + f"\n{r['points']} points of `{r['study']}` at the base spec `{_spec(r['base'])}`, "
               f"{r['serial_s'] / r['points']:.1f} s a point serially. The two aggregates are {same}. Each job took "
               f"{100 * (contention(r) - 1):.0f} % longer served than alone ({r['served_jobs_claim_to_finish_s']:.1f} s "
-              f"over {r['points']} jobs against {r['serial_s']:.1f} s){bundle}. Measured {r['date']} on {machine_text(m)}, "
-              f"nice {r['nice']}, 1-minute load {r['load_before']:.1f} before and "
+              f"over {r['points']} jobs against {r['serial_s']:.1f} s){bundle}. Measured {r['date']} on "
+              f"{machine_text(m)}, nice {r['nice']}, 1-minute load {r['load_before']:.1f} before and "
               f"{r['load_after']:.1f} after, commit {commit_text(r)}; the whole command took {r['wall_s']:.0f} s.\n")
 
 

@@ -407,14 +407,16 @@ def control_row(lost, seed: int, docs: Path) -> dict:
             t = time.perf_counter()
             o = random_control(job, PAPER["search"]["generations"], MemoryContext(), cuts=cuts)
             out[name] = {"fitness": o.best_fitness, "params": o.best_x.tolist(), "evaluations": o.evaluations,
-                         "sim_steps": int(o.totals["sim_steps"]), "cut_steps_saved": int(o.totals.get("cut_steps_saved", 0)),
+                         "sim_steps": int(o.totals["sim_steps"]),
+                         "cut_steps_saved": int(o.totals.get("cut_steps_saved", 0)),
                          "walks_cut": sum(r.get("cut", 0) for r in o.history), "wall_s": time.perf_counter() - t}
     finally:
         job.close()
     doc = _documented(lost, seed, _table2_rows(docs))
+    cut, full = out["cut"], out["full"]
     return {"part": "control", "lost_legs": list(lost), "seed": seed, **out,
-            "identical": out["cut"]["params"] == out["full"]["params"] and out["cut"]["fitness"] == out["full"]["fitness"],
-            "documented_fitness": None if doc is None or not doc.get("random_search") else doc["random_search"]["fitness"],
+            "identical": cut["params"] == full["params"] and cut["fitness"] == full["fitness"],
+            "documented_fitness": doc["random_search"]["fitness"] if doc and doc.get("random_search") else None,
             "load": os.getloadavg()[0], "cores": os.cpu_count()}
 
 
@@ -707,9 +709,10 @@ def control_markdown(rows: list[dict]) -> list[str]:
            "Table II's F |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         doc = r["documented_fitness"]
+        cut, full = r["cut"], r["full"]
         out.append(f"| {_name(r['lost_legs'])} | {r['seed']} | {'yes' if r['identical'] else '**no**'} | "
-                   f"{r['cut']['fitness']:.2f} | {r['cut']['sim_steps']:,} / {r['full']['sim_steps']:,} | "
-                   f"{r['cut']['walks_cut']} | {r['cut']['wall_s']:.0f} / {r['full']['wall_s']:.0f} | {r['load']:.1f} | "
+                   f"{cut['fitness']:.2f} | {cut['sim_steps']:,} / {full['sim_steps']:,} | {cut['walks_cut']} | "
+                   f"{cut['wall_s']:.0f} / {full['wall_s']:.0f} | {r['load']:.1f} | "
                    f"{'-' if doc is None else f'{doc:.2f}'} |")
     return out + [""]
 
