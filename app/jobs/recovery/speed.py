@@ -17,7 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from app.core.host import machine_text
+from app.core.host import machine, machine_text
 from app.jobs.base import MemoryContext
 from app.jobs.reporting import marked, missing
 from app.jobs.recovery.run import run
@@ -361,7 +361,7 @@ def _search_row(part: str, lost, seed: int, data: dict) -> dict:
             "time_to_target_s": s["timing"].get("time_to_target_s"),
             "curve": [[r["generation"], r["best"], r["evaluations"]] for r in s["history"]],
             "walks_cut": sum(r.get("cut", 0) for r in s["history"]),
-            "load": os.getloadavg()[0], "cores": os.cpu_count()}
+            "load": os.getloadavg()[0], "cores": os.cpu_count(), "machine": machine()}
 
 
 def paper_row(lost, seed: int, docs: Path) -> dict:
@@ -417,7 +417,7 @@ def control_row(lost, seed: int, docs: Path) -> dict:
     return {"part": "control", "lost_legs": list(lost), "seed": seed, **out,
             "identical": cut["params"] == full["params"] and cut["fitness"] == full["fitness"],
             "documented_fitness": doc["random_search"]["fitness"] if doc and doc.get("random_search") else None,
-            "load": os.getloadavg()[0], "cores": os.cpu_count()}
+            "load": os.getloadavg()[0], "cores": os.cpu_count(), "machine": machine()}
 
 
 def coarse_row(lost, seed: int, docs: Path) -> dict:
@@ -732,7 +732,7 @@ def cap_markdown(rows: list[dict]) -> list[str]:
 
 def runs_markdown(rows: list[dict]) -> list[str]:
     out = ["| part | damage | seed | F | target met (half step) | stop | generations | evaluations | steps | steps "
-           "saved by cut walks | time to target (s) | wall (s) | load |", "|---" * 13 + "|"]
+           "saved by cut walks | time to target (s) | wall (s) | load | host |", "|---" * 14 + "|"]
     for r in sorted(rows, key=lambda r: (r["part"], SCENARIOS.index(tuple(r["lost_legs"]))
                                          if tuple(r["lost_legs"]) in SCENARIOS else 9, r["seed"])):
         ttt = r.get("time_to_target_s")
@@ -742,8 +742,14 @@ def runs_markdown(rows: list[dict]) -> list[str]:
                    f"{'yes' if r['target_met'] else 'no'} ({'yes' if r['half_step_met'] else 'no'}) | "
                    f"{r['search']['stop_reason']} | {r['search']['generations_run']} | {r['evaluations']} | "
                    f"{r['sim_steps']:,} | {r['cut_steps_saved']:,} | {'-' if ttt is None else f'{ttt:.1f}'} | "
-                   f"{r['wall_s']:.0f} | {r['load']:.1f} |")
+                   f"{r['wall_s']:.0f} | {r['load']:.1f} | {_host(r)} |")
     return out + [""]
+
+
+def _host(row: dict) -> str:
+    """The CPU a run ran on, where it was recorded (wall times differ between hosts)."""
+    m = row.get("machine")
+    return "not recorded" if m is None else machine_text(m).rsplit(", ", 1)[0]
 
 
 def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
@@ -984,7 +990,9 @@ def render_markdown(rows: list[dict], table2: list[dict]) -> str:
     out += ["## Equal quality and time to the target", "",
             "Paper DE F: the runs below, else docs/table2.json's full-walk run for that seed. Steps count every walk "
             "the search simulated (a cut walk's steps up to its cut); the paper DE's include the steps its cut walks "
-            "saved, so they are the full-walk search's.", ""] + summary_markdown(runs, table2)
+            "saved, so they are the full-walk search's. Wall times are of the hosts the runs ran on, which differ in "
+            "speed (the runs' table at the end names the host where the run recorded it).", ""] + summary_markdown(
+                runs, table2)
     out += [RULE]
     for part, render in (("cap", cap_markdown), ("check", check_markdown), ("control", control_markdown)):
         got = [r for r in rows if r["part"] == part]
