@@ -241,6 +241,10 @@ def test_the_speed_page_renders_from_its_rows():
     md = speed.speed_markdown(rows + [scaling], Path("/nonexistent"))
     assert ("spent 90.0 % of its 10.0 s inside `mujoco.rollout`, at 166,667 steps/s there and 150,000 overall" in md
             and "the threads scale 1.78x" in md and "simulates 19.00 M steps (median of its runs below): 127 s" in md)
+    # every run names the host it ran on where it recorded it (wall times differ between hosts)
+    host = {"cpu": "AMD EPYC", "cpu_family": 26, "cpu_model": 2, "cores": 2, "python": "3.11"}
+    md = speed.speed_markdown([rows[0] | {"machine": host}] + rows[1:], Path("/nonexistent"))
+    assert "| 170 | 1.0 | AMD EPYC, family 26 model 2 |" in md and "| 170 | 1.0 | not recorded |" in md
     # the control with cut walks against full walks: a gains row and its own table
     control = {"part": "control", "lost_legs": [3, 4], "seed": 1, "identical": True, "documented_fitness": None,
                "cut": {"fitness": 16.5, "sim_steps": 5_000_000, "walks_cut": 1500, "wall_s": 30.0},
