@@ -44,6 +44,9 @@ def test_the_readme_line_leads_with_the_first_command_timed_as_written():
     assert jobtime.render_readme_time([ROWS, {"runs": [other]}], V) == jobtime.render_readme_time([ROWS], V)
     assert jobtime.render_readme_time([[], {"runs": [run]}], V).startswith(
         "How long the first command takes: 5.5 min as the README writes it")
+    host = {"cpu": "AMD EPYC", "cpu_family": 26, "cpu_model": 2, "cores": 2}
+    assert "5.5 min as the README writes it (AMD EPYC, family 26 model 2, 2 cores, 1-minute load 0.2" in \
+        jobtime.render_readme_time([ROWS, {"runs": [run | {"machine": host}]}], V)
 
 
 def test_the_job_time_table_by_step_default_damage_and_all():
