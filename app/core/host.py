@@ -27,7 +27,12 @@ def machine() -> dict:
     return out | {"cores": os.cpu_count(), "python": platform.python_version()}
 
 
-def machine_text(m: dict) -> str:
-    """"AMD EPYC, family 26 model 2, 2 cores" (family and model where the run recorded them)."""
-    ids = f", family {m['cpu_family']} model {m['cpu_model']}" if "cpu_family" in m and "cpu_model" in m else ""
-    return f"{m['cpu']}{ids}, {m['cores']} cores"
+def machine_text(m: dict, cores: bool = True) -> str:
+    """"AMD EPYC, family 26 model 2, 2 cores": the parts the run recorded (family and model,
+    even the CPU's name, are missing from older records); ``cores`` False leaves the cores out."""
+    parts = [m.get("cpu")]
+    if "cpu_family" in m and "cpu_model" in m:
+        parts.append(f"family {m['cpu_family']} model {m['cpu_model']}")
+    if cores:
+        parts.append(f"{m['cores']} cores")
+    return ", ".join(p for p in parts if p)

@@ -77,9 +77,8 @@ def _measured_first(examples: dict | None) -> str:
     if not runs:
         return ""
     r = runs[-1]
-    m = r["machine"]  # the host too where recorded: hosts sold under one CPU name differ in speed
-    host = machine_text(m) if "cpu" in m else f"{m['cores']} cores"
-    return (f"{r['wall_s'] / 60:.1f} min as the README writes it ({host}, 1-minute load "
+    # the host too where recorded: hosts sold under one CPU name differ in speed
+    return (f"{r['wall_s'] / 60:.1f} min as the README writes it ({machine_text(r['machine'])}, 1-minute load "
             f"{r['load_before']:.1f} before and {r['load_after']:.1f} after, {r['date']}; "
             "[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)). ")
 

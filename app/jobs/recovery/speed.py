@@ -749,7 +749,7 @@ def runs_markdown(rows: list[dict]) -> list[str]:
 def _host(row: dict) -> str:
     """The CPU a run ran on, where it was recorded (wall times differ between hosts)."""
     m = row.get("machine")
-    return "not recorded" if m is None else machine_text(m).rsplit(", ", 1)[0]
+    return "not recorded" if m is None else machine_text(m, cores=False)
 
 
 def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
