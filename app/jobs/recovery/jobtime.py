@@ -72,15 +72,23 @@ FIRST_KEY = "first-command"  # docs/readme_examples.json's run of the README's f
 
 def _measured_first(examples: dict | None) -> str:
     """The README's first command's job as `gaitmend reproduce readme-examples` timed it (its
-    latest run), with the load; empty when it was not timed."""
+    latest run), with the load; then the latest run on each other host that recorded its CPU
+    family and model (hosts sold under one CPU name differ in speed, so one host's time is
+    not a user's); empty when it was not timed."""
     runs = [r for r in (examples or {}).get("runs", []) if r.get("key") == FIRST_KEY]
     if not runs:
         return ""
     r = runs[-1]
-    # the host too where recorded: hosts sold under one CPU name differ in speed
+    latest = {}
+    for o in runs[:-1]:
+        m = o.get("machine", {})
+        if "cpu_family" in m and "cpu_model" in m and machine_text(m) != machine_text(r["machine"]):
+            latest[machine_text(m)] = o
+    others = "".join(f"; {o['wall_s'] / 60:.1f} min on {host} (load {o['load_before']:.1f} before and "
+                     f"{o['load_after']:.1f} after, {o['date']})" for host, o in reversed(latest.items()))
     return (f"{r['wall_s'] / 60:.1f} min as the README writes it ({machine_text(r['machine'])}, 1-minute load "
             f"{r['load_before']:.1f} before and {r['load_after']:.1f} after, {r['date']}; "
-            "[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)). ")
+            f"[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)){others}. ")
 
 
 def render_readme_time(datas: list, version: int) -> str:

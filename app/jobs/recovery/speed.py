@@ -814,6 +814,32 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     return out + [""]
 
 
+def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
+    """Per damage: the equal-quality configuration's final F against the paper DE's, paired
+    by seed (app/jobs/stats.py: mean difference, its interval, Wilcoxon's test, the verdict),
+    beside the medians the issue's rule compares: a median at least the paper DE's on a
+    handful of seeds is not a difference shown, nor one below it a loss shown."""
+    from app.jobs import stats
+
+    out = []
+    for lost in SCENARIOS:
+        paper = _paper_fitness(rows, lost, table2)
+        eq = sorted((r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == lost and r["seed"] in paper),
+                    key=lambda r: r["seed"])
+        if len(eq) < 2:
+            continue
+        a, b = [r["fitness"] for r in eq], [paper[r["seed"]] for r in eq]
+        verdict = "reaches" if statistics.median(a) >= statistics.median(b) else "does not reach"
+        r = stats.paired(a, b, names=("equal quality", "paper DE"))
+        out.append(f"- {_name(lost)}: median F {statistics.median(a):.2f} against {statistics.median(b):.2f} "
+                   f"({verdict} the paper DE's); equal quality minus paper DE, paired by seed: "
+                   f"{stats.paired_text(r)}.")
+    if not out:
+        return []
+    return ["The same comparison as a paired test on the seeds both have run (a verdict other than \"not shown\" needs "
+            "the interval and the test to agree):", ""] + out + ["", stats.PAIRED_NOTE, ""]
+
+
 def _frac(num: float, den: float) -> str:
     return f"{100 * num / den:.1f} %" if den else "-"
 
@@ -992,7 +1018,7 @@ def render_markdown(rows: list[dict], table2: list[dict]) -> str:
             "the search simulated (a cut walk's steps up to its cut); the paper DE's include the steps its cut walks "
             "saved, so they are the full-walk search's. Wall times are of the hosts the runs ran on, which differ in "
             "speed (the runs' table at the end names the host where the run recorded it).", ""] + summary_markdown(
-                runs, table2)
+                runs, table2) + paired_markdown(runs, table2)
     out += [RULE]
     for part, render in (("cap", cap_markdown), ("check", check_markdown), ("control", control_markdown)):
         got = [r for r in rows if r["part"] == part]

@@ -49,6 +49,26 @@ def test_the_readme_line_leads_with_the_first_command_timed_as_written():
         jobtime.render_readme_time([ROWS, {"runs": [run | {"machine": host}]}], V)
 
 
+def test_the_readme_line_names_the_latest_run_on_each_other_recorded_host():
+    """Hosts sold under one CPU name differ in speed: the latest run leads, then the latest
+    run of every other host that recorded its CPU family and model (a run that did not is
+    not told apart from the others' hosts, so it is left out)."""
+    fast = {"cpu": "AMD EPYC", "cpu_family": 26, "cpu_model": 2, "cores": 2}
+    slow = fast | {"cpu_family": 25, "cpu_model": 17}
+    run = {"key": "first-command", "wall_s": 120.0, "machine": fast, "load_before": 1.0, "load_after": 2.0,
+           "date": "2026-12-04 13:48 UTC"}
+    slow_old, slow_new = run | {"machine": slow, "wall_s": 300.0}, run | {"machine": slow, "wall_s": 210.0,
+                                                                         "date": "2026-12-04 15:40 UTC"}
+    unnamed = run | {"machine": {"cpu": "AMD EPYC", "cores": 2}, "wall_s": 999.0}
+    line = jobtime.render_readme_time([ROWS, {"runs": [unnamed, slow_old, slow_new, run | {"wall_s": 150.0}, run]}],
+                                      V)
+    assert line.startswith("How long the first command takes: 2.0 min as the README writes it (AMD EPYC, family 26 "
+                           "model 2, 2 cores, 1-minute load 1.0 before and 2.0 after, 2026-12-04 13:48 UTC; "
+                           "[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)); 3.5 min on AMD EPYC, family 25 "
+                           "model 17, 2 cores (load 1.0 before and 2.0 after, 2026-12-04 15:40 UTC). The same job")
+    assert "16.6 min" not in line and "2.5 min" not in line and "5.0 min" not in line
+
+
 def test_the_job_time_table_by_step_default_damage_and_all():
     table = jobtime.render_job_time([ROWS], V).splitlines()
     assert table[2] == ("| 1 ms | legs 1 & 6 (the default job) | 3 (seeds 0-2) | 600 | 300 / 1200 "

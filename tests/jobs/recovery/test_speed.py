@@ -257,6 +257,27 @@ def test_the_speed_page_renders_from_its_rows():
     assert "| legs 3 & 4 | 2 | **no** | 16.50 | 5,000,000 / 15,000,000 | 1500 | 30 / 75 | 1.5 | 17.00 |" in md
 
 
+def test_the_equal_quality_comparison_is_also_paired_by_seed():
+    """Beside the medians the issue's rule compares, the paired test (app/jobs/stats.py) on
+    the seeds both ran: a median above the paper DE's on a few seeds is no difference shown,
+    and a clear one is shown; a damage with a single pair gets no line."""
+    from app.jobs.recovery import speed
+
+    def run(part, lost, seed, f):
+        return {"part": part, "lost_legs": list(lost), "seed": seed, "fitness": f}
+
+    close = [run("paper", (1, 6), s, f) for s, f in enumerate([12.0, 13.0, 14.0, 12.5, 13.5, 12.8])]
+    close += [run("equal", (1, 6), s, f) for s, f in enumerate([12.5, 12.0, 14.5, 13.0, 13.2, 13.3])]
+    clear = [run("paper", (4,), s, 20.0 + s) for s in range(6)] + [run("equal", (4,), s, 30.0 + s) for s in range(6)]
+    one = [run("paper", (3, 4), 0, 20.0), run("equal", (3, 4), 0, 25.0)]
+    md = "\n".join(speed.paired_markdown(close + clear + one, []))
+    assert "- legs 1 & 6: median F 13.10 against 12.90 (reaches the paper DE's); equal quality minus paper DE, " \
+           "paired by seed: +0.12 [" in md and "n = 6: **not shown**." in md
+    assert "- leg 4: median F 32.50 against 22.50 (reaches the paper DE's)" in md
+    assert "Wilcoxon p = 0.0312, n = 6: **equal quality better (shown)**." in md
+    assert "legs 3 & 4" not in md and speed.paired_markdown(one, []) == []
+
+
 def test_every_alternative_configuration_is_a_part_the_command_accepts():
     from pydantic import ValidationError
 
