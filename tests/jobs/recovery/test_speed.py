@@ -214,6 +214,12 @@ def test_the_speed_page_renders_from_its_rows():
     assert "| legs 1 & 6 | 12.00 [12.00, 12.00] (1) | 12.50 [12.50, 12.50] (1) | 1 of 1 | 8.00 [8.00, 8.00] (1) | " \
            "1 (1) of 1 | 0.32 |" in md
     assert "(= docs)" in md and "48x fewer" in md
+    assert "legs 1 & 6, 1 seeds: median 6,000,000 steps against the paper DE's 19,000,000 (3.2x fewer), median F " \
+           "12.50 against 12.00 on the same 1 seeds: equal quality" in md
+    # an equal-quality run of a seed the paper DE has no F for is left out of the F comparison
+    more = speed.speed_markdown(rows + [rows[1] | {"seed": 1, "fitness": 1.0}], Path("/nonexistent"))
+    assert "legs 1 & 6, 2 seeds: median 6,000,000 steps" in more
+    assert "median F 12.50 against 12.00 on the same 1 seeds: equal quality" in more
     assert "Other configurations" not in md  # no alternative run, no table
     alt = run_row | {"part": "alt_cmaes_8x90", "fitness": 11.0, "identical_to_documented": None,
                      "half_step_met": False, "spec": {"search": speed.ALTERNATIVES["cmaes_8x90"]["search"] | {"seed": 0}}}
