@@ -844,7 +844,7 @@ def _frac(num: float, den: float) -> str:
     return f"{100 * num / den:.1f} %" if den else "-"
 
 
-def gains_markdown(rows: list[dict], table2: list[dict] = ()) -> list[str]:
+def gains_markdown(rows: list[dict], table2: list[dict] | None = None) -> list[str]:
     """The table of changes: what each saves, from the runs on this page."""
     by = {p: [r for r in rows if r["part"] == p]
           for p in ("throughput", "check", "paper", "fast", "equal", "pairs", "control")}
@@ -889,7 +889,7 @@ def gains_markdown(rows: list[dict], table2: list[dict] = ()) -> list[str]:
                    f"against {paper:,.0f} for the paper's whole budget ({paper / steps:.0f}x fewer) | "
                    f"`gaitmend reproduce recovery-speed --parts fast` |")
     # F on the same seeds on both sides: the paper DE's runs here, else Table II's for the seed
-    pfs = _paper_fitness([r for r in rows if "lost_legs" in r], (1, 6), table2)
+    pfs = _paper_fitness([r for r in rows if "lost_legs" in r], (1, 6), table2 or [])
     eq = [r for r in by["equal"] if r["lost_legs"] == [1, 6]]
     paper = [r for r in by["paper"] if r["lost_legs"] == [1, 6]]
     if paper and any(r["seed"] in pfs for r in eq):
@@ -901,8 +901,7 @@ def gains_markdown(rows: list[dict], table2: list[dict] = ()) -> list[str]:
         out.append(f"| equal-quality configuration `{json.dumps(EQUAL)}` | no (a spec) | legs 1 & 6, {len(eq)} seeds: "
                    f"median {es:,.0f} steps against the paper DE's {ps:,.0f} ({ps / es:.1f}x fewer), median F "
                    f"{ef:.2f} against {pf:.2f} on the same {len(same)} seeds: "
-                   f"{'equal' if ef >= pf else '**not** equal'} quality "
-                   f"(other damages below) | "
+                   f"{'equal' if ef >= pf else '**not** equal'} quality (other damages below) | "
                    f"`gaitmend reproduce recovery-speed --parts equal,paper` |")
     return out + [""]
 

@@ -67,6 +67,11 @@ def test_the_readme_line_names_the_latest_run_on_each_other_recorded_host():
                            "[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)); 3.5 min on AMD EPYC, family 25 "
                            "model 17, 2 cores (load 1.0 before and 2.0 after, 2026-12-04 15:40 UTC). The same job")
     assert "16.6 min" not in line and "2.5 min" not in line and "5.0 min" not in line
+    # several other hosts: newest run first, whichever host was seen first
+    third = run | {"machine": fast | {"cpu_family": 23, "cpu_model": 49}, "wall_s": 240.0}
+    line = jobtime.render_readme_time([ROWS, {"runs": [slow_old, third, slow_new, run]}], V)
+    assert "); 3.5 min on AMD EPYC, family 25 model 17, 2 cores (load" in line
+    assert line.index("3.5 min on AMD EPYC, family 25") < line.index("4.0 min on AMD EPYC, family 23 model 49")
 
 
 def test_the_job_time_table_by_step_default_damage_and_all():
