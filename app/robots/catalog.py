@@ -89,15 +89,16 @@ class RobotEntry:
         robot takes (app/robots/legmap.py). The simulations still compile build() directly."""
         return Robot(name=self.name, mjcf=self.build().to_xml(), assets={}, legs=self.leg_map())
 
-    def model(self, damage: DamageSpec = DamageSpec(), pairs: bool = True,
-              islands: bool = False) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    def model(self, damage: DamageSpec = DamageSpec(), pairs: bool = True, islands: bool = False,
+              merged_fall: bool = True) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
         """The damaged robot on its floor. Two settings make its step faster and change no
         number (docs/recovery_speed.md, "Changes and their gains"): ``pairs``, its robot-floor
         contacts declared as explicit pairs instead of found by the broad phase each step
         (app/robots/contacts.py), and no constraint-island discovery (``islands`` False): the
         robot is one kinematic tree on a static floor, so all its constraints form one island
-        and looking for more is wasted work."""
-        spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage))
+        and looking for more is wasted work. A third, ``merged_fall``, is the fall test's one
+        contact sensor in place of one per watched body (``hexapod.add_fall_sensors``)."""
+        spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage), merged=merged_fall)
         if pairs:
             explicit_pairs(spec)
         if not islands:

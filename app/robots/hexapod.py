@@ -180,20 +180,38 @@ def leg_map(geom: HexapodGeometry = JETHEXA, stance: dict[int, list[float]] | No
 FALL_BODIES = ("torso",) + tuple(f"leg{n}_{j}" for n in LEG_IDS for j in ("coxa", "femur"))
 
 
-def add_fall_sensors(spec: mujoco.MjSpec) -> mujoco.MjSpec:
-    """One contact sensor per body that must never touch the ground while walking: the
-    chassis and every remaining coxa and femur (``<body>_ground``, 1 while the body
-    touches anything, only the floor can be touched). Added after damage, so lost legs
-    carry none. The fall test reads them from the rollout's sensordata."""
-    for name in FALL_BODIES:
-        if spec.body(name) is None:
-            continue
-        spec.add_sensor(name=f"{name}_ground", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                        objtype=mujoco.mjtObj.mjOBJ_BODY, objname=name, intprm=[1, 1, 1])
-    # Feet too, not for the fall test but to report how long the robot stands on fewer than
-    # three feet (a statically unstable walk that rocks on two feet has not fallen).
+ALL_CONTACTS = "all_contacts"  # the sensor that counts every contact (the fall test's, with the feet's)
+
+
+def add_fall_sensors(spec: mujoco.MjSpec, merged: bool = True) -> mujoco.MjSpec:
+    """The contact sensors the fall test and the feet's report read from the rollout's
+    sensordata: ``leg<n>_foot_touch`` on each remaining foot (its contact count, for the time
+    the robot stands on fewer than three feet: a walk that rocks on two feet has not fallen),
+    and ``all_contacts``, every contact's count. The robot's only colliding geoms are its
+    feet and the bodies that must never touch the ground (chassis, coxae, femurs), and they
+    collide with the world only, so every contact that is not a foot's is such a body on the
+    ground: the fall test reads ``all_contacts`` minus the feet's counts. One sensor in place
+    of one per body (``<body>_ground``, as uploaded robots keep, whose shins may touch the
+    ground without a fall) is the same test in less time a step, as each contact sensor scans
+    every contact (docs/recovery_speed.md). ``merged`` False: one sensor per watched body
+    instead (``<body>_ground``), the setting before, kept to measure the change against.
+    Added after damage, so lost legs carry none."""
+    feet = {f"leg{n}_foot" for n in LEG_IDS}
+    for g in spec.geoms:
+        body = g.parent.name
+        if body != spec.worldbody.name and (g.contype or g.conaffinity) and not (
+                g.name in feet or body in FALL_BODIES):
+            raise ValueError(f"geom {g.name!r} of body {body!r} can collide but is neither a foot nor a body the fall "
+                             "test watches: all_contacts would count it as a fall")
     for n in LEG_IDS:
         if spec.geom(f"leg{n}_foot") is not None:
             spec.add_sensor(name=f"leg{n}_foot_touch", type=mujoco.mjtSensor.mjSENS_CONTACT,
                             objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"leg{n}_foot", intprm=[1, 1, 1])
+    if not merged:
+        for name in FALL_BODIES:
+            if spec.body(name) is not None:
+                spec.add_sensor(name=f"{name}_ground", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                objtype=mujoco.mjtObj.mjOBJ_BODY, objname=name, intprm=[1, 1, 1])
+        return spec
+    spec.add_sensor(name=ALL_CONTACTS, type=mujoco.mjtSensor.mjSENS_CONTACT, intprm=[1, 0, 1])
     return spec

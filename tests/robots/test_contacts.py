@@ -61,9 +61,38 @@ def test_fast_step_settings_simulate_as_before_bit_for_bit(lost):
         sa, da = rollout.rollout(a, mujoco.MjData(a), state, ctrl)
         sb, db = rollout.rollout(b, mujoco.MjData(b), state, ctrl)
         assert np.array_equal(sa, sb) and np.array_equal(da, db)
-        ground = [a.sensor_adr[i] for i in range(a.nsensor) if a.sensor(i).name.endswith("_ground")]
-        touched_upper |= bool((da[..., ground] > 0).any())
+        feet = [a.sensor_adr[i] for i in range(a.nsensor) if a.sensor(i).name.endswith("_foot_touch")]
+        upper = da[..., a.sensor_adr[a.sensor("all_contacts").id]] - da[..., feet].sum(axis=-1)
+        touched_upper |= bool((upper > 0).any())
     assert touched_upper  # some walk put a chassis, coxa or femur on the floor: those pairs were exercised
+
+
+@pytest.mark.parametrize("lost", [(1, 6), (1,)])
+def test_the_fall_sensor_counts_exactly_the_upper_bodies_ground_contacts(lost):
+    """The fall test's contact count (every contact less the feet's, one sensor) against
+    MuJoCo's contact list itself, step by step, on every world a job builds: it is
+    positive exactly when the chassis, a coxa or a femur touches the ground, on walks that
+    fall and walks that do not."""
+    from app.robots.hexapod import FALL_BODIES
+
+    state, ctrl = _walks(lost, n=3, steps=1000)
+    hit = 0
+    for m in _worlds(lost):
+        ev = GaitEvaluator(JETHEXA, m, plan_hexapod(lost, JETHEXA.nominal_feet_xy(), JETHEXA.stance_com_xy(m, 0.1)),
+                           SimConfig(nthread=1))
+        watched = {m.body(b).id for b in FALL_BODIES if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b) >= 0}
+        d = mujoco.MjData(m)
+        for x0, u in zip(state, ctrl):
+            mujoco.mj_setState(m, d, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+            for k in range(u.shape[0]):
+                d.ctrl[:] = u[k]
+                mujoco.mj_step(m, d)
+                truth = any(m.geom_bodyid[g] in watched for c in d.contact[: d.ncon] for g in (c.geom1, c.geom2))
+                count = ev.ground_contacts(d.sensordata.copy())[0]
+                assert (count > 0) == truth, (k, count, truth)
+                hit += truth
+        ev.close()
+    assert hit > 0  # some walk put an upper body on the ground
 
 
 def test_friction_edits_reach_the_pairs():

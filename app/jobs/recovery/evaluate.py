@@ -16,7 +16,8 @@ one period tiled: the chunks end at the correction's update ticks, and before ea
 still going and computes its set-points for the chunk (app/jobs/recovery/gait_controller.py).
 
 Fall test: the robot has fallen when its chassis, a coxa or a femur touches the ground
-(MuJoCo contact sensors ``*_ground``, see ``app.robots.hexapod.add_fall_sensors``), or
+(MuJoCo contact sensors: every contact less the feet's, see
+``app.robots.hexapod.add_fall_sensors``; an uploaded robot's ``*_ground``), or
 when the body tilts past ``max_tilt_deg`` or sags below half its standing height.
 """
 
@@ -34,7 +35,7 @@ from app.jobs.recovery.closedloop import ChunkController, Law
 from app.jobs.recovery.sequences import GaitSequence
 from app.jobs.recovery.trajectory import tip_positions, tip_shapes
 from app.robots.catalog import RobotEntry
-from app.robots.hexapod import JOINT_NAMES
+from app.robots.hexapod import ALL_CONTACTS, JOINT_NAMES
 from app.jobs.recovery.metrics import body_metrics, euler_zyx, fallen, fitness_bound
 from app.sim.perturb import same_signature
 from app.sim.threads import sim_threads
@@ -155,6 +156,7 @@ class GaitEvaluator:
         self._feet = np.array([model.sensor_adr[i] for i in range(model.nsensor)
                                if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i).endswith("_foot_touch")],
                               dtype=int)
+        self._all = self._sens[ALL_CONTACTS][0] if ALL_CONTACTS in self._sens else None
 
     def _leg_layout(self, robot: RobotEntry, model: mujoco.MjModel, cfg: SimConfig) -> None:
         """The legs' side signs, the ctrl column of each (leg, joint), the standing and the
@@ -294,11 +296,20 @@ class GaitEvaluator:
         adr, dim = self._sens[name]
         return sens[..., adr : adr + dim]
 
+    def ground_contacts(self, sens: np.ndarray) -> np.ndarray | None:
+        """(..., n) contact counts of the bodies that must never touch the ground, from
+        sensordata (..., nsensordata): the built-in robots' every contact less the feet's
+        (``app.robots.hexapod.add_fall_sensors``), an uploaded robot's sensor per body
+        (``<body>_ground``); None without either."""
+        parts = [sens[..., self._ground]] if self._ground.size else []
+        if self._all is not None:
+            parts.append((sens[..., self._all] - sens[..., self._feet].sum(axis=-1))[..., None])
+        return np.concatenate(parts, axis=-1) if len(parts) > 1 else (parts[0] if parts else None)
+
     def _fell(self, sens: np.ndarray) -> np.ndarray:
         pos = self._sensor(sens, "torso_pos")
-        ground = sens[..., self._ground] if self._ground.size else None
         return fallen(pos[..., 2], self._sensor(sens, "torso_quat"), self.min_height,
-                      math.radians(self.cfg.max_tilt_deg), ground)
+                      math.radians(self.cfg.max_tilt_deg), self.ground_contacts(sens))
 
     def evaluate_all(self, params: np.ndarray, cutoff: Cutoff | None = None) -> EvalResult:
         """Metrics of shape (P, K): every candidate on every variant. With ``cutoff`` (a

@@ -61,12 +61,13 @@ def nominal_params(robot: RobotEntry, legs: list[int]) -> np.ndarray:
                     + [robot.nominal_step_length, robot.nominal_step_height])
 
 
-def sim_model(spec: RecoverySpec, robot: RobotEntry, pairs: bool = True, islands: bool = False):
+def sim_model(spec: RecoverySpec, robot: RobotEntry, pairs: bool = True, islands: bool = False,
+              merged_fall: bool = True):
     """The damaged robot's spec and model at the spec's timestep (the bundle's robot.xml
-    is the spec, so the timestep is set there, not only in the compiled model); ``pairs``
-    and ``islands``: the step's settings of RobotEntry.model (the defaults are the fast ones;
-    the others give the same numbers, slower)."""
-    mspec, _ = robot.model(damage_spec(spec), pairs=pairs, islands=islands)
+    is the spec, so the timestep is set there, not only in the compiled model); ``pairs``,
+    ``islands`` and ``merged_fall``: the step's settings of RobotEntry.model (the defaults
+    are the fast ones; the others give the same numbers, slower)."""
+    mspec, _ = robot.model(damage_spec(spec), pairs=pairs, islands=islands, merged_fall=merged_fall)
     mspec.option.timestep = spec.sim.timestep_s
     return mspec, mspec.compile()
 

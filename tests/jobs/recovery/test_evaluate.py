@@ -85,20 +85,40 @@ def test_euler_zyx_of_known_rotations():
 
 
 def test_fall_sensors_watch_the_chassis_and_every_remaining_upper_leg():
+    """Every contact less the feet's: the chassis pressed into the floor counts, standing on
+    the feet does not; the lost legs carry no foot sensor."""
     _, m = JETHEXA.model(DamageSpec(lost_legs=(2, 5)))
     names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SENSOR, i) for i in range(m.nsensor)}
-    ground = {n for n in names if n.endswith("_ground")}
-    assert ground == {"torso_ground"} | {f"leg{l}_{j}_ground" for l in (1, 3, 4, 6) for j in ("coxa", "femur")}
+    assert not {n for n in names if n.endswith("_ground")} and "all_contacts" in names
     assert {n for n in names if n.endswith("_foot_touch")} == {f"leg{l}_foot_touch" for l in (1, 3, 4, 6)}
+    ev = GaitEvaluator(JETHEXA, m, nominal_tripod([1, 3, 4, 6]), SimConfig(nthread=1))
     d = mujoco.MjData(m)
     d.qpos[:3] = (0, 0, 0.3)
     d.qpos[3] = 1
     mujoco.mj_forward(m, d)
-    adr = m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "torso_ground")]
-    assert d.sensordata[adr] == 0  # in the air
+    assert d.ncon == 0 and ev.ground_contacts(d.sensordata.copy())[0] == 0  # in the air
     d.qpos[2] = 0.02  # chassis (half height 2.5 cm) pressed into the floor
     mujoco.mj_forward(m, d)
-    assert d.sensordata[adr] > 0
+    assert ev.ground_contacts(d.sensordata.copy())[0] > 0
+    period, state = ev.period_controls(nominal_params(JETHEXA, [1, 3, 4, 6])[None])
+    mujoco.mj_setState(m, d, state[0], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    d.ctrl[:] = period[0, 0]  # the first pose's set-points
+    for _ in range(300):  # standing on its four feet: contacts, none of them a fall
+        mujoco.mj_step(m, d)
+    feet = sum(d.sensordata[ev._sens[f"leg{l}_foot_touch"][0]] for l in (1, 3, 4, 6))
+    assert d.ncon >= 3 and feet == d.ncon and ev.ground_contacts(d.sensordata.copy())[0] == 0
+    ev.close()
+
+
+def test_a_colliding_geom_the_fall_test_does_not_watch_is_refused():
+    """all_contacts less the feet is the fall test only while nothing else can collide."""
+    from app.robots.hexapod import add_fall_sensors
+
+    spec = JETHEXA.build()
+    spec.body("leg1_tibia").add_geom(name="shin_pad", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0],
+                                     conaffinity=1, contype=0)
+    with pytest.raises(ValueError, match="shin_pad"):
+        add_fall_sensors(spec)
 
 
 def test_front_legs_lost_under_the_nominal_tripod_falls_onto_the_chassis():
@@ -106,8 +126,7 @@ def test_front_legs_lost_under_the_nominal_tripod_falls_onto_the_chassis():
     ev, legs = evaluator(lost=(1, 2), seq=nominal_tripod([3, 4, 5, 6]))
     sens, end, _, _ = ev.simulate(nominal_params(JETHEXA, legs)[None])
     assert end[0] < ev.nstep
-    adr = ev._sens["torso_ground"][0]
-    assert sens[0, : end[0], adr].max() > 0  # it is the chassis contact that ended the walk
+    assert ev.ground_contacts(sens[0, : end[0]]).max() > 0  # an upper-body contact ended the walk
     m = ev.evaluate(nominal_params(JETHEXA, legs)).metrics
     assert m["fell"][0] and m["tilt_max_deg"][0] < 60  # the old tilt test would not have caught it
 
@@ -125,4 +144,4 @@ def test_rocking_on_two_alternating_feet_is_not_a_fall():
     m = ev.evaluate(nominal_params(JETHEXA, legs)).metrics
     assert m["tilt_max_deg"][0] > 30 and m["pitch_amp_deg"][0] > 20 and m["under_3_feet_frac"][0] > 0.2
     assert not m["fell"][0] and end[0] == ev.nstep
-    assert sens[0][:, ev._ground].max() == 0
+    assert ev.ground_contacts(sens[0]).max() == 0
