@@ -197,7 +197,8 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
             "load": os.getloadavg()[0]}
 
 
-# the step's settings, from before to now (RobotEntry.model): each adds one change to the last
+# the step's settings, from before to now (RobotEntry.model): each adds one change to the last;
+# the names are the keys of the recorded rows ("(now)" marks what was the last when first recorded)
 STEP_SETTINGS = {"broad phase, island discovery (before)": {"pairs": False, "islands": True, "merged_fall": False},
                  "explicit contact pairs": {"pairs": True, "islands": True, "merged_fall": False},
                  "explicit contact pairs, no island discovery (now)": {"pairs": True, "islands": False,
@@ -208,10 +209,9 @@ STEP_SETTINGS = {"broad phase, island discovery (before)": {"pairs": False, "isl
 def pairs_row(reps: int = 15, docs: Path = Path("docs")) -> dict:
     """The step's settings of STEP_SETTINGS (app/robots/contacts.py's explicit robot-floor
     pairs, then no constraint-island discovery, then the fall test's one contact sensor),
-    each against the one before: single-thread
-    CPU time per step on each Table II damage (8 random candidates, 1.5 s walks, all
-    settings interleaved), and whether every documented answer re-simulated at the default
-    step is the same bit for bit as before them."""
+    each against the one before: single-thread CPU time per step on each Table II damage (8
+    random candidates, 1.5 s walks, all settings interleaved), and whether every documented
+    answer re-simulated at the default step is the same bit for bit as before them."""
     from app.jobs.recovery.answers import answers_metrics, documented_answers
     from app.jobs.recovery.run import set_up, sim_model
     from app.robots.catalog import get_robot
