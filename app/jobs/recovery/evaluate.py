@@ -301,10 +301,9 @@ class GaitEvaluator:
         sensordata (..., nsensordata): the built-in robots' every contact less the feet's
         (``app.robots.hexapod.add_fall_sensors``), an uploaded robot's sensor per body
         (``<body>_ground``); None without either."""
-        parts = [sens[..., self._ground]] if self._ground.size else []
         if self._all is not None:
-            parts.append((sens[..., self._all] - sens[..., self._feet].sum(axis=-1))[..., None])
-        return np.concatenate(parts, axis=-1) if len(parts) > 1 else (parts[0] if parts else None)
+            return (sens[..., self._all] - sens[..., self._feet].sum(axis=-1))[..., None]
+        return sens[..., self._ground] if self._ground.size else None
 
     def _fell(self, sens: np.ndarray) -> np.ndarray:
         pos = self._sensor(sens, "torso_pos")

@@ -79,14 +79,13 @@ def _measured_first(examples: dict | None) -> str:
     if not runs:
         return ""
     r = runs[-1]
-    latest = {}  # host -> (position, run) of its latest run
-    for i, o in enumerate(runs[:-1]):
+    latest: dict[str, dict] = {}  # host -> its latest run, newest first
+    for o in reversed(runs[:-1]):
         m = o.get("machine", {})
         if "cpu_family" in m and "cpu_model" in m and machine_text(m) != machine_text(r["machine"]):
-            latest[machine_text(m)] = (i, o)
+            latest.setdefault(machine_text(m), o)
     others = "".join(f"; {o['wall_s'] / 60:.1f} min on {host} (load {o['load_before']:.1f} before and "
-                     f"{o['load_after']:.1f} after, {o['date']})"
-                     for host, (_, o) in sorted(latest.items(), key=lambda kv: -kv[1][0]))  # newest first
+                     f"{o['load_after']:.1f} after, {o['date']})" for host, o in latest.items())
     return (f"{r['wall_s'] / 60:.1f} min as the README writes it ({machine_text(r['machine'])}, 1-minute load "
             f"{r['load_before']:.1f} before and {r['load_after']:.1f} after, {r['date']}; "
             f"[docs/benchmarks.md](docs/benchmarks.md#whole-jobs)){others}. ")

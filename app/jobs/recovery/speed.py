@@ -756,9 +756,11 @@ def _host(row: dict) -> str:
 
 
 def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
-    """The paper DE's final F per seed: this page's runs, else docs/table2.json's (full walks)."""
-    out = {r["seed"]: r["fitness"] for r in rows if r["part"] == "paper" and tuple(r["lost_legs"]) == lost}
-    for seed in {r["seed"] for r in rows if tuple(r["lost_legs"]) == lost} - set(out):
+    """The paper DE's final F per seed: this page's runs, else docs/table2.json's (full walks);
+    rows that are not searches (no damage) are passed over."""
+    rows = [r for r in rows if tuple(r.get("lost_legs", ())) == tuple(lost)]
+    out = {r["seed"]: r["fitness"] for r in rows if r["part"] == "paper"}
+    for seed in {r["seed"] for r in rows} - set(out):
         doc = _documented(lost, seed, table2)
         if doc is not None:
             out[seed] = doc["best_fitness"]
@@ -800,8 +802,8 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
         paper = _paper_fitness(rows, lost, table2)
         if not (eq or fast):
             continue
-        wins = sum(r["fitness"] >= paper[r["seed"]] for r in eq if r["seed"] in paper)
-        pairs = sum(r["seed"] in paper for r in eq)
+        same = _equal_with_paper(rows, lost, table2)
+        wins, pairs = sum(r["fitness"] >= f for r, f in same), len(same)
         ps = [r["sim_steps"] + r["cut_steps_saved"] for r in rows if r["part"] == "paper" and tuple(r["lost_legs"]) == lost]
         ratio = f"{statistics.median(r['sim_steps'] for r in eq) / statistics.median(ps):.2f}" if ps and eq else "-"
         met = f"{sum(r['target_met'] for r in eq)} ({sum(bool(r['half_step_met']) for r in eq)}) of {len(eq)}"
@@ -817,6 +819,14 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     return out + [""]
 
 
+def _equal_with_paper(rows: list[dict], lost, table2: list[dict]) -> list[tuple[dict, float]]:
+    """The equal-quality runs on ``lost`` whose seed has a paper DE F (``_paper_fitness``),
+    each with that F, by seed."""
+    paper = _paper_fitness(rows, lost, table2)
+    eq = [r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == tuple(lost) and r["seed"] in paper]
+    return [(r, paper[r["seed"]]) for r in sorted(eq, key=lambda r: r["seed"])]
+
+
 def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage: the equal-quality configuration's final F against the paper DE's, paired
     by seed (app/jobs/stats.py: mean difference, its interval, Wilcoxon's test, the verdict),
@@ -826,12 +836,10 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
 
     out = []
     for lost in SCENARIOS:
-        paper = _paper_fitness(rows, lost, table2)
-        eq = sorted((r for r in rows if r["part"] == "equal" and tuple(r["lost_legs"]) == lost and r["seed"] in paper),
-                    key=lambda r: r["seed"])
-        if len(eq) < 2:
+        pairs = _equal_with_paper(rows, lost, table2)
+        if len(pairs) < 2:
             continue
-        a, b = [r["fitness"] for r in eq], [paper[r["seed"]] for r in eq]
+        a, b = [r["fitness"] for r, _ in pairs], [f for _, f in pairs]
         verdict = "reaches" if statistics.median(a) >= statistics.median(b) else "does not reach"
         r = stats.paired(a, b, names=("equal quality", "paper DE"))
         out.append(f"- {_name(lost)}: median F {statistics.median(a):.2f} against {statistics.median(b):.2f} "
@@ -892,15 +900,14 @@ def gains_markdown(rows: list[dict], table2: list[dict] | None = None) -> list[s
                    f"against {paper:,.0f} for the paper's whole budget ({paper / steps:.0f}x fewer) | "
                    f"`gaitmend reproduce recovery-speed --parts fast` |")
     # F on the same seeds on both sides: the paper DE's runs here, else Table II's for the seed
-    pfs = _paper_fitness([r for r in rows if "lost_legs" in r], (1, 6), table2 or [])
+    same = _equal_with_paper(rows, (1, 6), table2 or [])
     eq = [r for r in by["equal"] if r["lost_legs"] == [1, 6]]
     paper = [r for r in by["paper"] if r["lost_legs"] == [1, 6]]
-    if paper and any(r["seed"] in pfs for r in eq):
+    if paper and same:
         es = statistics.median(r["sim_steps"] for r in eq)
         ps = statistics.median(r["sim_steps"] + r["cut_steps_saved"] for r in paper)
-        same = [r for r in eq if r["seed"] in pfs]
-        ef = statistics.median(r["fitness"] for r in same)
-        pf = statistics.median(pfs[r["seed"]] for r in same)
+        ef = statistics.median(r["fitness"] for r, _ in same)
+        pf = statistics.median(f for _, f in same)
         out.append(f"| equal-quality configuration `{json.dumps(EQUAL)}` | no (a spec) | legs 1 & 6, {len(eq)} seeds: "
                    f"median {es:,.0f} steps against the paper DE's {ps:,.0f} ({ps / es:.1f}x fewer), median F "
                    f"{ef:.2f} against {pf:.2f} on the same {len(same)} seeds: "
