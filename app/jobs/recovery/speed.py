@@ -933,7 +933,11 @@ simulated steps do not depend on the machine, so the gains are stated in steps f
 go. Paper DE = DE 30 x 60, 10 s walks, 1 ms (here with `search.cut_walks`; for seeds the
 docs hold, its answer is compared with the full-walk answer in docs/table2.json). Fast =
 `{"preset": "fast"}`. Equal quality = the configuration below. Every search's answer is
-also re-run at half the step (the robustness case dt_half).
+also re-run at half the step (the robustness case dt_half); the searches here are not re-run
+under perturbed friction or masses (a job's robustness block does that: docs/recovery_robust.md),
+so this page claims speed and F at the default step, not robustness. The step changes
+(contact pairs, islands, the fall sensor) are checked bit for bit in every world a job
+builds, the perturbed ones included (tests/robots/test_contacts.py).
 """
 
 RULE = """## Cut walks: the rule
