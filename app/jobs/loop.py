@@ -63,6 +63,10 @@ class Generation:
     # (P,) False where the fitness is only an upper bound (the candidate's evaluation was cut
     # short once it could not win its selection): the history's statistics skip those
     exact: np.ndarray | None = None
+    # the fitness of a cheaper stand-in (e.g. a shorter walk): its ranking steers the
+    # optimizer (``tell(..., provisional=True)``), but it is no value of the objective, so
+    # the best so far and the stop rules pass over it; the row says ``provisional``
+    provisional: bool = False
 
 
 @dataclasses.dataclass
@@ -91,12 +95,16 @@ class SearchOutcome:
 
 
 def stop_reason(history: list[dict], rules: StopRules, sign: float, wall_s: float) -> StopReason | None:
-    """Which rule, if any, stops the search after the last row of ``history``."""
+    """Which rule, if any, stops the search after the last row of ``history``; none after
+    a provisional row (its values are no objective's), and the plateau rule only looks back
+    over rows that are not."""
+    if history[-1].get("provisional"):
+        return None
     best = history[-1]["best"]
     if rules.target is not None and sign * best >= sign * rules.target:
         return "target"
     n = rules.plateau_generations
-    if n is not None and len(history) > n:
+    if n is not None and len(history) > n and not history[-1 - n].get("provisional"):
         then = sign * history[-1 - n]["best"]
         if sign * best - then <= rules.plateau_rel_tol * max(abs(then), 1e-12):
             return "plateau"
@@ -141,12 +149,21 @@ class _State:
             self.totals[k] = self.totals.get(k, 0) + v
 
 
-def _row(opt, gen: Generation, f: np.ndarray, sign: float) -> dict[str, Any]:
+def _row(opt, gen: Generation, f: np.ndarray, sign: float, history: list[dict]) -> dict[str, Any]:
     """A history row; its per-generation statistics skip the values that are only bounds
-    (``Generation.exact`` False: a walk cut short once it could not win its selection)."""
+    (``Generation.exact`` False: a walk cut short once it could not win its selection). A
+    provisional row's best is the best of the provisional rows so far (the optimizer's best
+    holds the objective's values only)."""
     exact = f if gen.exact is None or not np.any(gen.exact) else f[np.asarray(gen.exact, dtype=bool)]
-    return {"generation": opt.generation - 1, "best": sign * opt.best[1], "mean": float(np.mean(sign * exact)),
-            "worst": float(sign * np.min(exact)), "generation_best": float(sign * np.max(exact))}
+    top = float(sign * np.max(exact))
+    if gen.provisional:
+        before = [r["best"] for r in history if r.get("provisional")]
+        best = top if not before else (max if sign > 0 else min)(before[-1], top)
+    else:
+        best = sign * opt.best[1]
+    row = {"generation": opt.generation - 1, "best": best, "mean": float(np.mean(sign * exact)),
+           "worst": float(sign * np.min(exact)), "generation_best": top}
+    return row | {"provisional": 1} if gen.provisional else row
 
 
 def _check_goal(opt, st: _State, goal: Callable[[np.ndarray], GoalCheck]) -> bool:
@@ -186,11 +203,11 @@ def run_search(opt, evaluate: Callable[[np.ndarray], Generation], generations: i
             raise Cancelled()
         gen = evaluate(opt.ask())
         f = np.asarray(gen.fitness, dtype=float)
-        opt.tell(f)
+        opt.tell(f, provisional=True) if gen.provisional else opt.tell(f)
         st.count(len(f) if gen.evaluations is None else gen.evaluations, gen.totals)
-        row = _row(opt, gen, f, sign) | gen.columns
+        row = _row(opt, gen, f, sign, st.history) | gen.columns
         st.history.append(row)
-        met = goal is not None and _check_goal(opt, st, goal)
+        met = goal is not None and not gen.provisional and _check_goal(opt, st, goal)  # no best to judge yet
         if goal is not None:
             row["target_met"] = int(met)
         row["evaluations"] = st.evaluations

@@ -47,13 +47,15 @@ class CMAES(Optimizer):
         self._asked = self._es.ask()
         return self._scale(np.asarray(self._asked))
 
-    def tell(self, fitness) -> None:
+    def tell(self, fitness, provisional: bool = False) -> None:
+        """``provisional``: the values of a cheaper stand-in (a shorter walk) that only rank
+        the candidates, which is all CMA-ES's update uses; they do not count for the best."""
         fitness = self._fitness(fitness, None if self._asked is None else len(self._asked))
         self._es.tell(self._asked, (-fitness).tolist())
         self._told.append(fitness.tolist())
         self.population_fitness = fitness
         i = int(np.argmax(fitness))
-        if fitness[i] > self._best_f:  # CMA's mean moves on; the best ever seen is kept
+        if not provisional and fitness[i] > self._best_f:  # CMA's mean moves on; the best ever seen is kept
             self._best_x, self._best_f = self._scale(np.asarray(self._asked[i])), float(fitness[i])
         self._asked = None
         self.generation += 1

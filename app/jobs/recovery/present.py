@@ -20,6 +20,9 @@ HISTORY_COLUMNS = {
     "cut": "trial walks of this generation cut short once they could no longer reach their parent's F "
            "(search.cut_walks; mean, worst and generation_best skip them)",
     "target_met": "1 once the best so far meets the recovery target, confirmed at half the step (stop.at_target)",
+    "walk_s": "the walk this generation's F measured (s): shorter in the first generations with search.short_walks",
+    "provisional": "1 where F is of a shorter walk (search.short_walks): it only ranks the candidates for CMA-ES; best "
+                   "is then the best of these rows, and the answer is the best of the full walks after them",
     "evaluations": "candidates evaluated so far (with the target's confirmation walks)",
 }
 # the convergence plot, the page's (history_axis, drawn by web/static/job.js) and the bundle's

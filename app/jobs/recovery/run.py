@@ -105,8 +105,13 @@ class _Scorer:
     Returns (fitness (P,), nominal-model metrics (P,), simulated steps). It keeps the last
     population's metrics, so the search's goal can read the best's without a re-run."""
 
-    def __init__(self, spec: RecoverySpec, robot: RobotEntry, mspec, model, seq: GaitSequence, cfg: SimConfig):
+    # what a walk's end displacements scale with: a short walk's carried to the full walk as rates
+    STRETCHED = ("y_f_m", "x_f_m", "yaw_f_deg")
+
+    def __init__(self, spec: RecoverySpec, robot: RobotEntry, mspec, model, seq: GaitSequence, cfg: SimConfig,
+                 stretch: float = 1.0):
         self.weights, self.units = spec.objective.weights, spec.objective.units
+        self.stretch = stretch  # F of displacements times this (search.short_walks.extrapolate); metrics as walked
         self.robust = spec.robust
         self.models_per_candidate = spec.models_per_candidate
         self.cases = walking_cases(robot.geometry.total_mass, spec.robust.models) if spec.robust else []
@@ -132,7 +137,8 @@ class _Scorer:
         if self.robust is not None:
             f, _ = robust_fitness(r.metrics, self.weights, self.units, self.robust.aggregate)
             return f, m, r.sim_steps, None
-        f = fitness(m, self.weights, self.units)
+        f = fitness(m if self.stretch == 1.0 else m | {k: m[k] * self.stretch for k in self.STRETCHED},
+                    self.weights, self.units)
         return (f, m, r.sim_steps, None) if cut is None else (np.where(cut.cut, cut.bound, f), m, r.sim_steps, cut)
 
     def generation(self, x: np.ndarray, thresholds: np.ndarray | None = None, cuts: bool | None = None) -> Generation:
@@ -206,6 +212,7 @@ class _Job:
     cases: list[Perturbation]
     rob_ev: MultiModelEvaluator | None
     half_ev: GaitEvaluator | None = None  # the nominal model at half the step (the target's confirmation)
+    short: _Scorer | None = None  # search.short_walks: the early generations' shorter walks
     searches: dict[str, SearchOutcome] = dataclasses.field(default_factory=dict)
     best: dict = dataclasses.field(default_factory=dict)
     baseline: dict = dataclasses.field(default_factory=dict)
@@ -225,7 +232,7 @@ class _Job:
         return nominal_params(self.robot, self.legs)
 
     def close(self) -> None:
-        for ev in (self.score, self.ev, self.base_ev, self.rob_ev, self.half_ev):
+        for ev in (self.score, self.ev, self.base_ev, self.rob_ev, self.half_ev, self.short):
             if ev is not None:
                 ev.close()
 
@@ -266,16 +273,35 @@ def _half_step_evaluator(job: _Job) -> GaitEvaluator:
                          job.seq, job.ev.cfg)
 
 
+def _short_scorer(job: _Job) -> _Scorer:
+    """The nominal model's scorer with the walks of search.short_walks (the same robot,
+    gait and settling; only the walk ends sooner), its displacements carried to the full
+    walk when ``extrapolate``."""
+    sw = job.spec.search.short_walks
+    cfg = dataclasses.replace(job.ev.cfg, duration_s=sw.walk_s)
+    stretch = job.spec.sim.duration_s / sw.walk_s if sw.extrapolate else 1.0
+    return _Scorer(job.spec, job.robot, job.mspec, job.model, job.seq, cfg, stretch)
+
+
 def search(job: _Job, phases: Phases) -> None:
     """The search, then (when asked) the uniform random search over the same bounds for as
-    many generations as the search ran (fewer when a stop rule ended it early)."""
+    many generations as the search ran (fewer when a stop rule ended it early). With
+    search.short_walks, the first generations walk for less time and are told to CMA-ES as
+    provisional (they rank, they are not the answer)."""
     s, stop = job.spec.search, job.spec.stop
     opt = make_optimizer(s.optimizer, job.lower, job.upper, s.population, s.seed, cr=s.cr, f=s.f)
+    if s.short_walks is not None:
+        job.short = _short_scorer(job)
+    walk = {"walk_s": job.spec.sim.duration_s} if s.short_walks is not None else {}  # every row, one table
 
     def evaluate(x: np.ndarray) -> Generation:  # with cut walks, DE's parents are its trials' thresholds
         if job.spec.randomised is not None:  # the generation's draw; DE's parents scored again on it
             return job.score.redrawn(opt, x)
-        return job.score.generation(x, opt.selection_thresholds() if s.cut_walks else None)
+        if job.short is not None and opt.generation < s.short_walks.generations:
+            g = job.short.generation(x)
+            return dataclasses.replace(g, columns=g.columns | {"walk_s": s.short_walks.walk_s}, provisional=True)
+        g = job.score.generation(x, opt.selection_thresholds() if s.cut_walks else None)
+        return dataclasses.replace(g, columns=g.columns | walk)
 
     goal = None
     if stop.at_target:

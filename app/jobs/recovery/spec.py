@@ -118,6 +118,24 @@ class RobotDamage(StrictModel):
         return self
 
 
+class ShortWalks(StrictModel):
+    """The first generations walk for less time: their F (by default of the short walk's
+    displacements carried to the full walk) only ranks the candidates for CMA-ES, which uses
+    nothing but the ranking; the answer is the best of the full-walk generations that follow
+    (docs/recovery_speed.md)."""
+
+    walk_s: float = Field(ge=3.0, le=120.0, description=(
+        "the early generations' walk (s), at least 3 s (a shorter walk says nothing about straightness) and shorter "
+        "than sim.duration_s"))
+    generations: int = Field(ge=1, le=10000, description=(
+        "how many generations, generation 0 included, walk for walk_s; at most search.generations, so that at least "
+        "one generation walks in full"))
+    extrapolate: bool = Field(True, description=(
+        "the short walk's forward, lateral and yaw displacements carried to the full walk as rates (times "
+        "sim.duration_s / walk_s) before F, so that a drift weighs as it would over the full walk; false: the short "
+        "walk's own F"))
+
+
 class Search(StrictModel):
     optimizer: Literal["de", "cmaes"] = "de"
     population: int = Field(30, ge=4, le=1000)
@@ -128,6 +146,9 @@ class Search(StrictModel):
     cut_walks: bool = Field(False, description=(
         "DE only: end a trial's walk once its F can no longer reach its parent's, which DE's selection (Eq. 10) "
         "keeps either way; same answer as the full walks whenever the rule's speed cap holds (docs/recovery_speed.md)"))
+    short_walks: ShortWalks | None = Field(None, description=(
+        "CMA-ES only: the first generations walk for less time and only steer the search; the answer is the best of "
+        "the full-walk generations (docs/recovery_speed.md)"))
 
 
 class RecoveryStop(StopRules):
@@ -352,6 +373,27 @@ class RecoverySpec(SpecBase):
             raise ValueError("randomised: search.cut_walks is for the nominal model only; set it false")
         if self.robot not in ROBOTS:
             raise ValueError("randomised: the random models are the built-in robots' (a rough floor of their world)")
+        return self
+
+    @model_validator(mode="after")
+    def _short_walks(self):
+        sw = self.search.short_walks
+        if sw is None:
+            return self
+        if self.search.optimizer != "cmaes":
+            raise ValueError("search.short_walks: CMA-ES only (DE's selection compares a trial's F with its parent's, "
+                             "which a shorter walk would not measure alike)")
+        if sw.walk_s >= self.sim.duration_s:
+            raise ValueError(f"search.short_walks.walk_s: must be shorter than sim.duration_s ({self.sim.duration_s} s), "
+                             f"got {sw.walk_s}")
+        if sw.generations > self.search.generations:
+            raise ValueError(f"search.short_walks.generations: at most search.generations ({self.search.generations}) "
+                             f"so that at least one generation walks in full, got {sw.generations}")
+        for name, on in (("robust", self.robust is not None), ("randomised", self.randomised is not None),
+                         ("stop.at_target", self.stop.at_target)):
+            if on:
+                raise ValueError(f"search.short_walks: not with {name} (it judges the best so far, which the short "
+                                 "walks do not measure)")
         return self
 
     budget_field: ClassVar[str] = "search.generations"

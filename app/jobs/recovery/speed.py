@@ -33,13 +33,20 @@ EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}}
 # Other configurations (part name "alt_<name>"): the equal-quality configuration of before the
 # faster step (CMA-ES 12 x 60, about 730 walks), and at about its budget, tried where it fell
 # short (legs 3 & 4), a wider and a narrower CMA-ES generation and the paper's DE itself with a
-# population of 12 and cut walks. A run is labelled by the configuration it ran (its spec), so
+# population of 12 and cut walks; and CMA-ES 12 whose first 48 generations walk 5 s
+# (search.short_walks, issue 22's "shorter walks in early generations"), scored on the walk
+# carried to 10 s and on its own F: the steps of CMA-ES 12 x 60 over 84 generations. A run is
+# labelled by the configuration it ran (its spec), so
 # the runs of a configuration keep their label when EQUAL changes (``by_config``).
 ALTERNATIVES = {
     "cmaes_12x60": {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}},
     "cmaes_20x36": {"search": {"optimizer": "cmaes", "population": 20, "generations": 36}},
     "cmaes_8x90": {"search": {"optimizer": "cmaes", "population": 8, "generations": 90}},
     "de_12x60_cut": {"search": {"population": 12, "generations": 60, "cut_walks": True}},
+    "cmaes_12x83_short5": {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
+                                      "short_walks": {"walk_s": 5.0, "generations": 48}}},
+    "cmaes_12x83_short5_raw": {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
+                                          "short_walks": {"walk_s": 5.0, "generations": 48, "extrapolate": False}}},
 }
 STAGES = ("mjTIMER_STEP", "mjTIMER_POSITION", "mjTIMER_POS_KINEMATICS", "mjTIMER_POS_INERTIA",
           "mjTIMER_POS_COLLISION", "mjTIMER_COL_BROAD", "mjTIMER_COL_NARROW", "mjTIMER_POS_MAKE", "mjTIMER_VELOCITY",
@@ -362,7 +369,7 @@ def _search_row(part: str, lost, seed: int, data: dict) -> dict:
             "search": s["search"], "evaluations": s["timing"]["evaluations"], "sim_steps": s["timing"]["sim_steps"],
             "cut_steps_saved": s["timing"].get("cut_steps_saved", 0),
             "time_to_target_s": s["timing"].get("time_to_target_s"),
-            "curve": [[r["generation"], r["best"], r["evaluations"]] for r in s["history"]],
+            "curve": [[r["generation"], r["best"], r["evaluations"]] for r in s["history"] if not r.get("provisional")],
             "walks_cut": sum(r.get("cut", 0) for r in s["history"]),
             "load": os.getloadavg()[0], "cores": os.cpu_count(), "machine": machine()}
 
@@ -654,10 +661,11 @@ def alternatives_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     """Per damage and configuration: F over its seeds against the paper DE's on the same
     seeds, and its answers meeting the target at the default step and at half of it."""
     out = ["The equal-quality configuration and every other one tried, on the damages they were run on (walks: its "
-           "budget; the paper DE's F: its runs on this page, else docs/table2.json's for that seed; a configuration counts as equal quality "
-           "when its median F over the seeds is at least the paper DE's median over the same seeds and its answers "
-           "meet the target also at half the step):", "",
-           "| damage | configuration | walks | F, median [range] (seeds) | paper DE F on those seeds | "
+           "budget; steps: what its runs simulated, fewer with short walks; the paper DE's F: its runs on this page, "
+           "else docs/table2.json's for that seed; a configuration counts as equal quality when its median F over "
+           "the seeds is at least the paper DE's median over the same seeds and its answers meet the target also at "
+           "half the step):", "",
+           "| damage | configuration | walks (steps, median) | F, median [range] (seeds) | paper DE F on those seeds | "
            ">= paper, same seed | target met (also at half the step) |", "|---|---|---|---|---|---|---|"]
     configs = _labels()
     rows = [r for r in rows if "lost_legs" in r]  # searches only (not the bench, profile or variants)
@@ -670,7 +678,9 @@ def alternatives_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
             pf = [paper[r["seed"]] for r in got if r["seed"] in paper]
             wins = sum(r["fitness"] >= paper[r["seed"]] for r in got if r["seed"] in paper)
             s = cfg["search"]
-            out.append(f"| {_name(lost)} | `{json.dumps(cfg)}` | {s['population'] * (s['generations'] + 1)} | "
+            steps = statistics.median(r["sim_steps"] for r in got)
+            out.append(f"| {_name(lost)} | `{json.dumps(cfg)}` | {s['population'] * (s['generations'] + 1)} "
+                       f"({steps / 1e6:.2f} M) | "
                        f"{_spread([r['fitness'] for r in got], '{:.2f}')} ({len(got)}) | "
                        f"{_spread(pf, '{:.2f}')} ({len(pf)}) | {wins} of {len(pf)} | "
                        f"{sum(r['target_met'] for r in got)} ({sum(bool(r['half_step_met']) for r in got)}) of "
@@ -849,6 +859,70 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
         return []
     return ["The same comparison as a paired test on the seeds both have run (a verdict other than \"not shown\" needs "
             "the interval and the test to agree):", ""] + out + ["", stats.PAIRED_NOTE, ""]
+
+
+# search.short_walks as tried (ALTERNATIVES): F of the short walk carried to the full walk's
+# length, then the same without that (the short walk's own F); and CMA-ES 12 with full walks
+# for as many steps, their control
+SHORT_PARTS = {"alt_cmaes_12x83_short5": "short walks", "alt_cmaes_12x83_short5_raw": "short walks, own F"}
+SAME_STEPS_PART = "alt_cmaes_12x60"
+
+
+def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
+    """search.short_walks (SHORT_PARTS) against its controls on the same seeds: CMA-ES 12 with
+    full walks for as many steps, the equal-quality configuration (about 1.36 times the steps)
+    and the paper DE; medians, then paired by seed."""
+    from app.jobs import stats
+
+    rows = [r for r in rows if "lost_legs" in r]
+    tried = [p for p in SHORT_PARTS if any(r["part"] == p for r in rows)]
+    if not tried:
+        return []
+    configs = dict(_labels())
+    sw = configs[tried[0]]["search"]
+    out = ["## Short walks in the first generations", "",
+           "`search.short_walks` (CMA-ES only): the first generations walk for less time and only steer the search. "
+           "Their F ranks the candidates, which is all CMA-ES's update uses, and is told as provisional: it never "
+           "becomes the answer, and the stop rules pass over it. The answer is the best of the full-walk generations "
+           "after them, judged at the default step and at half of it. With `extrapolate` (the default) the short "
+           "walk's forward, lateral and yaw displacements are carried to the full walk's length as rates before F, "
+           "so that a drift weighs as it would over the full walk; without it, F is the short walk's own. Tried: "
+           f"{sw['short_walks']['generations']} generations of {sw['short_walks']['walk_s']:g} s walks, then "
+           f"{sw['generations'] + 1 - sw['short_walks']['generations']} of full 10 s walks, CMA-ES 12: the steps of "
+           "CMA-ES 12 x 60 with full walks, its control at equal steps. Same seeds in every column of a row; the "
+           "paper DE's F as in the tables above.", "",
+           "| damage | configuration | seeds | F | CMA-ES 12 x 60, full walks (same steps) | equal-quality "
+           "configuration | paper DE | steps: this / same-steps / equal-quality | whole run (s) | target met (also "
+           "at half the step) |", "|---" * 10 + "|"]
+    lines = []
+    for lost in SCENARIOS:
+        def of(part):
+            return {r["seed"]: r for r in rows if r["part"] == part and tuple(r["lost_legs"]) == lost}
+        same, equal, paper = of(SAME_STEPS_PART), of("equal"), _paper_fitness(rows, lost, table2)
+        for part in tried:
+            short = of(part)
+            seeds = sorted(set(short) & set(same) & set(paper))
+            if not seeds:
+                continue
+            eq = [equal[k]["fitness"] for k in seeds if k in equal]
+            steps = [statistics.median(r[k]["sim_steps"] for k in seeds) if all(k in r for k in seeds) else None
+                     for r in (short, same, equal)]
+            out.append(f"| {_name(lost)} | {SHORT_PARTS[part]} | {len(seeds)} | "
+                       f"{_spread([short[k]['fitness'] for k in seeds], '{:.2f}')} | "
+                       f"{_spread([same[k]['fitness'] for k in seeds], '{:.2f}')} | "
+                       f"{_spread(eq, '{:.2f}') + ('' if len(eq) in (0, len(seeds)) else f' ({len(eq)})')} | "
+                       f"{_spread([paper[k] for k in seeds], '{:.2f}')} | "
+                       f"{' / '.join('-' if v is None else f'{v / 1e6:.2f} M' for v in steps)} | "
+                       f"{_spread([short[k]['wall_s'] for k in seeds], '{:.0f}')} | "
+                       f"{sum(short[k]['target_met'] for k in seeds)} "
+                       f"({sum(bool(short[k]['half_step_met']) for k in seeds)}) of {len(seeds)} |")
+            a = [short[k]["fitness"] for k in seeds]
+            for name, b in (("CMA-ES 12 x 60 with full walks", [same[k]["fitness"] for k in seeds]),
+                            ("the paper DE", [paper[k] for k in seeds])):
+                r = stats.paired(a, b, names=(SHORT_PARTS[part], name))
+                lines.append(f"- {_name(lost)}: {SHORT_PARTS[part]} minus {name}, paired by seed: "
+                             f"{stats.paired_text(r)}.")
+    return out + ["", "Paired by seed (the note above says how to read a verdict):", ""] + lines + [""]
 
 
 def _frac(num: float, den: float) -> str:
@@ -1044,6 +1118,7 @@ def render_markdown(rows: list[dict], table2: list[dict]) -> str:
         got = [r for r in rows if r["part"] == part]
         if got:
             out += render(got)
+    out += short_markdown(rows, table2)
     out += ["## Tried and rejected", ""]
     prof = next((r for r in rows if r["part"] == "profile"), None)
     if prof is not None:

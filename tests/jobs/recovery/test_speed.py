@@ -224,15 +224,30 @@ def test_the_speed_page_renders_from_its_rows():
     alt = run_row | {"part": "alt_cmaes_8x90", "fitness": 11.0, "identical_to_documented": None,
                      "half_step_met": False, "spec": {"search": speed.ALTERNATIVES["cmaes_8x90"]["search"] | {"seed": 0}}}
     md = speed.speed_markdown(rows + [alt, alt | {"seed": 1, "fitness": 13.0}], Path("/nonexistent"))
-    assert ('| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 8, "generations": 90}}` | 728 | '
+    assert ('| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 8, "generations": 90}}` | 728 (18.00 M) | '
             "12.00 [11.00, 13.00] (2) | 12.00 [12.00, 12.00] (1) | 0 of 1 | 2 (0) of 2 |") in md
-    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 996 | 12.50 [12.50, 12.50] (1) |" in md
+    assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` | 996 (6.00 M) | 12.50 [12.50, 12.50] (1) |" in md
+    assert "## Short walks" not in md  # no run of them, no section
     # a run is labelled by the configuration it ran: an "equal" run of another configuration
     # (the equal-quality one of its time) shows as that alternative, whatever its label said
     old = rows[1] | {"spec": {"search": speed.ALTERNATIVES["cmaes_12x60"]["search"] | {"seed": 0}}}
     md = speed.speed_markdown([rows[0], old, rows[2], alt], Path("/nonexistent"))
-    assert '| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}` | 732 |' in md
+    assert '| legs 1 & 6 | `{"search": {"optimizer": "cmaes", "population": 12, "generations": 60}}` | 732 (6.00 M) |' in md
     assert "| legs 1 & 6 | `" + json.dumps(speed.EQUAL) + "` |" not in md
+    # short walks against CMA-ES 12 x 60 with full walks on the same seeds (its steps), the
+    # equal-quality configuration and the paper DE; the seed that has no same-steps run is left out
+    def cfg_row(name, seed, f, steps):
+        return run_row | {"part": "alt_" + name, "seed": seed, "fitness": f, "sim_steps": steps,
+                          "spec": {"search": speed.ALTERNATIVES[name]["search"] | {"seed": seed}}}
+
+    tried = [cfg_row("cmaes_12x83_short5", k, f, 7_700_000) for k, f in ((0, 13.0), (1, 12.0), (2, 14.0))]
+    tried += [cfg_row("cmaes_12x60", k, f, 7_600_000) for k, f in ((0, 12.5), (1, 11.0))]
+    md = speed.speed_markdown(rows + tried + [rows[0] | {"seed": 1, "fitness": 11.0}], Path("/nonexistent"))
+    assert ("| legs 1 & 6 | short walks | 2 | 12.50 [12.00, 13.00] | 11.75 [11.00, 12.50] | 12.50 [12.50, 12.50] (1) | "
+            "11.50 [11.00, 12.00] | 7.70 M / 7.60 M / - | 170 [170, 170] | 2 (2) of 2 |") in md
+    assert "- legs 1 & 6: short walks minus CMA-ES 12 x 60 with full walks, paired by seed: +0.75 " in md
+    assert "- legs 1 & 6: short walks minus the paper DE, paired by seed: +1.00 " in md
+    assert "short walks, own F" not in md  # that variant has no run here
     # the step's settings: one row per change, each against the one before it
     names = list(speed.STEP_SETTINGS)
     settings = {"part": "pairs", "damages": [{"lost_legs": [1, 6], "us_per_step": dict(zip(names, (13.2, 12.0, 11.0)))}],
@@ -305,3 +320,112 @@ def test_the_scaling_part_times_the_rollout_inside_a_real_search():
     assert 0 < r["in_rollout_s"] < r["wall_s"]
     assert r["one_thread_steps_per_s"] > 0 and r["threads_steps_per_s"] > 0 and r["threads"] >= 1
     json.dumps(r)
+
+
+# -- short walks in the first generations (search.short_walks) ------------------------------------
+
+SHORT_SEARCH = {"optimizer": "cmaes", "population": 6, "generations": 4, "seed": 1,
+                "short_walks": {"walk_s": 3.0, "generations": 2}}
+
+
+def _short(**search) -> RecoverySpec:
+    return RecoverySpec(damage={"lost_legs": [1, 6]}, search=SHORT_SEARCH | search, sim={"duration_s": 4.0},
+                        controls={"random_search": False}, robustness={"cases": [], "held_out": 0})
+
+
+class _Killed(MemoryContext):
+    """Checkpoints kept; the worker dies once ``after`` generations are done."""
+
+    def __init__(self, after: int | None = None, checkpoint: dict | None = None):
+        super().__init__()
+        self.after, self.saved = after, []
+        self._ckpt = checkpoint
+
+    def save_checkpoint(self, state):
+        super().save_checkpoint(json.loads(json.dumps(state)))
+        self.saved.append(self._ckpt)
+        if self.after is not None and len(self.saved) >= self.after:
+            raise KeyboardInterrupt
+
+
+@pytest.fixture(scope="module")
+def short_run():
+    return run(_short(), MemoryContext()).summary
+
+
+def test_short_walks_only_rank_the_first_generations_and_the_answer_is_a_full_walk(short_run):
+    s, full_run = short_run, run(_short(short_walks=None), MemoryContext()).summary
+    h = s["history"]
+    assert [r["walk_s"] for r in h] == [3.0, 3.0, 4.0, 4.0, 4.0]
+    assert [r.get("provisional", 0) for r in h] == [1, 1, 0, 0, 0]
+    assert len({tuple(r) for r in h[2:]}) == 1 and set(h[0]) == set(h[2]) | {"provisional"}
+    full = h[2:]
+    # the answer: the best full walk, walked again on its own (same F bit for bit); the short
+    # walks' F never competes with it, though the best column shows theirs while they run
+    assert s["best"]["fitness"] == max(r["generation_best"] for r in full)
+    assert [r["best"] for r in h[:2]] == [h[0]["generation_best"], max(r["generation_best"] for r in h[:2])]
+    assert full[0]["best"] == full[0]["generation_best"]
+    assert s["timing"]["evaluations"] == full_run["timing"]["evaluations"] == 6 * 5 + 2  # + best and baseline
+    assert s["timing"]["sim_steps"] < full_run["timing"]["sim_steps"]
+    assert h[0]["mean"] != full_run["history"][0]["mean"]  # the same draws, walked shorter
+
+
+def test_a_short_walk_is_scored_on_its_displacements_carried_to_the_full_walk():
+    """extrapolate: forward, lateral and yaw times sim.duration_s / walk_s before F (the
+    metrics kept as walked); without it, the short walk's own F."""
+    from app.jobs.recovery.run import _short_scorer, set_up
+
+    rng = np.random.default_rng(4)
+    for extrapolate, stretch in ((True, 4.0 / 3.0), (False, 1.0)):
+        spec = _short(short_walks={"walk_s": 3.0, "generations": 2, "extrapolate": extrapolate})
+        job = set_up(spec)
+        try:
+            scorer = _short_scorer(job)
+            x = job.lower + rng.random((4, job.lower.size)) * (job.upper - job.lower)
+            f, m, steps, _ = scorer(x)
+        finally:
+            scorer.close()
+            job.close()
+        assert steps <= 4 * 3500 and np.all(m["y_f_m"] != 0)
+        moved = m | {k: m[k] * stretch for k in ("y_f_m", "x_f_m", "yaw_f_deg")}
+        np.testing.assert_array_equal(f, fitness(moved, spec.objective.weights, spec.objective.units))
+
+
+@pytest.mark.parametrize("after", [1, 3])
+def test_a_search_with_short_walks_resumes_bit_identically(short_run, after):
+    """Killed in the short walks' generations, or in the full walks' after them."""
+    ctx = _Killed(after)
+    with pytest.raises(KeyboardInterrupt):
+        run(_short(), ctx)
+    resumed = run(_short(), _Killed(checkpoint=ctx.saved[-1])).summary
+    for key in ("best", "history", "search"):
+        assert resumed[key] == short_run[key]
+
+
+@pytest.mark.parametrize("patch, field, words", [
+    ({"optimizer": "de"}, "search.short_walks", "CMA-ES only"),
+    ({"short_walks": {"walk_s": 4.0, "generations": 2}}, "search.short_walks.walk_s", "shorter than sim.duration_s"),
+    ({"short_walks": {"walk_s": 2.0, "generations": 2}}, "search.short_walks.walk_s", "greater than or equal to 3"),
+    ({"short_walks": {"walk_s": 3.0, "generations": 5}}, "search.short_walks.generations", "at most search.generations"),
+    ({"short_walks": {"walk_s": 3.0, "generations": 0}}, "search.short_walks.generations", "greater than or equal"),
+    ({"short_walks": {"walk_s": "3", "generations": 2}}, "search.short_walks.walk_s", ""),
+])
+def test_bad_short_walks_name_the_field_and_the_range(patch, field, words):
+    from app.jobs.base import SpecError
+
+    with pytest.raises(SpecError) as e:
+        parse_spec({"kind": "recovery", "search": SHORT_SEARCH | patch, "sim": {"duration_s": 4.0}})
+    err = e.value.errors[0]
+    # a range is the field's own error; a rule across fields is the spec's, named in its message
+    assert words in err["message"]
+    assert err["field"] == field or (err["field"] == "spec" and err["message"].startswith(field + ":"))
+
+
+def test_short_walks_refuse_what_judges_the_best_while_they_run():
+    from app.jobs.base import SpecError
+
+    for extra, name in (({"preset": "fast"}, "stop.at_target"), ({"robust": {"models": ["dt_half"]}}, "robust")):
+        with pytest.raises(SpecError) as e:
+            parse_spec({"kind": "recovery", "search": SHORT_SEARCH, "sim": {"duration_s": 4.0}} | extra)
+        msg = e.value.errors[0]["message"]
+        assert msg.startswith("search.short_walks: not with") and name in msg
