@@ -861,25 +861,32 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
             "the interval and the test to agree):", ""] + out + ["", stats.PAIRED_NOTE, ""]
 
 
-# search.short_walks as tried (ALTERNATIVES): F of the short walk carried to the full walk's
-# length, then the same without that (the short walk's own F); and CMA-ES 12 with full walks
-# for as many steps, their control
-SHORT_PARTS = {"alt_cmaes_12x83_short5": "short walks", "alt_cmaes_12x83_short5_raw": "short walks, own F"}
-SAME_STEPS_PART = "alt_cmaes_12x60"
+# search.short_walks as tried: F of the short walk carried to the full walk's length, then
+# the same without that (the short walk's own F); its controls on the same seeds: CMA-ES 12 with
+# full walks for as many steps, and for 82 generations (about 1.36 times the steps)
+SHORT_ROWS = {"short walks": ALTERNATIVES["cmaes_12x83_short5"],
+              "short walks, own F": ALTERNATIVES["cmaes_12x83_short5_raw"]}
+SAME_STEPS, MORE_STEPS = ALTERNATIVES["cmaes_12x60"], EQUAL
+
+
+def _runs_of(rows: list[dict], cfg: dict, lost) -> dict[int, dict]:
+    """The runs of configuration ``cfg`` on ``lost``, by seed (whatever their label)."""
+    return {r["seed"]: r for r in rows
+            if "spec" in r and tuple(r["lost_legs"]) == tuple(lost) and _config(r) == cfg["search"]}
 
 
 def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
-    """search.short_walks (SHORT_PARTS) against its controls on the same seeds: CMA-ES 12 with
-    full walks for as many steps, the equal-quality configuration (about 1.36 times the steps)
-    and the paper DE; medians, then paired by seed."""
+    """search.short_walks (SHORT_ROWS) against its controls on the same seeds: CMA-ES 12 with
+    full walks for as many steps (SAME_STEPS) and for more (MORE_STEPS), and the paper DE;
+    medians, then paired by seed."""
     from app.jobs import stats
 
     rows = [r for r in rows if "lost_legs" in r]
-    tried = [p for p in SHORT_PARTS if any(r["part"] == p for r in rows)]
+    tried = [name for name, cfg in SHORT_ROWS.items() if any(_runs_of(rows, cfg, lost) for lost in SCENARIOS)]
     if not tried:
         return []
-    configs = dict(_labels())
-    sw = configs[tried[0]]["search"]
+    sw = SHORT_ROWS["short walks"]["search"]
+    more = MORE_STEPS["search"]
     out = ["## Short walks in the first generations", "",
            "`search.short_walks` (CMA-ES only): the first generations walk for less time and only steer the search. "
            "Their F ranks the candidates, which is all CMA-ES's update uses, and is told as provisional: it never "
@@ -889,25 +896,25 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
            "so that a drift weighs as it would over the full walk; without it, F is the short walk's own. Tried: "
            f"{sw['short_walks']['generations']} generations of {sw['short_walks']['walk_s']:g} s walks, then "
            f"{sw['generations'] + 1 - sw['short_walks']['generations']} of full 10 s walks, CMA-ES 12: the steps of "
-           "CMA-ES 12 x 60 with full walks, its control at equal steps. Same seeds in every column of a row; the "
-           "paper DE's F as in the tables above.", "",
-           "| damage | configuration | seeds | F | CMA-ES 12 x 60, full walks (same steps) | equal-quality "
-           "configuration | paper DE | steps: this / same-steps / equal-quality | whole run (s) | target met (also "
-           "at half the step) |", "|---" * 10 + "|"]
+           f"CMA-ES 12 x 60 with full walks, its control at equal steps; CMA-ES 12 x {more['generations']} with full "
+           "walks spends about 1.36 times as many. Same seeds in every column of a row; the paper DE's F as in the "
+           "tables above.", "",
+           f"| damage | configuration | seeds | F | CMA-ES 12 x 60, full walks (same steps) | CMA-ES 12 x "
+           f"{more['generations']}, full walks | paper DE | steps: this / 12 x 60 / 12 x {more['generations']} | "
+           "whole run (s) | target met (also at half the step) |", "|---" * 10 + "|"]
     lines = []
     for lost in SCENARIOS:
-        def of(part):
-            return {r["seed"]: r for r in rows if r["part"] == part and tuple(r["lost_legs"]) == lost}
-        same, equal, paper = of(SAME_STEPS_PART), of("equal"), _paper_fitness(rows, lost, table2)
-        for part in tried:
-            short = of(part)
+        same, bigger, paper = _runs_of(rows, SAME_STEPS, lost), _runs_of(rows, MORE_STEPS, lost), _paper_fitness(
+            rows, lost, table2)
+        for name in tried:
+            short = _runs_of(rows, SHORT_ROWS[name], lost)
             seeds = sorted(set(short) & set(same) & set(paper))
             if not seeds:
                 continue
-            eq = [equal[k]["fitness"] for k in seeds if k in equal]
+            eq = [bigger[k]["fitness"] for k in seeds if k in bigger]
             steps = [statistics.median(r[k]["sim_steps"] for k in seeds) if all(k in r for k in seeds) else None
-                     for r in (short, same, equal)]
-            out.append(f"| {_name(lost)} | {SHORT_PARTS[part]} | {len(seeds)} | "
+                     for r in (short, same, bigger)]
+            out.append(f"| {_name(lost)} | {name} | {len(seeds)} | "
                        f"{_spread([short[k]['fitness'] for k in seeds], '{:.2f}')} | "
                        f"{_spread([same[k]['fitness'] for k in seeds], '{:.2f}')} | "
                        f"{_spread(eq, '{:.2f}') + ('' if len(eq) in (0, len(seeds)) else f' ({len(eq)})')} | "
@@ -917,11 +924,10 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
                        f"{sum(short[k]['target_met'] for k in seeds)} "
                        f"({sum(bool(short[k]['half_step_met']) for k in seeds)}) of {len(seeds)} |")
             a = [short[k]["fitness"] for k in seeds]
-            for name, b in (("CMA-ES 12 x 60 with full walks", [same[k]["fitness"] for k in seeds]),
-                            ("the paper DE", [paper[k] for k in seeds])):
-                r = stats.paired(a, b, names=(SHORT_PARTS[part], name))
-                lines.append(f"- {_name(lost)}: {SHORT_PARTS[part]} minus {name}, paired by seed: "
-                             f"{stats.paired_text(r)}.")
+            for control, b in (("CMA-ES 12 x 60 with full walks", [same[k]["fitness"] for k in seeds]),
+                               ("the paper DE", [paper[k] for k in seeds])):
+                r = stats.paired(a, b, names=(name, control))
+                lines.append(f"- {_name(lost)}: {name} minus {control}, paired by seed: {stats.paired_text(r)}.")
     return out + ["", "Paired by seed (the note above says how to read a verdict):", ""] + lines + [""]
 
 
