@@ -27,24 +27,23 @@ SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
 ONLY_SEARCH = {"controls": {"random_search": False}, "robustness": {"cases": ["dt_half"], "held_out": 0}}
 PAPER = {"search": {"population": 30, "generations": 60}}
 # The equal-quality configuration: CMA-ES (the `cma` package behind the same ask/tell
-# interface), 12 per generation, 1 ms, full 10 s walks (docs/recovery_speed.md): about 1,000
-# walks, what 60 s buys on two idle cores at the step of the explicit contact pairs.
-EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}}
-# Other configurations (part name "alt_<name>"): the equal-quality configuration of before the
-# faster step (CMA-ES 12 x 60, about 730 walks), and at about its budget, tried where it fell
-# short (legs 3 & 4), a wider and a narrower CMA-ES generation and the paper's DE itself with a
-# population of 12 and cut walks; and CMA-ES 12 whose first 48 generations walk 5 s
-# (search.short_walks, issue 22's "shorter walks in early generations"), scored on the walk
-# carried to 10 s and on its own F: the steps of CMA-ES 12 x 60 over 84 generations. A run is
-# labelled by the configuration it ran (its spec), so
-# the runs of a configuration keep their label when EQUAL changes (``by_config``).
+# interface), 12 per generation, 1 ms; its first 48 generations walk 5 s, their displacements
+# carried to 10 s (search.short_walks), then 36 generations of full 10 s walks: the steps of
+# about 730 full walks, which 60 s buys on two idle cores (docs/recovery_speed.md).
+EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
+                    "short_walks": {"walk_s": 5.0, "generations": 48}}}
+# Other configurations (part name "alt_<name>"): the equal-quality configurations of before,
+# CMA-ES 12 x 60 (before the faster step) and 12 x 82 (full walks); at about 12 x 60's budget,
+# tried where it fell short (legs 3 & 4), a wider and a narrower CMA-ES generation and the
+# paper's DE itself with a population of 12 and cut walks; and the short walks scored on their
+# own F (without carrying them to 10 s). A run is labelled by the configuration it ran (its
+# spec), so the runs of a configuration keep their label when EQUAL changes (``by_config``).
 ALTERNATIVES = {
     "cmaes_12x60": {"search": {"optimizer": "cmaes", "population": 12, "generations": 60}},
+    "cmaes_12x82": {"search": {"optimizer": "cmaes", "population": 12, "generations": 82}},
     "cmaes_20x36": {"search": {"optimizer": "cmaes", "population": 20, "generations": 36}},
     "cmaes_8x90": {"search": {"optimizer": "cmaes", "population": 8, "generations": 90}},
     "de_12x60_cut": {"search": {"population": 12, "generations": 60, "cut_walks": True}},
-    "cmaes_12x83_short5": {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
-                                      "short_walks": {"walk_s": 5.0, "generations": 48}}},
     "cmaes_12x83_short5_raw": {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
                                           "short_walks": {"walk_s": 5.0, "generations": 48, "extrapolate": False}}},
 }
@@ -777,15 +776,29 @@ def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, floa
     return out
 
 
+def _paper_half_step(rows: list[dict], lost, table2: list[dict]) -> dict[int, bool]:
+    """Whether the paper DE's answer meets the target at half the step, per seed: this page's
+    runs, else docs/table2.json's robustness case dt_half."""
+    rows = [r for r in rows if tuple(r.get("lost_legs", ())) == tuple(lost)]
+    out = {r["seed"]: bool(r["half_step_met"]) for r in rows if r["part"] == "paper"}
+    for seed in {r["seed"] for r in rows} - set(out):
+        case = ((_documented(lost, seed, table2) or {}).get("robustness") or {}).get("cases", {}).get("dt_half")
+        if case is not None:
+            out[seed] = bool(case["target_met"])
+    return out
+
+
 def _at_budget(rows: list[dict], lost, eq: list[dict]) -> list[float]:
-    """The paper DE's best F (its runs' history) once it had evaluated as many walks as the
-    equal-quality search of the same seed."""
+    """The paper DE's best F (its runs' history) once it had simulated as many steps as the
+    equal-quality search of the same seed (its walks are all full: steps per walk from its
+    own totals, the steps its cut walks saved included)."""
     out = []
     for r in eq:
         paper = next((p for p in rows if p["part"] == "paper" and tuple(p["lost_legs"]) == lost
                       and p["seed"] == r["seed"]), None)
         if paper is not None:
-            out.append(max((b for _, b, n in paper["curve"] if n <= r["evaluations"]), default=float("nan")))
+            walks = r["sim_steps"] * paper["evaluations"] / (paper["sim_steps"] + paper["cut_steps_saved"])
+            out.append(max((b for _, b, n in paper["curve"] if n <= walks), default=float("nan")))
     return out
 
 
@@ -801,7 +814,7 @@ def summary_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     seeds, and the fast preset's time to the target, in steps (machine-independent) and
     seconds (this machine, at its load)."""
     out = ["| damage | paper DE F, median [range] (seeds) | equal-quality F | equal >= paper, same seed | "
-           "paper DE F after as many walks as the equal-quality search | "
+           "paper DE F after as many steps as the equal-quality search | "
            "equal-quality answers meeting the target (also at half the step) | equal-quality steps / paper DE steps | "
            "equal-quality run, whole budget (s) | equal-quality walks to the same seed's paper DE F | "
            "fast preset: steps to the target | fast preset: time to the target (s) | fast preset: met at half the "
@@ -864,9 +877,8 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
 # search.short_walks as tried: F of the short walk carried to the full walk's length, then
 # the same without that (the short walk's own F); its controls on the same seeds: CMA-ES 12 with
 # full walks for as many steps, and for 82 generations (about 1.36 times the steps)
-SHORT_ROWS = {"short walks": ALTERNATIVES["cmaes_12x83_short5"],
-              "short walks, own F": ALTERNATIVES["cmaes_12x83_short5_raw"]}
-SAME_STEPS, MORE_STEPS = ALTERNATIVES["cmaes_12x60"], EQUAL
+SHORT_ROWS = {"short walks": EQUAL, "short walks, own F": ALTERNATIVES["cmaes_12x83_short5_raw"]}
+SAME_STEPS, MORE_STEPS = ALTERNATIVES["cmaes_12x60"], ALTERNATIVES["cmaes_12x82"]
 
 
 def _runs_of(rows: list[dict], cfg: dict, lost) -> dict[int, dict]:
@@ -901,11 +913,13 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
            "tables above.", "",
            f"| damage | configuration | seeds | F | CMA-ES 12 x 60, full walks (same steps) | CMA-ES 12 x "
            f"{more['generations']}, full walks | paper DE | steps: this / 12 x 60 / 12 x {more['generations']} | "
-           "whole run (s) | target met (also at half the step) |", "|---" * 10 + "|"]
+           "whole run (s) | target met (also at half the step) | paper DE: met at half the step |",
+           "|---" * 11 + "|"]
     lines = []
     for lost in SCENARIOS:
         same, bigger, paper = _runs_of(rows, SAME_STEPS, lost), _runs_of(rows, MORE_STEPS, lost), _paper_fitness(
             rows, lost, table2)
+        half = _paper_half_step(rows, lost, table2)
         for name in tried:
             short = _runs_of(rows, SHORT_ROWS[name], lost)
             seeds = sorted(set(short) & set(same) & set(paper))
@@ -922,12 +936,15 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
                        f"{' / '.join('-' if v is None else f'{v / 1e6:.2f} M' for v in steps)} | "
                        f"{_spread([short[k]['wall_s'] for k in seeds], '{:.0f}')} | "
                        f"{sum(short[k]['target_met'] for k in seeds)} "
-                       f"({sum(bool(short[k]['half_step_met']) for k in seeds)}) of {len(seeds)} |")
+                       f"({sum(bool(short[k]['half_step_met']) for k in seeds)}) of {len(seeds)} | "
+                       f"{sum(half[k] for k in seeds if k in half)} of {sum(k in half for k in seeds)} |")
             a = [short[k]["fitness"] for k in seeds]
             for control, b in (("CMA-ES 12 x 60 with full walks", [same[k]["fitness"] for k in seeds]),
                                ("the paper DE", [paper[k] for k in seeds])):
                 r = stats.paired(a, b, names=(name, control))
                 lines.append(f"- {_name(lost)}: {name} minus {control}, paired by seed: {stats.paired_text(r)}.")
+    if not lines:  # no seed has a same-steps run and a paper DE F beside the short walks
+        return []
     return out + ["", "Paired by seed (the note above says how to read a verdict):", ""] + lines + [""]
 
 
