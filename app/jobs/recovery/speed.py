@@ -29,7 +29,7 @@ PAPER = {"search": {"population": 30, "generations": 60}}
 # The equal-quality configuration: CMA-ES (the `cma` package behind the same ask/tell
 # interface), 12 per generation, 1 ms; its first 48 generations walk 5 s, their displacements
 # carried to 10 s (search.short_walks), then 36 generations of full 10 s walks: the steps of
-# about 730 full walks, which 60 s buys on two idle cores (docs/recovery_speed.md).
+# CMA-ES 12 x 60 on full walks (docs/recovery_speed.md has its runs and their wall times).
 EQUAL = {"search": {"optimizer": "cmaes", "population": 12, "generations": 83,
                     "short_walks": {"walk_s": 5.0, "generations": 48}}}
 # Other configurations (part name "alt_<name>"): the equal-quality configurations of before,
@@ -876,7 +876,7 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
 
 # search.short_walks as tried: F of the short walk carried to the full walk's length, then
 # the same without that (the short walk's own F); its controls on the same seeds: CMA-ES 12 with
-# full walks for as many steps, and for 82 generations (about 1.36 times the steps)
+# full walks for as many steps, and for 82 generations (more steps)
 SHORT_ROWS = {"short walks": EQUAL, "short walks, own F": ALTERNATIVES["cmaes_12x83_short5_raw"]}
 SAME_STEPS, MORE_STEPS = ALTERNATIVES["cmaes_12x60"], ALTERNATIVES["cmaes_12x82"]
 
@@ -907,10 +907,11 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
            "walk's forward, lateral and yaw displacements are carried to the full walk's length as rates before F, "
            "so that a drift weighs as it would over the full walk; without it, F is the short walk's own. Tried: "
            f"{sw['short_walks']['generations']} generations of {sw['short_walks']['walk_s']:g} s walks, then "
-           f"{sw['generations'] + 1 - sw['short_walks']['generations']} of full 10 s walks, CMA-ES 12: the steps of "
-           f"CMA-ES 12 x 60 with full walks, its control at equal steps; CMA-ES 12 x {more['generations']} with full "
-           "walks spends about 1.36 times as many. Same seeds in every column of a row; the paper DE's F as in the "
-           "tables above.", "",
+           f"{sw['generations'] + 1 - sw['short_walks']['generations']} of full 10 s walks, CMA-ES 12 (this page's "
+           "equal-quality configuration): the steps of CMA-ES 12 x 60 with full walks, its control at equal steps. "
+           f"CMA-ES 12 x {more['generations']} with full walks spends more (the steps column). Same seeds in every "
+           "column of a row; the paper DE's F and its answers at half the step as in the tables above (else "
+           "docs/table2.json's robustness case dt_half).", "",
            f"| damage | configuration | seeds | F | CMA-ES 12 x 60, full walks (same steps) | CMA-ES 12 x "
            f"{more['generations']}, full walks | paper DE | steps: this / 12 x 60 / 12 x {more['generations']} | "
            "whole run (s) | target met (also at half the step) | paper DE: met at half the step |",

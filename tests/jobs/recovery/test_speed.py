@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.jobs.base import MemoryContext
-from app.jobs.loop import Generation, GoalCheck, run_search
+from app.jobs.loop import Generation, GoalCheck, StopRules, run_search
 from app.jobs.recovery.metrics import fitness, fitness_bound
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import PRESETS, RecoverySpec
@@ -382,8 +382,8 @@ def test_a_short_walk_is_scored_on_its_displacements_carried_to_the_full_walk():
     for extrapolate, stretch in ((True, 4.0 / 3.0), (False, 1.0)):
         spec = _short(short_walks={"walk_s": 3.0, "generations": 2, "extrapolate": extrapolate})
         job = set_up(spec)
+        scorer = _short_scorer(job)
         try:
-            scorer = _short_scorer(job)
             x = job.lower + rng.random((4, job.lower.size)) * (job.upper - job.lower)
             f, m, steps, _ = scorer(x)
         finally:
@@ -432,3 +432,27 @@ def test_short_walks_refuse_what_judges_the_best_while_they_run():
             parse_spec({"kind": "recovery", "search": SHORT_SEARCH, "sim": {"duration_s": 4.0}} | extra)
         msg = e.value.errors[0]["message"]
         assert msg.startswith("search.short_walks: not with") and name in msg
+
+
+class _Provisional(_Toy):
+    """_Toy, told its first two generations as provisional: they do not count for the best."""
+
+    def tell(self, f, provisional=False):
+        if provisional:
+            self.generation += 1
+        else:
+            super().tell(f)
+
+
+def test_the_stop_rules_and_the_best_pass_over_provisional_rows():
+    """The first two generations score 100 (above the target and flat: a plateau) but are
+    provisional: nothing stops there and the best is of the later rows only."""
+    def evaluate(x):
+        g = int(x[0, 0])
+        return Generation(np.full(2, 100.0) if g < 2 else x[:, 0].copy(), provisional=g < 2)
+
+    out = run_search(_Provisional(), evaluate, 5, MemoryContext(),
+                     StopRules(target=50.0, plateau_generations=1, plateau_rel_tol=0.0))
+    assert [r.get("provisional", 0) for r in out.history[:3]] == [1, 1, 0]
+    assert [r["best"] for r in out.history] == [100.0, 100.0, 2.0, 3.0, 4.0, 5.0]
+    assert out.stop_reason == "generations" and out.best_fitness == 5.0
