@@ -13,6 +13,7 @@ import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -764,28 +765,34 @@ def _host(row: dict) -> str:
     return "not recorded" if m is None else machine_text(m, cores=False)
 
 
-def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
-    """The paper DE's final F per seed: this page's runs, else docs/table2.json's (full walks);
-    rows that are not searches (no damage) are passed over."""
+def _paper_by_seed(rows: list[dict], lost, table2: list[dict], own: Callable[[dict], Any],
+                   documented: Callable[[dict], Any]) -> dict[int, Any]:
+    """A value of the paper DE's answer per seed: ``own`` of this page's runs, else
+    ``documented`` of docs/table2.json's (full walks; None: not there); rows that are not
+    searches (no damage) are passed over."""
     rows = [r for r in rows if tuple(r.get("lost_legs", ())) == tuple(lost)]
-    out = {r["seed"]: r["fitness"] for r in rows if r["part"] == "paper"}
+    out = {r["seed"]: own(r) for r in rows if r["part"] == "paper"}
     for seed in {r["seed"] for r in rows} - set(out):
         doc = _documented(lost, seed, table2)
-        if doc is not None:
-            out[seed] = doc["best_fitness"]
+        value = None if doc is None else documented(doc)
+        if value is not None:
+            out[seed] = value
     return out
+
+
+def _paper_fitness(rows: list[dict], lost, table2: list[dict]) -> dict[int, float]:
+    """The paper DE's final F per seed."""
+    return _paper_by_seed(rows, lost, table2, lambda r: r["fitness"], lambda d: d["best_fitness"])
 
 
 def _paper_half_step(rows: list[dict], lost, table2: list[dict]) -> dict[int, bool]:
-    """Whether the paper DE's answer meets the target at half the step, per seed: this page's
-    runs, else docs/table2.json's robustness case dt_half."""
-    rows = [r for r in rows if tuple(r.get("lost_legs", ())) == tuple(lost)]
-    out = {r["seed"]: bool(r["half_step_met"]) for r in rows if r["part"] == "paper"}
-    for seed in {r["seed"] for r in rows} - set(out):
-        case = ((_documented(lost, seed, table2) or {}).get("robustness") or {}).get("cases", {}).get("dt_half")
-        if case is not None:
-            out[seed] = bool(case["target_met"])
-    return out
+    """Whether the paper DE's answer meets the target at half the step, per seed (Table II's
+    rows: their robustness case dt_half)."""
+    def documented(d: dict) -> bool | None:
+        case = (d.get("robustness") or {}).get("cases", {}).get("dt_half")
+        return None if case is None else bool(case["target_met"])
+
+    return _paper_by_seed(rows, lost, table2, lambda r: bool(r["half_step_met"]), documented)
 
 
 def _at_budget(rows: list[dict], lost, eq: list[dict]) -> list[float]:

@@ -336,21 +336,6 @@ def _short(**search) -> RecoverySpec:
                         controls={"random_search": False}, robustness={"cases": [], "held_out": 0})
 
 
-class _Killed(MemoryContext):
-    """Checkpoints kept; the worker dies once ``after`` generations are done."""
-
-    def __init__(self, after: int | None = None, checkpoint: dict | None = None):
-        super().__init__()
-        self.after, self.saved = after, []
-        self._ckpt = checkpoint
-
-    def save_checkpoint(self, state):
-        super().save_checkpoint(json.loads(json.dumps(state)))
-        self.saved.append(self._ckpt)
-        if self.after is not None and len(self.saved) >= self.after:
-            raise KeyboardInterrupt
-
-
 @pytest.fixture(scope="module")
 def short_run():
     return run(_short(), MemoryContext()).summary
@@ -397,10 +382,10 @@ def test_a_short_walk_is_scored_on_its_displacements_carried_to_the_full_walk():
 @pytest.mark.parametrize("after", [1, 3])
 def test_a_search_with_short_walks_resumes_bit_identically(short_run, after):
     """Killed in the short walks' generations, or in the full walks' after them."""
-    ctx = _Killed(after)
+    ctx = _Ctx(kill_after=after)
     with pytest.raises(KeyboardInterrupt):
         run(_short(), ctx)
-    resumed = run(_short(), _Killed(checkpoint=ctx.saved[-1])).summary
+    resumed = run(_short(), _Ctx(ckpt=ctx.load_checkpoint())).summary
     for key in ("best", "history", "search"):
         assert resumed[key] == short_run[key]
 
