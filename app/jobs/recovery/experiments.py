@@ -23,7 +23,7 @@ from app.jobs.recovery.rows import feasible_losses, robustness_row, search_row
 from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
-from app.jobs.recovery.speed import ALTERNATIVES
+from app.jobs.recovery.speed import PARTS as SPEED_RUNS
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]
 # Paper 000's Table II, quoted: the paper's numbers, not ours (its real robot, mean of the 10 best
@@ -742,8 +742,7 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
-_SPEED_PARTS = "|".join(["bench", "profile", "pairs", "scaling", "variants", "throughput", "cap", "check", "fast",
-                          "equal", "paper", "control", "coarse"] + [f"alt_{name}" for name in ALTERNATIVES])
+_SPEED_PARTS = "|".join(["bench", "profile", "pairs", "scaling", "variants", "throughput", "check"] + list(SPEED_RUNS))
 
 
 class SpeedParams(BaseModel):

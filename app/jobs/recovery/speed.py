@@ -884,14 +884,14 @@ def paired_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
 # search.short_walks as tried: F of the short walk carried to the full walk's length, then
 # the same without that (the short walk's own F); its controls on the same seeds: CMA-ES 12 with
 # full walks for as many steps, and for 82 generations (more steps)
-SHORT_ROWS = {"short walks": EQUAL, "short walks, own F": ALTERNATIVES["cmaes_12x83_short5_raw"]}
-SAME_STEPS, MORE_STEPS = ALTERNATIVES["cmaes_12x60"], ALTERNATIVES["cmaes_12x82"]
+# (part labels as by_config gives them)
+SHORT_ROWS = {"short walks": "equal", "short walks, own F": "alt_cmaes_12x83_short5_raw"}
+SAME_STEPS, MORE_STEPS = "alt_cmaes_12x60", "alt_cmaes_12x82"
 
 
-def _runs_of(rows: list[dict], cfg: dict, lost) -> dict[int, dict]:
-    """The runs of configuration ``cfg`` on ``lost``, by seed (whatever their label)."""
-    return {r["seed"]: r for r in rows
-            if "spec" in r and tuple(r["lost_legs"]) == tuple(lost) and _config(r) == cfg["search"]}
+def _runs_of(rows: list[dict], part: str, lost) -> dict[int, dict]:
+    """The runs labelled ``part`` (by_config: by the configuration they ran) on ``lost``, by seed."""
+    return {r["seed"]: r for r in rows if r["part"] == part and tuple(r["lost_legs"]) == tuple(lost)}
 
 
 def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
@@ -904,8 +904,8 @@ def short_markdown(rows: list[dict], table2: list[dict]) -> list[str]:
     tried = [name for name, cfg in SHORT_ROWS.items() if any(_runs_of(rows, cfg, lost) for lost in SCENARIOS)]
     if not tried:
         return []
-    sw = SHORT_ROWS["short walks"]["search"]
-    more = MORE_STEPS["search"]
+    sw = EQUAL["search"]
+    more = ALTERNATIVES[MORE_STEPS.removeprefix("alt_")]["search"]
     out = ["## Short walks in the first generations", "",
            "`search.short_walks` (CMA-ES only): the first generations walk for less time and only steer the search. "
            "Their F ranks the candidates, which is all CMA-ES's update uses, and is told as provisional: it never "
