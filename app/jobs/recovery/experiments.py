@@ -742,7 +742,8 @@ def _convergence(p: ConvergenceParams, log: Callable[[str], None]) -> str:
 
 
 # the parts of `reproduce recovery-speed` (speed.PARTS and the measurements of speed.measure)
-_SPEED_PARTS = "|".join(["bench", "profile", "pairs", "scaling", "variants", "throughput", "check"] + list(SPEED_RUNS))
+_SPEED_PARTS = "|".join(["bench", "profile", "pairs", "scaling", "variants", "throughput", "check",
+                          "perturbed"] + list(SPEED_RUNS))
 
 
 class SpeedParams(BaseModel):
@@ -758,7 +759,9 @@ class SpeedParams(BaseModel):
                                    "coarse-to-fine's coarse search judged at the default step; the fast preset's time "
                                    "to the target; the equal-quality configuration; the paper DE with cut walks "
                                    "(checked against Table II); alt_<name>: another configuration of about the "
-                                   "equal-quality budget (speed.ALTERNATIVES)")
+                                   "equal-quality budget (speed.ALTERNATIVES); perturbed: the short walks' answers, "
+                                   "their same-steps control's and the paper DE's under the named cases and on the "
+                                   "held-out models (every seed that has all three)")
     seeds: int = Field(3, ge=1, le=20, description="seeds per damage")
     damages: str = Field("table2", pattern=r"^(table2|1-6|3-4)$", description="table2: the four Table II damages; "
                                                                               "1-6: legs 1 & 6 only; 3-4: legs 3 & 4 only")

@@ -91,17 +91,24 @@ def case_models(mspec: mujoco.MjSpec, model: mujoco.MjModel, cases: Sequence[Per
     return [perturbed_model(mspec, c, model) for c in cases]
 
 
+def held_out_walks(mspec: mujoco.MjSpec, robot: RobotEntry, seq: GaitSequence, cfg: SimConfig, x: np.ndarray,
+                   seed: int, n: int):
+    """Gaits ``x`` (D,) or (P, D) on the ``n`` held-out random models of ``seed`` (the
+    held-out stream), in one rollout call: (the draws, the rollout's result: metrics (P, n))."""
+    draws = draw_models(seed, n, HELD_OUT_STREAM)
+    ev = MultiModelEvaluator(robot, random_models(mspec, draws, robot.geometry.total_mass), seq, cfg)
+    try:
+        return draws, ev.evaluate_all(np.atleast_2d(x))
+    finally:
+        ev.close()
+
+
 def held_out(mspec: mujoco.MjSpec, robot: RobotEntry, seq: GaitSequence, cfg: SimConfig, x: np.ndarray, seed: int,
              n: int, judge: Callable[[dict], bool | None]) -> tuple[dict, int]:
     """The answer ``x`` on ``n`` random models drawn from ``cases.RANDOM_RANGES`` with the
     held-out stream of the job's seed (never drawn by a search), in one rollout call:
     ({"n", "met", "share", "ranges", "models": [{"draw", "metrics", "target_met"}]}, steps)."""
-    draws = draw_models(seed, n, HELD_OUT_STREAM)
-    ev = MultiModelEvaluator(robot, random_models(mspec, draws, robot.geometry.total_mass), seq, cfg)
-    try:
-        r = ev.evaluate_all(np.atleast_2d(x))
-    finally:
-        ev.close()
+    draws, r = held_out_walks(mspec, robot, seq, cfg, x, seed, n)
     models = []
     for k, d in enumerate(draws):
         m = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in r.metrics.items()}

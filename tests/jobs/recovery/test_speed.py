@@ -441,3 +441,53 @@ def test_the_stop_rules_and_the_best_pass_over_provisional_rows():
     assert [r.get("provisional", 0) for r in out.history[:3]] == [1, 1, 0]
     assert [r["best"] for r in out.history] == [100.0, 100.0, 2.0, 3.0, 4.0, 5.0]
     assert out.stop_reason == "generations" and out.best_fitness == 5.0
+
+
+def test_the_perturbed_part_judges_each_answer_as_a_job_judges_its_own():
+    """The answers of the short walks, their same-steps control and the paper DE (Table II's
+    for the seed), re-walked under the named cases and the seed's held-out models: each
+    case's verdict is the one Table II's job recorded for that answer, and the held-out count
+    is what a job's held-out block (robust.held_out) gives the same answer and seed."""
+    from app.jobs.recovery import speed
+    from app.jobs.recovery.metrics import target_met
+    from app.jobs.recovery.robust import held_out
+    from app.jobs.recovery.run import set_up
+
+    table2 = speed._table2_rows(Path("docs"))
+    doc = {k: speed._documented((1, 6), k, table2) for k in (0, 1, 2)}
+
+    def answer(part, cfg, of):  # seed 0's run of ``cfg`` holding the documented answer of seed ``of``
+        return {"part": part, "lost_legs": [1, 6], "seed": 0, "params": doc[of]["best_params"],
+                "spec": {"search": cfg["search"] | {"seed": 0}}}
+
+    rows = [answer("equal", speed.EQUAL, 1), answer("alt_x", speed.ALTERNATIVES["cmaes_12x60"], 2)]
+    [row] = list(speed.perturbed_rows(rows, table2, [(1, 6)], set()))
+    assert row["seed"] == 0 and row["cases"] == list(doc[0]["robustness"]["cases"])
+    job = set_up(RecoverySpec(damage={"lost_legs": [1, 6]}))
+    try:
+        for name, of in zip(speed.PERTURBED_SETS, (1, 2, 0)):
+            assert row["sets"][name]["cases_met"] == [bool(c["target_met"]) for c in
+                                                     doc[of]["robustness"]["cases"].values()]
+            x = np.array(list(doc[of]["best_params"].values()))
+            block, _ = held_out(job.mspec, job.robot, job.seq, job.ev.cfg, x, 0, 20, target_met)
+            assert row["sets"][name]["held_out_met"] == block["met"]
+    finally:
+        job.close()
+    assert list(speed.perturbed_rows(rows, table2, [(1, 6)], {((1, 6), 0)})) == []  # done: not walked again
+    # the page: counts per case and held-out, then the short walks paired by seed with each control
+    other = copy.deepcopy(row) | {"seed": 1}
+    other["sets"]["paper DE"]["held_out_met"] += 5
+    md = "\n".join(speed.perturbed_markdown([row, other]))
+    met = row["sets"]["short walks"]
+    assert ("| legs 1 & 6 | short walks | 2 | " + " | ".join(f"{2 * m} of 2" for m in met["cases_met"])
+            + f" | {2 * met['held_out_met']} of 40 (median {met['held_out_met']:g}) |") in md
+    assert "- legs 1 & 6: models met (of 27), short walks minus paper DE, paired by seed: " in md
+    assert speed.perturbed_markdown([]) == []
+    # a control shown better is named in the verdict under the table
+    worse = [copy.deepcopy(row) | {"seed": k} for k in range(8)]
+    for r in worse:  # the same-steps control as robust as the short walks, the paper DE more
+        r["sets"]["CMA-ES 12 x 60, full walks (same steps)"] = dict(r["sets"]["short walks"])
+        r["sets"]["paper DE"]["held_out_met"] = r["sets"]["short walks"]["held_out_met"] + 3 + r["seed"] % 2
+    md = "\n".join(speed.perturbed_markdown(worse))
+    assert "shown less robust on legs 1 & 6 (against paper DE), and no difference is shown elsewhere." in md
+    assert "no difference from either control is shown" in "\n".join(speed.perturbed_markdown([row, other]))
