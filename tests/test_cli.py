@@ -175,3 +175,30 @@ def test_spec_files_get_the_api_parser(tmp_path, text, needle):
     p = gaitmend("run", str(spec), "--out", str(tmp_path / "out"))
     assert p.returncode == 2 and needle in " ".join(p.stderr.split()), p.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_run_prints_the_verdict_with_the_held_out_figure_and_the_bundle_readme_says_it_too(tmp_path):
+    """Issue 46: `gaitmend run`'s summary ends with the verdict, whose first words call a
+    gait fragile when its held-out random models do not keep the target; the bundle's README
+    and the --json summary state the same figure."""
+    from verdict_support import FRAGILE
+
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(FRAGILE))
+    p = gaitmend("run", str(spec), "--out", str(tmp_path / "out"), "--quiet")
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.strip().splitlines()
+    verdict = next(line for line in lines if line.startswith("Verdict: "))
+    assert verdict.startswith("Verdict: Fragile: keeps the target on 0 of 20: do not take it to the robot as it is."), verdict
+    assert "0 of 20 held-out random models keep the target (95 % interval 0–16 %)" in verdict
+    assert "named cases" in verdict and "timestep checks" in verdict
+    assert any("fewer than 80 % of the held-out random models keep the target" in line for line in lines)
+    folder = next(d for d in (tmp_path / "out").iterdir() if d.is_dir())
+    readme = (folder / "README.md").read_text()
+    assert "## Verdict" in readme and verdict in readme
+    assert "more than 5 % of them fall" in readme
+
+    j = gaitmend("run", str(folder / "manifest.json"), "--out", str(tmp_path / "again"), "--json", "--quiet")
+    held = json.loads(j.stdout.strip().splitlines()[-1])["verdict"]["held_out"]
+    assert (held["met"], held["n"], held["fragile"]) == (0, 20, True)
+    assert held["text"].startswith("0 of 20 held-out random models keep the target")

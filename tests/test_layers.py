@@ -1,6 +1,6 @@
 """The import direction of docs/architecture.md, checked on the source for every package
 of app/ and workers/: core at the bottom, then robots, optimisers and shared simulation,
-the jobs (the contract and the kinds), the store, studies, results, the service, the API,
+the jobs (the contract and the kinds), the adaptation, the store, studies, results, the service, the API,
 and the CLI and workers on top. Science never imports a web, database or queue library;
 kinds are reached only through app/jobs; no module imports itself back through others; a
 module outside a kind's package that only one kind uses belongs in that kind."""
@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 # peers: the registry imports the kinds, the kinds import the contract)
 # (client, the Python client: reads bundles and talks HTTP, never the store or the service;
 # the CLI's client commands use it)
-RANK = {"core": 0, "app": 0, "robots": 1, "optim": 2, "sim": 2, "jobs": 3, "jobs.<kind>": 3, "store": 4,
-        "results": 5, "client": 6, "studies": 7, "service": 8, "api": 9, "workers": 10, "cli": 11}
+RANK = {"core": 0, "app": 0, "robots": 1, "optim": 2, "sim": 2, "jobs": 3, "jobs.<kind>": 3, "adapt": 4, "store": 5,
+        "results": 6, "client": 7, "studies": 8, "service": 9, "api": 10, "workers": 11, "cli": 12}
 LEAVES = {"core", "app"}  # import nothing of the ranked packages but themselves
-SCIENCE = ("robots", "optim", "sim", "jobs", "jobs.<kind>")
+SCIENCE = ("robots", "optim", "sim", "jobs", "jobs.<kind>", "adapt")
 SERVICE_LIBS = ("fastapi", "sqlalchemy", "celery", "starlette", "uvicorn", "alembic", "redis", "kombu")
 # Shared by declaration, even where one kind is today's only user: the robot-model layer
 # (every kind asks it for its robot, and uploaded robots will be entries of the same
@@ -184,3 +184,96 @@ def test_builtin_studies_are_named_only_in_their_kinds_package():
         text = f.read_text(errors="replace")
         hits += [f"{f.relative_to(ROOT)}: {n}" for n in names if n in text]
     assert not hits, "built-in study names outside their kind's package:\n" + "\n".join(hits)
+
+
+# -- a kind's runtime and its reproductions (docs/architecture.md, "Where a change goes") ----------
+
+REPRODUCE = "reproduce"  # app/jobs/<kind>/reproduce/: a kind's reproductions, benches, peers, doc generators
+MAX_REPRODUCTION_SHARE = 0.10  # of a kind's runtime lines (issue 42)
+
+
+def _kinds() -> list[str]:
+    return sorted({k for m in MODULES if (k := _kind_of(m)) and f"app.jobs.{k}" in MODULES})
+
+
+def _is_reproduction(mod: str) -> bool:
+    parts = mod.split(".")
+    return _kind_of(mod) is not None and len(parts) > 3 and parts[3] == REPRODUCE
+
+
+def _deferred(kind: str) -> dict[str, str]:
+    """The kind's ``Deferred(module, attr)`` members by name: the only way the contract
+    reaches a module the kind package does not import (so the AST walk cannot see it)."""
+    f = ROOT / "app" / "jobs" / kind / "__init__.py"
+    out = {}
+    for node in ast.walk(ast.parse(f.read_text())):
+        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) \
+                and getattr(node.value.func, "id", None) == "Deferred" and node.value.args:
+            out[node.targets[0].id] = f"app.jobs.{kind}{node.value.args[0].value}"
+    return out
+
+
+def _runtime(kind: str) -> set[str]:
+    """The modules a job of ``kind`` can load: its package and the Deferred members other
+    than the research hooks (experiments, bench), with everything they import."""
+    roots = [f"app.jobs.{kind}"] + [m for name, m in _deferred(kind).items() if name not in ("experiments", "bench")]
+    seen: set[str] = set()
+    stack = list(roots)
+    while stack:
+        m = stack.pop()
+        if m in seen or m not in MODULES:
+            continue
+        seen.add(m)
+        # a module needs its packages' __init__ too
+        stack += [p for p in (".".join(m.split(".")[:i]) for i in range(3, len(m.split(".")))) if p in MODULES]
+        stack += sorted(_edges(m))
+    return seen
+
+
+def _lines(mods) -> int:
+    return sum(len(MODULES[m][0].read_text().splitlines()) for m in mods)
+
+
+def _split(kind: str) -> tuple[set[str], set[str], set[str]]:
+    """(runtime, reproduction, neither) modules of the kind's package."""
+    own = {m for m in MODULES if _kind_of(m) == kind}
+    runtime = {m for m in _runtime(kind) if _kind_of(m) == kind}
+    repro = {m for m in own if _is_reproduction(m)}
+    return runtime, repro, own - runtime - repro
+
+
+@pytest.mark.parametrize("kind", _kinds())
+def test_runtime_never_imports_the_reproductions(kind):
+    """No module a job loads reaches its kind's reproduce/ package; only the research hooks
+    (``experiments``, ``bench``) name it."""
+    runtime, _, _ = _split(kind)
+    bad = sorted(m for m in runtime if _is_reproduction(m))
+    assert not bad, f"the {kind} job's runtime loads reproduction modules: {bad}"
+    for name, target in _deferred(kind).items():
+        if name not in ("experiments", "bench"):
+            assert not _is_reproduction(target), f"{kind}.{name} = Deferred({target}): a runtime member in {REPRODUCE}/"
+
+
+@pytest.mark.parametrize("kind", _kinds())
+def test_code_a_job_never_loads_is_a_reproduction(kind):
+    """Every module of a kind is either loaded by its jobs or kept in its reproduce/ package,
+    and reproduction code left among the runtime modules stays under the issue's 10 %."""
+    runtime, repro, neither = _split(kind)
+    share = _lines(neither) / max(_lines(runtime), 1)
+    assert share <= MAX_REPRODUCTION_SHARE and not neither, (
+        f"{kind}: modules no job loads, outside {REPRODUCE}/ ({share:.0%} of the runtime's "
+        f"{_lines(runtime)} lines): {sorted(neither)}")
+
+
+def test_the_reproduction_checks_can_fail(monkeypatch):
+    """Not vacuous: a runtime module that imports its kind's reproduce/ and a module no job
+    loads outside reproduce/ are both found."""
+    kind = "recovery"
+    repro = sorted(m for m in MODULES if _kind_of(m) == kind and _is_reproduction(m))
+    assert repro, "recovery has a reproduce/ package"
+    f, imports = MODULES["app.jobs.recovery.run"]
+    monkeypatch.setitem(MODULES, "app.jobs.recovery.run", (f, imports | {repro[0]}))
+    assert repro[0] in _split(kind)[0]
+    monkeypatch.setitem(MODULES, "app.jobs.recovery.run", (f, imports))
+    monkeypatch.setitem(MODULES, "app.jobs.recovery.orphan", (MODULES["app.jobs.recovery.run"][0], set()))
+    assert "app.jobs.recovery.orphan" in _split(kind)[2]

@@ -113,9 +113,10 @@ def test_reproduce_appends_each_example_and_skips_those_already_there(tmp_path):
     reproduce_examples(ExamplesParams(readme=readme, json_out=path), lambda m: None, fake)
     assert len(calls) == len(KINDS)  # nothing left to measure
     reproduce_examples(ExamplesParams(kinds="tipping", readme=readme, json_out=path), lambda m: None, fake)
-    assert calls[-1] == next(c for c in lines if '"tipping"' in c) and len(json.loads(path.read_text())["runs"]) == 7
+    tipping = next(c for c in lines if '"tipping"' in c)
+    assert calls[-1] == tipping and len(json.loads(path.read_text())["runs"]) == len(KINDS) + 2
     reproduce_examples(ExamplesParams(kinds="first", readme=readme, json_out=path), lambda m: None, fake)
-    assert calls[-1] == first and len(json.loads(path.read_text())["runs"]) == 8
+    assert calls[-1] == first and len(json.loads(path.read_text())["runs"]) == len(KINDS) + 3
     readme.write_text(README.replace("## One job per kind", "## Kinds"))
     with pytest.raises(ReadmeShapeError):
         reproduce_examples(ExamplesParams(readme=readme, json_out=path), lambda m: None, fake)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import threading
 from pathlib import Path
 
@@ -66,6 +67,12 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI):
+        from app.store.migrate import ensure_schema
+
+        settings.data_dir.mkdir(parents=True, exist_ok=True)  # the SQLite file's folder
+        did = ensure_schema(settings.db_url)  # a bare uvicorn start migrates too (SchemaError: refuses)
+        if did:
+            logging.getLogger("gaitmend").warning("%s (at start-up)", did)
         keeper = None
         if housekeeping:
             from app.service.housekeeping import Housekeeper
@@ -90,6 +97,9 @@ def create_app(settings: Settings | None = None, host: str = "127.0.0.1", housek
     from app.api.routes import media
 
     app.include_router(media.router, prefix="/api")  # a job's video and thumbnail
+    from app.api.routes import adaptations  # adaptation sessions and their page (issue 44)
+
+    app.include_router(adaptations.router, prefix="/api"), app.include_router(adaptations.page_router)
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes, wider={"/api/robots": robots.MAX_BODY_BYTES})
     # JSON, pages and static files compressed on the wire (event streams and bodies already
     # compressed, such as the dashboard's gzipped plotly.min.js, pass through)

@@ -40,6 +40,20 @@ def headline(job) -> list[HeadlineOut] | None:
         return None
 
 
+def verdict(job) -> dict[str, Any] | None:
+    """The kind's verdict in brief (app/jobs/verdict.py's ``brief``): target met, the
+    controls, the held-out figure (kept, falls, fragile, in words) and the sentence."""
+    kind = _kind(job)
+    if kind is None or not job.summary or job.status != "succeeded":
+        return None
+    from app.jobs.verdict import brief
+
+    try:
+        return brief(kind.verdict(job.summary))
+    except (KeyError, TypeError, ValueError):  # a summary stored by an older release
+        return None
+
+
 def progress_text(job) -> str | None:
     kind = _kind(job)
     if kind is None or not job.progress_info:
@@ -104,6 +118,10 @@ class JobOut(BaseModel):
     damage: str = Field(description="the damage or scenario in words, as the kind words it, e.g. 'lost 1,6; "
                                     "locked 2.femur'")
     headline: list[HeadlineOut] | None = Field(None, description="the numbers a user came for, once succeeded")
+    verdict: dict[str, Any] | None = Field(None, description=(
+        "did the method work, in brief, once succeeded: target_met, controls (beat / tied / lost), held_out (the "
+        "held-out random models: n, met, judged, fell, share, interval, fragile, text, headline; null without a "
+        "held-out set), robustness [met, total] of the named cases and timestep checks, and the sentence"))
     summary: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     links: dict[str, str]
@@ -122,7 +140,7 @@ class JobOut(BaseModel):
             created_at=job.created_at, started_at=job.started_at, finished_at=job.finished_at,
             updated_at=job.updated_at,
             wall_s=(end - job.started_at).total_seconds() if job.started_at else None,
-            error=job.error, damage=damage_text(job), headline=headline(job),
+            error=job.error, damage=damage_text(job), headline=headline(job), verdict=verdict(job),
             summary=job.summary if detail else None, spec=job.spec if detail else None,
             links={"self": base, "history": f"{base}/history", "events": f"{base}/events",
                    "bundle": f"{base}/bundle", "video": f"{base}/video", "thumbnail": f"{base}/thumbnail"})
@@ -165,3 +183,18 @@ class BuiltinStudyList(BaseModel):
     """Every registered kind's built-in studies, in registry order, each kind's paper table first."""
 
     items: list[BuiltinStudyOut]
+
+
+def adaptation_body_schema(name: str) -> dict:
+    """The JSON schema of an adaptation request body (app/adapt/session.py ``SessionSpec``
+    or ``TrialIn``) with its definitions inlined (an operation's body cannot carry $defs)."""
+    import json
+
+    from app.adapt import session
+
+    sch = getattr(session, name).model_json_schema()
+    defs = sch.pop("$defs", {})
+    text = json.dumps(sch)
+    for key, d in defs.items():
+        text = text.replace(json.dumps({"$ref": f"#/$defs/{key}"}), json.dumps(d))
+    return json.loads(text)

@@ -38,6 +38,10 @@ def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: li
         for entry in kind.bench():
             log(f"{entry.name}: {entry.help} ...")
             figures[entry.name] = entry.run(quick, log)
+    if kinds is None:  # every figure: adaptation is no kind, its bench is gathered here (app/cli/adapt_bench.py)
+        from app.cli.adapt_bench import adapt_bench
+
+        figures |= adapt_bench(quick, log)
     return figures
 
 

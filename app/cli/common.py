@@ -47,6 +47,13 @@ def fail(msg: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
+def fail_fields(errors, where: str = "") -> None:
+    """Each ``{"field", "message"}`` error on its own line (after ``where: `` when given), exit 2."""
+    for item in errors:
+        err.print("[bold red]error:[/] " + escape(f"{where}{item['field']}: {item['message']}"), highlight=False)
+    raise typer.Exit(2)
+
+
 def default_spec_data() -> dict:
     """The spec `gaitmend run` runs when given none (app/jobs/default_spec.json)."""
     return json.loads(resources.files("app.jobs").joinpath("default_spec.json").read_text())
@@ -73,17 +80,13 @@ def load_spec(path: Optional[Path]):
     except IsADirectoryError:
         fail(f"{path} is a folder; give a spec JSON, a bundle's manifest.json or a bundle zip")
     except BodyError as e:
-        for item in e.errors:
-            err.print("[bold red]error:[/] " + escape(f"{path}: {item['field']}: {item['message']}"), highlight=False)
-        raise typer.Exit(2) from None
+        fail_fields(e.errors, f"{path}: ")
     except (json.JSONDecodeError, zipfile.BadZipFile, KeyError, UnicodeDecodeError) as e:
         fail(f"cannot read spec {path}: {e}")
     try:
         return parse_spec(data)
     except SpecError as e:
-        for item in e.errors:
-            err.print("[bold red]error:[/] " + escape(f"{item['field']}: {item['message']}"), highlight=False)
-        raise typer.Exit(2) from None
+        fail_fields(e.errors)
 
 
 def settings_or_exit():

@@ -54,6 +54,7 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run one job locally, with no server, and write its result bundle."""
+    from app.jobs.verdict import brief, verdict_lines
     from app.results.bundle import write_bundle
 
     spec = load_spec(spec_path)
@@ -73,11 +74,14 @@ def run(
     with zipfile.ZipFile(bundle) as z:
         z.extractall(folder)
     s = result.summary
+    v = kind.verdict(json.loads(dumps(s)))
     if as_json:
-        print(dumps(s | {"job_id": job_id, "bundle": str(bundle), "folder": str(folder)}))
+        print(dumps(s | {"job_id": job_id, "bundle": str(bundle), "folder": str(folder), "verdict": brief(v)}))
         return
     con = out_console()
     print_tables(kind.summary_tables(s), con)
+    for line in verdict_lines(v):  # the verdict last, where the eye lands: a fragile gait says so first
+        con.print(line, highlight=False)
     tm = s["timing"]
     parts = [f"{tm['wall_s']:.1f} s"]
     if "evaluations" in tm:
@@ -133,13 +137,19 @@ def bench(
     kind: Optional[list[str]] = typer.Option(None, "--kind", help="only these kinds (repeat); default all"),
     studies: bool = typer.Option(False, "--studies", help="instead: a study's dispatch overhead per point through "
                                  "a real worker on the configured broker and database (200 tiny points; --quick 6)"),
+    adapt: bool = typer.Option(False, "--adapt", help="instead: an adaptation session's proposal after 20 trials "
+                               "with a 10,000-elite map, through the API (app/cli/adapt_bench.py; --quick: 1,000, 5)"),
 ):
     """Measure every kind's hot paths (rollout and evaluator throughput, paper-size runs, peers)."""
     from app.cli.bench import run_bench
 
     for k in kind or []:
         get_kind_or_exit(k)
-    if studies:
+    if adapt:
+        from app.cli.adapt_bench import adapt_bench
+
+        figures = adapt_bench(quick, log=err.print)
+    elif studies:
         from app.cli.study_bench import POINTS, QUICK_POINTS, study_bench
 
         figures = study_bench(QUICK_POINTS if quick else POINTS, log=err.print)
@@ -233,11 +243,13 @@ for _kind in KINDS.values():
 def _cross_kind_experiments():
     """Reproductions that span the kinds: `gaitmend reproduce <name>` (app/cli/bench.py's
     measures every kind with the function `gaitmend bench` calls; app/cli/examples.py's runs
-    the README's example lines through the CLI)."""
+    the README's example lines through the CLI; app/adapt/reproduce's evaluates the
+    adaptation methods of issue 44, which is no kind's)."""
+    from app.adapt.reproduce.experiment import EXPERIMENT as ADAPT
     from app.cli.bench import EXPERIMENT as BENCH
     from app.cli.examples import EXPERIMENT as EXAMPLES
 
-    return [BENCH, EXAMPLES]
+    return [BENCH, EXAMPLES, ADAPT]
 
 
 for _exp in _cross_kind_experiments():

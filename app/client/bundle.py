@@ -129,6 +129,13 @@ class Bundle:
         data = self.read("history.csv")
         return pd.read_csv(io.BytesIO(data)) if data.strip() else pd.DataFrame()
 
+    @functools.cached_property
+    def archive(self):
+        """A repertoire bundle's map, one row per elite (app/client/repertoire.py)."""
+        from app.client.repertoire import bundle_archive
+
+        return bundle_archive(self)
+
     # -- trajectories and the robot -------------------------------------------------------------
     @property
     def trace_names(self) -> list[str]:

@@ -17,6 +17,7 @@ from typing import Any
 
 import httpx
 
+from app.client.adaptations import AdaptationsMixin
 from app.client.errors import GaitmendError, ServerUnreachable, error_for
 from app.client.jobs import FINAL, Job, Study
 
@@ -35,7 +36,7 @@ def _spec_json(spec: Any) -> bytes:
     return json.dumps(spec, allow_nan=False).encode()
 
 
-class Client:
+class Client(AdaptationsMixin):
     """One connection to a gaitmend server. ``server`` and ``token`` default to the
     settings the CLI reads (GAITMEND_SERVER, GAITMEND_TOKEN). Every method raises a
     ``GaitmendError`` (``InvalidSpec``, ``NotFound``, ``Conflict``, ...) carrying the API's

@@ -69,6 +69,19 @@ class Job:
         return self._finished().get("summary")
 
     @property
+    def verdict(self) -> dict | None:
+        """Did the method work, in brief, once succeeded (else None): ``sentence`` (a fragile
+        gait's first words say so), ``target_met``, ``controls``, ``held_out`` (the held-out
+        random models: ``met`` of ``n`` keep the target, ``fell``, ``interval``, ``fragile``,
+        ``text``; None without a held-out set), ``robustness`` [met, total] of the re-runs."""
+        return self._finished().get("verdict")
+
+    def summarise(self) -> str:
+        """The verdict's sentence, as the job page and `gaitmend run` print it."""
+        v = self.verdict
+        return v["sentence"] if v else f"job {self.id} {self.status}: no verdict"
+
+    @property
     def spec(self) -> dict:
         return self.info.get("spec") or self.refresh().info["spec"]
 
@@ -86,6 +99,12 @@ class Job:
         from app.client.tables import frame
 
         return frame(self.client.get_json(f"/api/jobs/{self.id}/history"))
+
+    def archive(self):
+        """A repertoire job's map, one row per elite (app/client/repertoire.py)."""
+        from app.client.repertoire import job_archive
+
+        return job_archive(self)
 
     def bundle(self, path: str | Path | None = None) -> Path:
         """Download the result bundle; ``path`` a folder (default ".") or a .zip file name."""
@@ -160,8 +179,10 @@ class Study:
 
     def results(self):
         """One row per point: its index, job id and status, one column per overridden value
-        (the grid's or the list's paths) and one per reported metric (the study's
-        ``report.metrics``, dotted paths into each point's summary)."""
+        (the grid's or the list's paths), one per reported metric (the study's
+        ``report.metrics``, dotted paths into each point's summary) and the verdict's
+        (``held_out_kept``, ``held_out_n``, ``held_out_share``, ``held_out_fell``,
+        ``fragile``, ``verdict``: the job page's sentence)."""
         from app.client.tables import study_frame
 
         return study_frame(self.client.request("GET", f"/api/studies/{self.id}/bundle").content)

@@ -27,16 +27,29 @@ def headline_columns(headline: list[dict] | None) -> dict[str, Any]:
     return out
 
 
+VERDICT_COLUMNS = ["held_out_kept", "held_out_n", "held_out_share", "held_out_fell", "fragile", "verdict"]
+
+
+def verdict_columns(v: dict | None) -> dict[str, Any]:
+    """The verdict's columns of a job: the held-out random models kept of n (and the share),
+    the falls, fragile (app/jobs/verdict.py's thresholds) and the sentence; None where the
+    job has no verdict or no held-out set."""
+    h = (v or {}).get("held_out") or {}
+    return {"held_out_kept": h.get("met"), "held_out_n": h.get("judged", h.get("n")), "held_out_share": h.get("share"),
+            "held_out_fell": h.get("fell"), "fragile": h.get("fragile"), "verdict": (v or {}).get("sentence")}
+
+
 def jobs_frame(items: list[dict]):
-    """One row per job, newest first; the headline numbers of succeeded jobs as columns."""
+    """One row per job, newest first; the verdict (held-out kept, falls, fragile, its
+    sentence) and the headline numbers of succeeded jobs as columns."""
     import pandas as pd
 
     rows = []
     for j in items:
         p = j.get("progress") or {}
         row = {k: j.get(k) for k in JOB_COLUMNS if k in j} | {"done": p.get("done"), "total": p.get("total")}
-        rows.append(row | headline_columns(j.get("headline")))
-    df = pd.DataFrame(rows, columns=list(dict.fromkeys(JOB_COLUMNS + [c for r in rows for c in r])))
+        rows.append(row | verdict_columns(j.get("verdict")) | headline_columns(j.get("headline")))
+    df = pd.DataFrame(rows, columns=list(dict.fromkeys(JOB_COLUMNS + VERDICT_COLUMNS + [c for r in rows for c in r])))
     for col in ("created_at", "finished_at"):
         df[col] = pd.to_datetime(df[col], utc=True, format="ISO8601")
     return df
@@ -74,7 +87,8 @@ def _cell(v: Any) -> Any:
 
 
 def study_frame(bundle: bytes):
-    """One row per point of a study bundle (GET /api/studies/{id}/bundle)."""
+    """One row per point of a study bundle (GET /api/studies/{id}/bundle): its overrides,
+    the report's metrics, the verdict's columns (held-out kept, falls, fragile, sentence)."""
     import pandas as pd
 
     with zipfile.ZipFile(io.BytesIO(bundle)) as z:
@@ -87,5 +101,5 @@ def study_frame(bundle: bytes):
         row = {"index": p["index"], "job_id": p.get("job_id"), "status": p["status"]}
         row |= {path: _cell(p["overrides"].get(path)) for path in paths}
         row |= {m: dotted(p.get("summary"), m) for m in metrics}
-        rows.append(row | {"error": p.get("error")})
-    return pd.DataFrame(rows, columns=["index", "job_id", "status", *paths, *metrics, "error"])
+        rows.append(row | verdict_columns(p.get("verdict")) | {"error": p.get("error")})
+    return pd.DataFrame(rows, columns=["index", "job_id", "status", *paths, *metrics, *VERDICT_COLUMNS, "error"])

@@ -27,11 +27,11 @@ from typing import Any
 
 from app.jobs.base import Cancelled, RunContext
 # the records live apart (they import nothing of the contract); every kind imports them from here
-from app.jobs.records import (CASES, Case, CaseResult, ControlRow, Group, Robustness, Target, case, controls_of,
-                              group_of, robustness_of, spread)
+from app.jobs.records import (CASES, Case, CaseResult, ControlRow, Group, HeldOut, Robustness, Target, case,
+                              controls_of, group_of, robustness_of, spread)
 
-__all__ = ["CASES", "CONTROL_SEED_OFFSET", "Case", "CaseResult", "ControlRow", "Group", "PhaseContext", "Phases",
-           "Robustness", "Target", "case", "control_seed", "controls_of", "group_of", "robustness_of", "spread"]
+__all__ = ["CASES", "CONTROL_SEED_OFFSET", "Case", "CaseResult", "ControlRow", "Group", "HeldOut", "PhaseContext",
+           "Phases", "Robustness", "Target", "case", "control_seed", "controls_of", "group_of", "robustness_of", "spread"]
 
 # -- the control's random stream ------------------------------------------------------------
 

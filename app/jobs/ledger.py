@@ -7,13 +7,16 @@ a hash of the files whose code decides the run's numbers (a kind's science modul
 robot, its optimiser; not its presentation). A run of other code is not reused: when code
 of a new version writes its first run, the old runs move to ``superseded`` (kept in the
 file as a record, never rendered), so a file's ``runs`` always come from one code version,
-``code_version``. Work can be split over sessions (commit the file, continue later) and
+``code_version``; ``science_files`` holds each science file's own hash at that version, so
+that ``staleness`` can name the files changed since (issue 45: a page says so at its top).
+Work can be split over sessions (commit the file, continue later) and
 machines (each writes its own copy; ``merge`` unites them by key).
 
 File layout::
 
     {"schema": 1, "experiment": "tipping-cases", "command": "gaitmend reproduce ...",
      "params": {...}, "code_version": "3f2a...", "science": ["app/jobs/tipping/scenario.py", ...],
+     "science_files": {"app/jobs/tipping/scenario.py": "9c1e...", ...},
      "planned": 12, "runs": [{"key", "name", "spec", "seed", "code_version", "wall_s", "cpu_s",
      "finished_at", "result"}], "superseded": [...]}
 """
@@ -58,6 +61,45 @@ def code_version(paths: Iterable[str], root: Path = ROOT) -> str:
     for rel in science_files(paths, root):
         h.update(rel.encode() + b"\0" + (root / rel).read_bytes() + b"\0")
     return h.hexdigest()[:12]
+
+
+def file_hashes(paths: Iterable[str], root: Path = ROOT) -> dict[str, str]:
+    """{science file: 12 hex digits of the sha256 of its bytes}, for the files ``paths`` name."""
+    return {rel: hashlib.sha256((root / rel).read_bytes()).hexdigest()[:12] for rel in science_files(paths, root)}
+
+
+def _existing_files(paths: Iterable[str], root: Path) -> tuple[list[str], list[str]]:
+    """(the science files ``paths`` name that exist now, the paths that name nothing)."""
+    files, gone = set(), []
+    for p in paths:
+        try:
+            files.update(science_files([p], root))
+        except FileNotFoundError:
+            gone.append(p)
+    return sorted(files), gone
+
+
+def staleness(data: dict[str, Any], root: Path = ROOT) -> dict[str, Any] | None:
+    """None when a ledger's ``code_version`` is that of its science files as they are now;
+    else {"recorded", "now", "changed": [files whose bytes differ, "path (new)" / "path
+    (removed)"] or None when the file does not record its files' hashes}."""
+    recorded, science = data.get("code_version"), data.get("science")
+    if not recorded or not science:
+        return None
+    files, gone = _existing_files(science, root)
+    h = hashlib.sha256()
+    for rel in files:
+        h.update(rel.encode() + b"\0" + (root / rel).read_bytes() + b"\0")
+    now = h.hexdigest()[:12]
+    if now == recorded and not gone:
+        return None
+    then = data.get("science_files")
+    changed = None
+    if isinstance(then, dict):
+        cur = file_hashes(files, root) if files else {}
+        changed = [f"{f} (removed)" if f not in cur else f"{f} (new)" if f not in then else f
+                   for f in sorted(set(then) | set(cur)) if then.get(f) != cur.get(f)]
+    return {"recorded": recorded, "now": now, "changed": changed}
 
 
 def run_key(spec: dict[str, Any], seed: int, version: str) -> str:
@@ -111,15 +153,20 @@ class Ledger:
         self.path = None if path is None else Path(path)
         self.version = code_version(science, root)
         self.science = list(science)
+        self.hashes = file_hashes(science, root)
         self.data: dict[str, Any] = {"schema": SCHEMA, "experiment": experiment, "command": command,
                                      "params": to_jsonable(params), "code_version": self.version,
-                                     "science": self.science, "planned": planned, "runs": [], "superseded": []}
+                                     "science": self.science, "science_files": self.hashes, "planned": planned,
+                                     "runs": [], "superseded": []}
         if self.path is not None and self.path.exists():
             old = json.loads(self.path.read_text())
             if old.get("schema") != SCHEMA:
                 raise ValueError(f"{self.path}: not a reproduction ledger (schema {old.get('schema')!r})")
             self.data["runs"], self.data["superseded"] = old.get("runs", []), old.get("superseded", [])
             self.data["code_version"] = old.get("code_version", self.version)
+            if self.data["code_version"] != self.version:  # the file's runs are of its own science
+                self.data["science"] = old.get("science", self.science)
+                self.data["science_files"] = old.get("science_files")
         self.computed = 0  # runs this process computed (the rest came from the file)
 
     @property
@@ -150,6 +197,7 @@ class Ledger:
             self.data["superseded"] = self.data["superseded"] + self.runs
             self.data["runs"] = []
             self.data["code_version"] = self.version
+            self.data["science"], self.data["science_files"] = self.science, self.hashes
         self.data["runs"].append(row)
         self.save()
 

@@ -1,6 +1,7 @@
 """The typed records of the evidence protocol (app/jobs/evidence.py tells the whole
 protocol): the standard robustness cases, a kind's ``Target``, and the records of the two
-shared summary blocks (``ControlRow``, ``CaseResult``, ``Robustness``) with their readers.
+shared summary blocks (``ControlRow``, ``CaseResult``, ``Robustness``, and the held-out
+random models a robustness block may carry, ``HeldOut``) with their readers.
 They import nothing of the kind contract, so the contract's own defaults (the verdict,
 app/jobs/verdict.py) can read them; app/jobs/evidence.py re-exports every name."""
 
@@ -155,6 +156,44 @@ def spread(nominal: Mapping[str, Any], cases: Iterable[Mapping[str, Any]], keys:
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class HeldOut:
+    """``summary["robustness"]["held_out"]``: the answer on random models drawn from stated
+    ranges with a stream no search drew from, the figure that says how the answer does on
+    models it was not searched on. Read from {"n", "met", "models": [{"metrics": {"fell"},
+    "target_met"}], "fell"?, "ranges_text"?}: ``judged`` the models the target judged (a
+    walk too short to judge leaves only falls judged), ``fell`` the models that fell (the
+    block's own count, else counted from its models' ``fell`` metric, else None)."""
+
+    n: int
+    met: int
+    judged: int
+    fell: int | None
+    ranges: str = ""
+
+    @property
+    def share(self) -> float | None:
+        return self.met / self.judged if self.judged else None
+
+    @property
+    def fall_share(self) -> float | None:
+        return self.fell / self.n if self.fell is not None and self.n else None
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> HeldOut | None:
+        n = d.get("n")
+        if not isinstance(n, int) or isinstance(n, bool) or n <= 0:
+            return None
+        models = [m for m in d.get("models") or [] if isinstance(m, Mapping)]
+        met = d.get("met") if isinstance(d.get("met"), int) else sum(m.get("target_met") is True for m in models)
+        judged = sum(m.get("target_met") is not None for m in models) if models else n
+        fell = d.get("fell")
+        if not isinstance(fell, int) or isinstance(fell, bool):
+            flags = [(m.get("metrics") or {}).get("fell") for m in models]
+            fell = sum(bool(f) for f in flags) if models and all(isinstance(f, bool) for f in flags) else None
+        return cls(n=n, met=int(met), judged=judged, fell=fell, ranges=str(d.get("ranges_text") or ""))
+
+
 @dataclasses.dataclass
 class Robustness:
     """``summary["robustness"]``: the answer under every case, judged by the target."""
@@ -171,6 +210,12 @@ class Robustness:
     @property
     def total(self) -> int:
         return len(self.cases)
+
+    @property
+    def held_out(self) -> HeldOut | None:
+        """The held-out random models, when the block carries them (any kind may)."""
+        h = self.extra.get("held_out")
+        return HeldOut.from_json(h) if isinstance(h, Mapping) else None
 
     def count(self, group: Group) -> tuple[int, int]:
         """(met, total) over the cases of one group."""

@@ -18,6 +18,7 @@ from app.jobs.energy import KIND as _energy
 from app.jobs.freegait import KIND as _freegait
 from app.jobs.multigait import KIND as _multigait
 from app.jobs.recovery import KIND as _recovery
+from app.jobs.repertoire import KIND as _repertoire
 from app.jobs.tipping import KIND as _tipping
 
 KINDS: dict[str, Kind] = {}
@@ -33,7 +34,7 @@ def register(kind: Kind) -> Kind:
     return KINDS.setdefault(kind.name, kind)
 
 
-for _kind in (_recovery, _multigait, _tipping, _freegait, _energy):
+for _kind in (_recovery, _multigait, _tipping, _freegait, _energy, _repertoire):
     register(_kind)
 
 

@@ -26,6 +26,13 @@ from app.jobs.ledger import ROOT
 
 MARKER = re.compile(r"<!-- generated: (?P<name>[\w.-]+) \((?P<command>[^)]*)\) -->\n(?P<body>.*?)<!-- /generated -->",
                     re.DOTALL)
+# the README's section that gathers every section marked ``readme`` (one line per kind)
+SUMMARY = "results-summary"
+
+
+def pages(root: Path = ROOT) -> list[Path]:
+    """The pages whose generated sections are rendered from data: the README and docs/*.md."""
+    return [root / "README.md", *sorted((root / "docs").glob("*.md"))]
 
 
 @dataclasses.dataclass(frozen=True)

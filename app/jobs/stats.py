@@ -19,6 +19,8 @@
   than ``fewest_pairs`` (the signed-rank test cannot reject with fewer).
 - ``success_rate``: a success count with its Clopper-Pearson interval
   (``scipy.stats.binomtest(...).proportion_ci(method="exact")``).
+- ``wilson``: the Wilson score interval of a share k/n (the recovery pages' held-out
+  shares and the verdict's held-out figure, app/jobs/verdict.py).
 """
 
 from __future__ import annotations
@@ -228,6 +230,17 @@ def success_rate(k: int, n: int, confidence: float = CONFIDENCE) -> dict[str, An
     ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="exact")
     return {"k": int(k), "n": int(n), "rate": k / n, "ci": [float(ci.low), float(ci.high)], "confidence": confidence,
             "ci_method": "Clopper-Pearson exact (scipy.stats.binomtest)"}
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval of a success share k/n (95 % by default); (nan, nan) for n = 0."""
+    if n == 0:
+        return float("nan"), float("nan")
+    ph = k / n
+    d = 1 + z * z / n
+    c = (ph + z * z / (2 * n)) / d
+    h = z * math.sqrt(ph * (1 - ph) / n + z * z / (4 * n * n)) / d
+    return max(0.0, float(c - h)), min(1.0, float(c + h))
 
 
 # -- words ----------------------------------------------------------------------------------

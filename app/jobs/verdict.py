@@ -10,9 +10,16 @@ A verdict has three parts:
   by how much in the kind's unit and direction, on the kind's scores in order (a tie on
   the first is decided by the next); with a 95 % interval where the numbers carry their
   spread (e.g. held-out draws), else "one seed: no interval";
-- ``robustness``: k of n re-simulations meeting the target, with numerics (timestep) and
-  physical cases apart, and the cases the search saw (``searched_on``) apart from the
-  held-out ones when the records say which.
+- ``robustness``: led by the held-out random models where the block carries them
+  (``records.HeldOut``, any kind's): "N of M held-out random models keep the target (95 %
+  interval), F fall", the Wilson interval from app/jobs/stats.py; then k of n named cases
+  (those the search saw, ``searched_on``, apart when the records say which) and k of n
+  timestep checks, each its own count. Below ``KEEP_MIN`` kept or above ``FALL_MAX`` fallen
+  the gait is fragile and the sentence opens with it and why ("Fragile: falls on 14 of 20
+  models like yours: do not take it to the robot as it is.").
+
+``brief`` is the list's, the API's and the client's form; ``verdict_lines`` what `gaitmend
+run` prints and a bundle's README states.
 
 ``study_verdict`` pools the verdicts of a study's points over seeds: the paired difference
 per control with its 95 % interval and Wilcoxon p (app/jobs/stats.py's ``paired``); beat or
@@ -25,7 +32,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from app.jobs.records import ControlRow, Robustness, controls_of, robustness_of
+from app.jobs.records import ControlRow, HeldOut, Robustness, controls_of, robustness_of
 
 # A two-sided 95 % Student t quantile by degrees of freedom (normal beyond the table).
 _T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262, 10: 2.228,
@@ -205,48 +212,112 @@ def control_verdict(crits: Sequence[Mapping[str, Any]], c: ControlRow) -> dict[s
 
 # -- robustness -------------------------------------------------------------------------------------
 
-GROUP_LABELS = {"numerics": "numerics (timestep)", "physical": "physical", "searched_on": "physical, searched on",
-                "held_out": "physical, held out"}
+# The held-out figure decides whether a gait is fragile: below KEEP_MIN of the held-out
+# random models keeping the target, or above FALL_MAX of them falling, the verdict's first
+# sentence says the gait is fragile and why (docs/dashboard.md states both numbers).
+KEEP_MIN = 0.80
+FALL_MAX = 0.05
+FRAGILE_RULE = (f"fragile when fewer than {100 * KEEP_MIN:.0f} % of the held-out random models keep the target "
+                f"or more than {100 * FALL_MAX:.0f} % of them fall")
+
+GROUP_LABELS = {"held_out": "held-out random models", "numerics": "timestep checks", "physical": "named cases",
+                "searched_on": "named cases, searched on", "not_searched_on": "named cases, not searched on"}
+
+
+def held_out_text(h: Mapping[str, Any]) -> str:
+    """The held-out figure in words, the same on every surface: "5 of 20 held-out random
+    models keep the target (95 % interval 11-47 %), 14 fall"."""
+    n, met, judged, fell = h["n"], h["met"], h["judged"], h.get("fell")
+    falls = "" if fell is None else f", {fell} fall"
+    if not judged:
+        return f"{n} held-out random models: the target judges none of them{falls}"
+    lo, hi = h["interval"]
+    of = f"{judged} judged" if judged < n else f"{n}"
+    keep = "keeps" if met == 1 else "keep"
+    return (f"{met} of {of} held-out random models {keep} the target "
+            f"(95 % interval {100 * lo:.0f}–{100 * hi:.0f} %){falls}")
+
+
+def held_out_verdict(h: HeldOut | None) -> dict[str, Any] | None:
+    """The held-out figure: kept k of n with its 95 % Wilson interval, falls, and whether
+    the gait is fragile by KEEP_MIN / FALL_MAX, with the reasons in words a user acts on."""
+    if h is None:
+        return None
+    from app.jobs.stats import wilson
+
+    out: dict[str, Any] = {"n": h.n, "met": h.met, "judged": h.judged, "fell": h.fell, "share": h.share,
+                           "fall_share": h.fall_share, "interval": list(wilson(h.met, h.judged)) if h.judged else None,
+                           "keep_min": KEEP_MIN, "fall_max": FALL_MAX, "rule": FRAGILE_RULE, "ranges": h.ranges}
+    why = []
+    if h.fall_share is not None and h.fall_share > FALL_MAX:
+        why.append(f"falls on {h.fell} of {h.n} models like yours")
+    if h.share is not None and h.share < KEEP_MIN:
+        only = "only " if h.met else ""
+        why.append(f"keeps the target on {only}{h.met} of {h.judged}")
+    out |= {"fragile": bool(why), "why": why, "text": held_out_text(out),
+            "headline": f"Fragile: {' and '.join(why)}: do not take it to the robot as it is." if why else None}
+    return out
 
 
 def robustness_verdict(rob: Robustness | None) -> dict[str, Any] | None:
-    if rob is None or not rob.cases:
+    """k of n by group, the held-out random models first (with their interval and falls),
+    then the named cases, then the timestep checks: three separate counts."""
+    if rob is None or (not rob.cases and rob.held_out is None):
         return None
-    seen = set(rob.extra.get("searched_on") or [])
+    held = held_out_verdict(rob.held_out)
     groups = []
-    met, total = rob.count("numerics")
-    if total:
-        groups.append({"name": "numerics", "label": GROUP_LABELS["numerics"], "met": met, "total": total})
+    if held is not None:
+        groups.append({"name": "held_out", "label": GROUP_LABELS["held_out"], "met": held["met"],
+                       "total": held["n"], "judged": held["judged"], "fell": held["fell"], "text": held["text"]})
+    seen = set(rob.extra.get("searched_on") or [])
     phys = [c for c in rob.cases if c.group == "physical"]
-    parts = ([("searched_on", [c for c in phys if c.name in seen]), ("held_out", [c for c in phys if c.name not in seen])]
-             if seen else [("physical", phys)])
+    parts = ([("searched_on", [c for c in phys if c.name in seen]),
+              ("not_searched_on", [c for c in phys if c.name not in seen])] if seen else [("physical", phys)])
+    parts.append(("numerics", [c for c in rob.cases if c.group == "numerics"]))
     for name, cs in parts:
         if cs:
             groups.append({"name": name, "label": GROUP_LABELS[name], "met": sum(c.target_met is True for c in cs),
-                           "total": len(cs)})
-    return {"target": rob.target, "met": rob.met, "total": rob.total, "groups": groups,
+                           "total": len(cs), "judged": sum(c.target_met is not None for c in cs)})
+    return {"target": rob.target, "met": rob.met, "total": rob.total, "groups": groups, "held_out": held,
             "judged": sum(c.target_met is not None for c in rob.cases),
             "failed": [c.label for c in rob.cases if c.target_met is False]}
 
 
 # -- the whole verdict -------------------------------------------------------------------------------
 
+def _cases_text(rob: dict) -> str | None:
+    """The named cases and the timestep checks, each k of n: "5 of 5 named cases and 2 of 2
+    timestep checks meet the target"."""
+    groups = [g for g in rob["groups"] if g["name"] != "held_out"]
+    if not groups:
+        return None
+    if rob.get("judged", rob["total"]) == 0:
+        return f"The {rob['total']} robustness re-runs are not judged against the target."
+    words = []
+    for g in groups:
+        of = f"{g['judged']} judged" if g.get("judged", g["total"]) < g["total"] else f"{g['total']}"
+        words.append(f"{g['met']} of {of} {g['label']}")
+    return "Of the robustness re-runs, " + " and ".join(words) + " meet the target."
+
+
 def _sentence(target: dict, controls: list[dict], rob: dict | None) -> str:
     parts = []
+    held = (rob or {}).get("held_out")
+    if held and held["fragile"]:
+        parts.append(held["headline"])
     if target.get("met") is not None:
-        parts.append("Target met." if target["met"] else "Target not met.")
+        where = " on the model it was searched on" if held else ""
+        parts.append(f"Target met{where}." if target["met"] else f"Target not met{where}.")
     compared = [c for c in controls if c["compared"]]
     if compared:
         n = {w: sum(c["outcome"] == w for c in compared) for w in ("beat", "tied", "lost")}
         parts.append(f"Against {len(compared)} control{'s' if len(compared) > 1 else ''} at the same budget: "
                      + ", ".join(f"{k} {v}" for k, v in n.items() if v) + ".")
-    if rob is not None:
-        judged = rob.get("judged", rob["total"])
-        if judged == 0:
-            parts.append(f"The {rob['total']} robustness re-runs are not judged against the target.")
-        else:
-            of = f"{judged} judged" if judged < rob["total"] else f"{rob['total']}"
-            parts.append(f"{rob['met']} of {of} robustness re-runs meet the target.")
+    if held:
+        parts.append(held["text"][0].upper() + held["text"][1:] + ".")
+    cases = _cases_text(rob) if rob is not None else None
+    if cases:
+        parts.append(cases)
     return " ".join(parts) if parts else "No target, controls or robustness runs recorded."
 
 
@@ -266,6 +337,18 @@ def verdict_of(summary: Mapping[str, Any], headline: Sequence[Mapping[str, Any]]
             "sentence": _sentence(tgt, controls, robv)}
 
 
+def verdict_lines(v: Mapping[str, Any]) -> list[str]:
+    """The verdict as `gaitmend run` prints it and a bundle's README states it: the sentence
+    (a fragile gait's first words say so) and, where there is a held-out set, the rule that
+    calls a gait fragile and the ranges its models are drawn from."""
+    out = [f"Verdict: {v.get('sentence') or 'none recorded'}"]
+    held = (v.get("robustness") or {}).get("held_out")
+    if held:
+        drawn = f" The held-out models are drawn from: {held['ranges']}." if held.get("ranges") else ""
+        out.append(f"A gait is called {held['rule']}.{drawn}")
+    return out
+
+
 def list_row(headline: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
     """The headline row a list shows: the first with a direction and a value, else the first."""
     for r in headline:
@@ -274,12 +357,18 @@ def list_row(headline: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
     return dict(headline[0]) if headline else None
 
 
+BRIEF_HELD_OUT = ("n", "met", "judged", "fell", "share", "interval", "fragile", "text", "headline")
+
+
 def brief(v: Mapping[str, Any]) -> dict[str, Any]:
-    """The verdict as a list row shows it: target met, beat / tied / lost counts, k of n."""
+    """The verdict as a list row shows it: target met, beat / tied / lost counts, the
+    held-out figure (kept, falls, fragile, in words) and the re-runs k of n."""
     compared = [c for c in v.get("controls") or [] if c.get("compared")]
     rob = v.get("robustness")
+    held = (rob or {}).get("held_out")
     return {"target_met": (v.get("target") or {}).get("met"),
             "controls": {w: sum(c["outcome"] == w for c in compared) for w in ("beat", "tied", "lost")},
+            "held_out": {k: held[k] for k in BRIEF_HELD_OUT} if held else None,
             "robustness": [rob["met"], rob["total"]] if rob else None, "sentence": v.get("sentence")}
 
 
@@ -303,6 +392,17 @@ def pooled(diffs: Sequence[float]) -> dict[str, Any]:
             "test": r["test"], "outcome": {1: "beat", -1: "lost", 0: "not shown"}[side], "why": why}
 
 
+def pooled_held_out(robs: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The held-out figure over a group's points: their held-out models pooled (kept, judged,
+    fell summed), judged by the same thresholds as one job's."""
+    hs = [r["held_out"] for r in robs if r.get("held_out")]
+    if not hs:
+        return None
+    fell = None if any(h["fell"] is None for h in hs) else sum(h["fell"] for h in hs)
+    return held_out_verdict(HeldOut(n=sum(h["n"] for h in hs), met=sum(h["met"] for h in hs),
+                                    judged=sum(h["judged"] for h in hs), fell=fell)) | {"points": len(hs)}
+
+
 def study_verdict(verdicts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Pools point verdicts (one per seed of the same setting): target met k of n, per
     control the paired difference on the first criterion both sides carry, robustness
@@ -320,7 +420,7 @@ def study_verdict(verdicts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             d["diffs"].append(sign * (c["method"] - c["control"]))
     met = [v["target"]["met"] for v in verdicts if (v.get("target") or {}).get("met") is not None]
     robs = [v["robustness"] for v in verdicts if v.get("robustness")]
-    return {"points": len(verdicts), "target_met": [sum(met), len(met)],
+    return {"points": len(verdicts), "target_met": [sum(met), len(met)], "held_out": pooled_held_out(robs),
             "controls": [{"name": k, **{x: d[x] for x in ("label", "on", "unit", "better")}, **pooled(d["diffs"])}
                          for k, d in per.items()],
             "robustness": [sum(r["met"] for r in robs), sum(r["total"] for r in robs)] if robs else None}

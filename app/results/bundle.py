@@ -113,6 +113,9 @@ README = """# gaitmend result bundle
 
 Job `{job_id}` ({kind}: {title}, robot `{robot}`), made by gaitmend {version}.
 
+## Verdict
+
+{verdict}
 | file | what it is |
 |---|---|
 {rows}
@@ -127,6 +130,14 @@ gaitmend run manifest.json --out reproduced/
 The same spec and seed give the same numbers (the search and the simulation are
 deterministic; checked with MuJoCo {mujoco}).
 """
+
+
+def verdict_text(kind, summary: dict) -> str:
+    """The README's verdict: the job page's sentence (a fragile gait's first words say so)
+    and the rule it is judged by, one paragraph each (app/jobs/verdict.py's verdict_lines)."""
+    from app.jobs.verdict import verdict_lines
+
+    return "".join(f"{line}\n\n" for line in verdict_lines(kind.verdict(summary)))
 
 
 def install_text(commit: str | None) -> str:
@@ -177,7 +188,9 @@ def write_bundle(path: Path, job_id: str, spec: Any, result: JobResult, extra_fi
         rows = kind.bundle_rows(list(members) + ["README.md"]) | replay_rows
         members["README.md"] = README.format(
             job_id=job_id, kind=spec.kind, title=kind.title, robot=getattr(spec, "robot", ""), version=__version__,
-            mujoco=man["versions"]["mujoco"], install=install_text(man["versions"].get("commit")), rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))
+            mujoco=man["versions"]["mujoco"], install=install_text(man["versions"].get("commit")),
+            verdict=verdict_text(kind, json.loads(members["result.json"])),
+            rows="".join(f"| `{n}` | {d} |\n" for n, d in rows.items()))
         fd, tmp_zip = tempfile.mkstemp(dir=path.parent, suffix=".zip.part")
         os.close(fd)
         try:

@@ -13,10 +13,8 @@ from pathlib import Path
 
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
-from app.jobs.reporting import Section, regenerate, sections_in
+from app.jobs.reporting import SUMMARY, Section, pages, regenerate, sections_in
 from app.results import benchmarks, examples, loadtest, notebook_figures, observed, robot_figures, scaling
-
-SUMMARY = "results-summary"
 
 
 def all_sections() -> dict[str, Section]:
@@ -27,19 +25,21 @@ def all_sections() -> dict[str, Section]:
     (app/results/loadtest.py, scripts/loadtest.py) and what the test suite observes
     (app/results/observed.py), a study's scaling over workers (app/results/scaling.py) and
     the robot layer's timings (app/results/robot_figures.py), by name (a name is unique)."""
+    from app.adapt.reproduce import report as adapt_report  # docs/adapt.md's evaluation (issue 44)
+
     out: dict[str, Section] = {}
     declared = [s for kind in KINDS.values() for exp in kind.experiments() for s in exp.sections]
     for s in [*declared, *notebook_figures.SECTIONS, *benchmarks.sections(), *examples.sections(),
               *loadtest.sections(), *observed.sections(), *scaling.sections(),
-              *robot_figures.sections()]:
+              *robot_figures.sections(), *adapt_report.sections()]:
         if s.name in out or s.name == SUMMARY:
             raise ValueError(f"generated section {s.name!r} is declared twice")
         out[s.name] = s
+    from app.results import data_age  # each page's banner naming its data older than its code (issue 45)
+
+    for s in data_age.sections(out):
+        out[s.name] = s
     return out
-
-
-def pages(root: Path = ROOT) -> list[Path]:
-    return [root / "README.md", *sorted((root / "docs").glob("*.md"))]
 
 
 def renderer(root: Path = ROOT, sections: dict[str, Section] | None = None):

@@ -8,7 +8,7 @@ from collections.abc import Callable
 import mujoco
 
 from app.robots import hexapod
-from app.robots.damage import DamageSpec, apply_damage
+from app.robots.damage import Damage, DamageSpec, apply_damage
 from app.robots.legmap import LegMap, Robot
 from app.robots.contacts import explicit_pairs
 
@@ -89,16 +89,19 @@ class RobotEntry:
         robot takes (app/robots/legmap.py). The simulations still compile build() directly."""
         return Robot(name=self.name, mjcf=self.build().to_xml(), assets={}, legs=self.leg_map())
 
-    def model(self, damage: DamageSpec = DamageSpec(), pairs: bool = True, islands: bool = False,
+    def model(self, damage: Damage | DamageSpec = Damage(), pairs: bool = True, islands: bool = False,
               merged_fall: bool = True) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-        """The damaged robot on its floor. Two settings make its step faster and change no
+        """The robot under ``damage`` (by its leg map's names, app/robots/damage.py; a
+        ``DamageSpec`` by leg number is translated) on its floor. Two settings make its step faster and change no
         number (docs/recovery_speed.md, "Changes and their gains"): ``pairs``, its robot-floor
         contacts declared as explicit pairs instead of found by the broad phase each step
         (app/robots/contacts.py), and no constraint-island discovery (``islands`` False): the
         robot is one kinematic tree on a static floor, so all its constraints form one island
         and looking for more is wasted work. A third, ``merged_fall``, is the fall test's one
         contact sensor in place of one per watched body (``hexapod.add_fall_sensors``)."""
-        spec = hexapod.add_fall_sensors(apply_damage(self.build(), damage), merged=merged_fall)
+        spec = self.build()
+        apply_damage(spec, hexapod.leg_map(self.geometry), damage.named() if isinstance(damage, DamageSpec) else damage)
+        spec = hexapod.add_fall_sensors(spec, merged=merged_fall)
         if pairs:
             explicit_pairs(spec)
         if not islands:

@@ -98,8 +98,13 @@ def leg_frame_quat(side: int) -> np.ndarray:
     return np.array([0.0, 0.0, 0.0, 1.0])
 
 
+def leg_name(leg: int) -> str:
+    """Leg ``leg``'s name in the leg map (the paper's number as the robot layer names it)."""
+    return f"leg{leg}"
+
+
 def joint_name(leg: int, joint: str) -> str:
-    return f"leg{leg}_{joint}"
+    return f"{leg_name(leg)}_{joint}"
 
 
 def build_spec(geom: HexapodGeometry = JETHEXA) -> mujoco.MjSpec:
@@ -169,7 +174,7 @@ def leg_map(geom: HexapodGeometry = JETHEXA, stance: dict[int, list[float]] | No
     and torque limit of the servos; stance joint values per leg number if given."""
     from app.robots.legmap import Foot, Gains, Leg, LegMap
 
-    legs = [Leg(name=f"leg{lg.leg}", side="left" if lg.side < 0 else "right", order=(lg.leg - 1) // 2,
+    legs = [Leg(name=leg_name(lg.leg), side="left" if lg.side < 0 else "right", order=(lg.leg - 1) // 2,
                 joints=[joint_name(lg.leg, j) for j in JOINT_NAMES], foot=Foot(kind="site", name=f"leg{lg.leg}_tip"),
                 stance=None if stance is None else [float(v) for v in stance[lg.leg]])
             for lg in geom.legs()]

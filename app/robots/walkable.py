@@ -32,6 +32,7 @@ import math
 import mujoco
 import numpy as np
 
+from app.robots.damage import Damage, apply_damage, foot_in_body, name_parts
 from app.robots.detect import _Kin, _path_to_trunk
 from app.robots.legmap import Foot, Gains, Leg, LegMap, LegMapError, Robot
 
@@ -41,36 +42,6 @@ G = 9.81
 # own inertia rotates at most half a radian of phase per step (omega dt <= 0.5).
 HOLD_ERROR_RAD = 0.02  # a default servo gives its full torque at this error (about 1.1 deg)
 SERVO_MARGIN = 2.0  # a default servo's torque: this many times a third of the weight held at the leg's reach
-
-
-@dataclasses.dataclass(frozen=True)
-class NamedDamage:
-    """Damage by the leg map's names: (leg, joint, value) triples, value in rad (m for a
-    slide) for locked joints and a force scale in (0, 1] for weak ones."""
-
-    lost_legs: tuple[str, ...] = ()
-    locked: tuple[tuple[str, str, float], ...] = ()
-    weak: tuple[tuple[str, str, float], ...] = ()
-    passive: tuple[tuple[str, str], ...] = ()
-    shortened: tuple[tuple[str, float], ...] = ()  # (leg, m cut from its foot segment)
-
-    def check(self, legs: LegMap) -> None:
-        """LegMapError naming the first leg or joint the map does not have."""
-        names = {l.name: l for l in legs.legs}
-        for what, items in (("lost_legs", self.lost_legs), ("shortened_legs", [l for l, _ in self.shortened])):
-            for leg in items:
-                if leg not in names:
-                    raise LegMapError(f"{what}: no leg {leg!r}; legs: {sorted(names)}")
-                if what == "shortened_legs" and leg in self.lost_legs:
-                    raise LegMapError(f"shortened_legs: leg {leg!r} is listed as lost")
-        for what, items in (("locked_joints", self.locked), ("weak_joints", self.weak), ("passive_joints", self.passive)):
-            for leg, joint, *_ in items:
-                if leg not in names:
-                    raise LegMapError(f"{what}: no leg {leg!r}; legs: {sorted(names)}")
-                if joint not in names[leg].joints:
-                    raise LegMapError(f"{what}: leg {leg!r} has no joint {joint!r}; its joints: {names[leg].joints}")
-                if leg in self.lost_legs:
-                    raise LegMapError(f"{what}: leg {leg!r} is listed as lost")
 
 
 @dataclasses.dataclass
@@ -208,59 +179,12 @@ def _rename(spec: mujoco.MjSpec, trunk: str) -> None:
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05])
 
 
-def _lock(spec: mujoco.MjSpec, joint_name: str, value: float) -> None:
-    """Delete the joint and weld its body at ``value`` (rad or m from the joint's reference)."""
-    j = spec.joint(joint_name)
-    body = j.parent
-    if len(body.joints) != 1:
-        raise LegMapError(f"locked_joints: joint {joint_name!r} shares its body with other joints; "
-                          "only a joint alone on its body can be locked")
-    axis = np.asarray(j.axis, dtype=float)
-    axis = axis / np.linalg.norm(axis)
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, np.asarray(body.quat, dtype=float))
-    R = R.reshape(3, 3)
-    delta = value - float(j.ref)
-    if j.type == mujoco.mjtJoint.mjJNT_SLIDE:
-        if value != 0.0:
-            raise LegMapError(f"locked_joints: {joint_name!r} is a slide joint: it is held at its reference "
-                              "(angle_deg 0)")
-        delta = 0.0
-        body.pos = np.asarray(body.pos, dtype=float) + R @ (axis * delta)
-    else:
-        rot = np.concatenate([[math.cos(delta / 2)], math.sin(delta / 2) * axis])
-        Rj = np.zeros(9)
-        mujoco.mju_quat2Mat(Rj, rot)
-        anchor = np.asarray(j.pos, dtype=float)
-        body.pos = np.asarray(body.pos, dtype=float) + R @ (anchor - Rj.reshape(3, 3) @ anchor)
-        q = np.zeros(4)
-        mujoco.mju_mulQuat(q, np.asarray(body.quat, dtype=float), rot)
-        body.quat = q
-    spec.delete(j)
-
-
-def _first_body(model: mujoco.MjModel, trunk: int, leg: Leg) -> str:
-    j0 = mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, leg.joints[0])
-    path = _path_to_trunk(model, int(model.jnt_bodyid[j0]), trunk)
-    return mujoco.mj_id2name(model, OBJ.mjOBJ_BODY, path[0])
-
-
 def _upper_bodies(model: mujoco.MjModel, trunk: int, leg: Leg) -> list[str]:
     """The bodies from the trunk down to the one carrying the leg's joint ceil(n/2) - 1."""
     upto = leg.joints[math.ceil(len(leg.joints) / 2) - 1]
     j = mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, upto)
     path = _path_to_trunk(model, int(model.jnt_bodyid[j]), trunk) or []
     return [mujoco.mj_id2name(model, OBJ.mjOBJ_BODY, b) for b in path]
-
-
-def _name_bodies(spec: mujoco.MjSpec) -> None:
-    """Sensors and edits name their bodies and geoms: an unnamed one gets a name (gm_body<k>, gm_geom<k>)."""
-    for k, b in enumerate(spec.bodies):
-        if not b.name:
-            b.name = f"gm_body{k}"
-    for k, g in enumerate(spec.geoms):
-        if not g.name:
-            g.name = f"gm_geom{k}"
 
 
 def _foot_radius(model: mujoco.MjModel, data: mujoco.MjData, kin: _Kin, foot: Foot) -> float:
@@ -281,49 +205,6 @@ def _foot_radius(model: mujoco.MjModel, data: mujoco.MjData, kin: _Kin, foot: Fo
         if np.linalg.norm(d - t * z) <= r + 1e-6:
             best = max(best, r)
     return best
-
-
-def _shorten(spec: mujoco.MjSpec, model: mujoco.MjModel, kin: _Kin, trunk: int, leg: Leg, cut: float,
-             foot: tuple[str, list[float]]) -> tuple[str, list[float]]:
-    """Cut ``cut`` metres from the leg's foot segment (from its last joint to its foot), at the
-    reference pose: geoms and sites of the segment's bodies beyond the cut move back along it
-    by ``cut``, a capsule or cylinder along it that reaches past the cut is shortened by
-    ``cut``. Returns the foot's body and new point in it."""
-    j = mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, leg.joints[-1])
-    body_f = mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, foot[0])
-    a, f = kin.data.xanchor[j].copy(), kin.data.xpos[body_f] + kin.data.xmat[body_f].reshape(3, 3) @ foot[1]
-    length = float(np.linalg.norm(f - a))
-    if not cut < 0.8 * length:
-        raise LegMapError(f"shortened_legs: leg {leg.name!r}: its foot segment is {length:.3f} m; "
-                          f"at most 80 % of it ({0.8 * length:.3f} m) can be cut")
-    d = (f - a) / length
-    bodies = [int(model.jnt_bodyid[j])] + [b for b in (_path_to_trunk(model, body_f, int(model.jnt_bodyid[j])) or [])]
-    edge = length - cut
-    for b in dict.fromkeys(bodies):
-        R, x = kin.data.xmat[b].reshape(3, 3), kin.data.xpos[b]
-        for g in range(model.ngeom):
-            if model.geom_bodyid[g] != b:
-                continue
-            c, z = kin.data.geom_xpos[g], kin.data.geom_xmat[g].reshape(3, 3)[:, 2]
-            along = (c - a) @ d
-            shift, half = 0.0, float(model.geom_size[g, 1])
-            long = model.geom_type[g] in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER))
-            if long and abs(z @ d) > 0.9 and along + half > edge:
-                half, shift = max(half - cut / 2, 1e-4), cut / 2
-            elif along > edge:
-                shift = cut
-            if shift:
-                sg = spec.geom(mujoco.mj_id2name(model, OBJ.mjOBJ_GEOM, g))  # every geom is named (_name_bodies)
-                sg.fromto = [np.nan] * 6
-                sg.pos, sg.quat = list(R.T @ (c - shift * d - x)), list(model.geom_quat[g])
-                sg.size = [float(model.geom_size[g, 0]), half, float(model.geom_size[g, 2])]
-        for i in range(model.nsite):
-            if model.site_bodyid[i] == b and (kin.data.site_xpos[i] - a) @ d > edge:
-                site = spec.site(mujoco.mj_id2name(model, OBJ.mjOBJ_SITE, i))
-                if site is not None:
-                    site.pos = list(R.T @ (kin.data.site_xpos[i] - cut * d - x))
-    Rf, xf = kin.data.xmat[body_f].reshape(3, 3), kin.data.xpos[body_f]
-    return foot[0], [float(v) for v in Rf.T @ (f - cut * d - xf)]
 
 
 def _add_sensors(spec: mujoco.MjSpec, legs: LegMap, heading: np.ndarray, upper: list[str],
@@ -352,29 +233,22 @@ def heading_quat(legs: LegMap) -> np.ndarray:
     return np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
 
 
-def _foot_in_body(model: mujoco.MjModel, data: mujoco.MjData, kin: _Kin, foot: Foot) -> tuple[str, list[float]]:
-    """The foot's body and the foot point in that body's frame."""
-    from app.robots.numik import _foot_in_body as local
-
-    body, point = local(model, type("L", (), {"foot": foot})())
-    return mujoco.mj_id2name(model, OBJ.mjOBJ_BODY, body), [float(v) for v in point]
-
-
-def _servo(spec: mujoco.MjSpec, joint: str, g: Gains, scale: float) -> None:
+def _servo(spec: mujoco.MjSpec, joint: str, g: Gains) -> None:
     from app.robots.mjcf import add_pid_servo
 
-    limit = (g.force_limit if g.force_limit is not None else 1e5) * scale
+    limit = (g.force_limit if g.force_limit is not None else 1e5) * 1.0  # * 1.0: as when it took a scale
     add_pid_servo(spec, f"{joint}_servo", joint, g.kp, g.kd, limit, ki=g.ki if g.ki > 0 else None)
 
 
-def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: float | None = None) -> Walkable:
+def make_walkable(robot: Robot, damage: Damage = Damage(), timestep: float | None = None) -> Walkable:
     """The damaged robot with servos and sensors (module doc); LegMapError names what does not fit.
     With ``timestep``, each driven joint's armature is raised to at least MIN_ARMATURE_RULE
-    (its servo then stays stable at that step)."""
+    (its servo then stays stable at that step). The damage is made by app/robots/damage.py
+    ``apply_damage`` on the servoed robot."""
     legs = robot.legs
     damage.check(legs)
     spec = robot.spec()
-    _name_bodies(spec)
+    name_parts(spec)
     model = spec.compile()
     inline_assets(spec, model)
     trunk = mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, legs.trunk)
@@ -383,8 +257,7 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
     numbers = leg_numbers(legs)
     upload = _actuator_kinds(model)
     kept = [l for l in legs.legs if l.name not in damage.lost_legs]
-    feet = {numbers[l.name]: _foot_in_body(model, kin.data, kin, l.foot) for l in kept}
-    cuts = dict(damage.shortened)
+    feet = {numbers[l.name]: foot_in_body(model, l.foot) for l in kept}
     radius = min((_foot_radius(model, kin.data, kin, l.foot) for l in kept), default=0.0)
     upper = sorted({b for l in kept for b in _upper_bodies(model, trunk, l)})
     gains = {}
@@ -400,27 +273,24 @@ def make_walkable(robot: Robot, damage: NamedDamage = NamedDamage(), timestep: f
         spec.delete(t)
     for e in list(spec.equalities):
         spec.delete(e)
-    for name in damage.lost_legs:
-        spec.delete(spec.body(_first_body(model, trunk, legs.leg(name))))
-    locked = {j: v for _, j, v in damage.locked}
-    for j, v in locked.items():
-        _lock(spec, j, v)
-    passive = {j for _, j in damage.passive}
-    weak = {j: s for _, j, s in damage.weak}
     for leg in kept:
         for j in leg.joints:
-            if j not in locked and j not in passive:
-                _servo(spec, j, Gains(**{k: v for k, v in gains[j].items() if k != "source"}), weak.get(j, 1.0))
-                if timestep is not None:
-                    joint = spec.joint(j)
-                    joint.armature = max(float(joint.armature), 4.0 * gains[j]["kp"] * timestep**2)
-                    gains[j]["armature"] = float(joint.armature)
-    for name, cut in cuts.items():
-        n = numbers[name]
-        feet[n] = _shorten(spec, model, kin, trunk, legs.leg(name), cut, feet[n])
+            _servo(spec, j, Gains(**{k: v for k, v in gains[j].items() if k != "source"}))
+    applied = apply_damage(spec, legs, damage, rest=model)
+    driven = {a.target for a in spec.actuators}
+    for leg in kept:
+        for j in leg.joints:
+            if timestep is not None and j in driven:
+                joint = spec.joint(j)
+                joint.armature = max(float(joint.armature), 4.0 * gains[j]["kp"] * timestep**2)
+                gains[j]["armature"] = float(joint.armature)
+    for name, foot in applied.feet.items():
+        feet[numbers[name]] = foot
     _rename(spec, legs.trunk)
+    locked, passive = damage.locked(), damage.passive()
     left = LegMap(trunk=TRUNK, forward=legs.forward, stance_height=legs.stance_height, gains=legs.gains,
-                  legs=[_without(l, locked, f"leg{numbers[l.name]}_tip" if l.name in cuts else None) for l in kept])
+                  legs=[_without(l, locked, f"leg{numbers[l.name]}_tip" if l.name in applied.feet else None)
+                        for l in kept])
     _add_sensors(spec, left, heading_quat(legs), [b for b in upper if b != legs.trunk], feet)
     return Walkable(spec=spec, legs=left, numbers={l.name: numbers[l.name] for l in kept},
                     passive={l.name: [j for j in l.joints if j in passive] for l in kept},

@@ -4,7 +4,8 @@ context, write the bundle, finish. The Celery task (workers/tasks.py) only calls
 Faults (docs/faults.md):
 - every write of the life cycle (claim, lease renewal, progress, checkpoint, finish)
   retries a dropped connection with backoff for as long as the lease lasts; the lease
-  token still fences a worker whose lease another took. A job fails only for its own
+  token still fences a worker whose lease another took (the lease and fencing protocol:
+  app/store/repo/leases.py). A job fails only for its own
   errors (with a message free of SQL, parameters and tokens) or after its attempts;
 - SIGTERM (``request_stop``): the job is handed back at the next generation boundary
   (its checkpoint is saved there) without spending an attempt, or, still inside a

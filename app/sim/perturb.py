@@ -13,6 +13,24 @@ kind's to size); ``perturbed_model`` turns an ``MjSpec`` into the perturbed ``Mj
   ``mj_setConst`` so that the derived constants (subtree masses, inverse weights) match the
   new masses.
 
+The height field's cells are large compared with the feet (``terrain_cell_m``, 50 cm by
+default), as MuJoCo's collider needs: it collides a geom with each triangular prism of the
+field on its own, so a soft-contact foot (it sinks about 0.7 mm into the floor when it
+stands) near an edge between two prisms also touches the neighbouring prism's top edge and
+gets an extra contact tilted up to tens of degrees, on a floor that is flat there. On a
+4 cm grid, with the recovery hexapod's 1 cm feet, a flat height field (amplitude 0) changed
+the walk as much as the roughness did: 21 of Table II's 40 answers left the timestep
+check's bands against the plane (19 moved forward by 5 % or more; drift moved by up to
+14.5 cm, yaw by up to 18 deg; issue 47). With
+50 cm cells a zero-amplitude floor reproduces the plane's walk within the timestep check's
+tolerance, and so does a 0.5 mm floor (tests/jobs/recovery/test_held_out.py).
+
+Beside the named cases, random models: ``RANDOM_RANGES`` states the ranges (friction,
+masses, a payload and its place, servo strength and gains, a rough floor), ``draw_models``
+draws them from a stream of a job's seed (``HELD_OUT_STREAM`` for the held-out set a job is
+judged on, ``SEARCH_STREAM`` for a randomised search's draws, indexed by generation), and
+``random_world`` / ``random_model`` turn a draw into a model of one size signature.
+
 Models that differ only in model-level edits keep the nominal model's size signature, so
 ``mujoco.rollout`` can run them side by side, one model per batch element
 (``same_signature``). A timestep change also changes the number of steps per second, so
@@ -23,6 +41,8 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from collections.abc import Sequence
+
 import mujoco
 import numpy as np
 
@@ -38,7 +58,7 @@ class Perturbation:
     payload_body: str = "torso"
     payload_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)  # from the body's centre of mass
     terrain_amplitude_m: float = 0.0  # rough terrain: heights uniform in [-a, a]
-    terrain_cell_m: float = 0.04
+    terrain_cell_m: float = 0.5  # large compared with the feet (see the module's text)
     terrain_half_size_m: float = 3.0
     terrain_seed: int = 0
 
@@ -48,14 +68,20 @@ class Perturbation:
 
 
 NOMINAL = Perturbation("nominal", "nominal model")
+FLAT_M = 1e-9  # the elevation range of a zero-amplitude floor (MuJoCo wants a positive one)
+# The rough floor's grid, in a named case and every random model: 50 cm, large compared with
+# the feet, as MuJoCo's height-field collider needs (the module's text says why; on a 4 cm
+# grid a flat floor alone changed the recovery hexapod's walk as much as the roughness, issue 47).
+FLOOR_CELL_M = 0.5
 
 
 # -- spec edits -----------------------------------------------------------------------------
 
 def roughen_floor(spec: mujoco.MjSpec, p: Perturbation) -> mujoco.MjSpec:
     """Replaces the plane geom ``floor`` by a height field (same name, contact bits and
-    friction) centred on it, heights uniform in [-a, a] per cell, drawn from the
-    perturbation's own seed so every re-run sees the same floor."""
+    friction; its explicit pairs name it, so they carry over) centred on it, heights
+    uniform in [-a, a] at the grid's nodes, drawn from the perturbation's own seed so every
+    re-run sees the same floor. At amplitude 0 the field is flat at the plane's height."""
     floor = spec.geom("floor")
     if floor is None:
         raise ValueError("rough terrain needs a plane geom named 'floor'")
@@ -64,7 +90,7 @@ def roughen_floor(spec: mujoco.MjSpec, p: Perturbation) -> mujoco.MjSpec:
     rng = np.random.default_rng(p.terrain_seed)
     heights = rng.random((n, n))  # in [0, 1]: elevation = base + h * size_z
     hf = spec.add_hfield(name="floor_rough", nrow=n, ncol=n,
-                         size=[p.terrain_half_size_m, p.terrain_half_size_m, 2 * a, 0.05])
+                         size=[p.terrain_half_size_m, p.terrain_half_size_m, max(2 * a, FLAT_M), 0.05])
     hf.userdata = heights.ravel().tolist()
     pos = np.asarray(floor.pos, dtype=float).copy()
     pos[2] -= a  # the surface spans [z - a, z + a] around the plane's height
@@ -136,3 +162,71 @@ def same_signature(a: mujoco.MjModel, b: mujoco.MjModel) -> bool:
     """Can ``a`` and ``b`` share one ``mujoco.rollout`` call (same sizes and timestep)?"""
     sizes = ("nq", "nv", "nu", "na", "nbody", "ngeom", "nsensordata", "nhfielddata", "nmocap", "neq")
     return a.opt.timestep == b.opt.timestep and all(getattr(a, s) == getattr(b, s) for s in sizes)
+
+
+# -- random models: stated ranges, seeded draws, streams --------------------------------------
+
+# The stated ranges every random model is drawn from, uniformly and independently. Friction:
+# every geom's sliding friction; mass: every body's mass and inertia; payload: a share of the
+# robot's mass on the torso, its centre offset in x and y; motor strength: every servo's torque
+# limit; servo gains: every servo's kp, kd and ki together; floor: a height field of heights
+# uniform in +-amplitude on a 50 cm grid. Not modelled: actuation latency, backlash, sensor noise.
+RANDOM_RANGES = {
+    "friction_scale": (0.6, 1.4),
+    "mass_scale": (0.9, 1.1),
+    "payload_share": (0.0, 0.15),
+    "payload_x_m": (-0.03, 0.03),
+    "payload_y_m": (-0.03, 0.03),
+    "motor_strength": (0.7, 1.0),
+    "servo_gain_scale": (0.7, 1.3),
+    "floor_amplitude_m": (0.0, 0.005),
+}
+RANGE_TEXT = ("friction x 0.6-1.4, every mass x 0.9-1.1, payload 0-15 % of the robot's mass within 3 cm of the "
+              "torso's centre in x and y, servo torque limits x 0.7-1.0, servo gains (kp, kd, ki) x 0.7-1.3, rough "
+              "floor +-0-5 mm on a 50 cm grid")
+# Streams of the job's seed no search draws from (the search uses the seed itself, the
+# random-search control seed + 7919): the held-out set, and the randomised search's draws.
+HELD_OUT_STREAM = 0x48454C44  # "HELD"
+SEARCH_STREAM = 0x52414E44  # "RAND"
+
+
+def draw_models(seed: int, n: int, stream: int = HELD_OUT_STREAM, generation: int = 0) -> list[dict[str, float]]:
+    """``n`` random models (each a dict of RANDOM_RANGES' draws plus a floor seed), the same
+    for the same (seed, stream, generation)."""
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(stream), int(generation)]))
+    out = []
+    for _ in range(n):
+        d = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in RANDOM_RANGES.items()}
+        out.append(d | {"floor_seed": int(rng.integers(2**31))})
+    return out
+
+
+def random_world(mspec: mujoco.MjSpec) -> mujoco.MjModel:
+    """The damaged robot on a height-field floor: the compiled structure every random model
+    shares (one size signature, so a whole set runs in one rollout call)."""
+    return perturbed_model(mspec, Perturbation("rough", "rough floor", terrain_amplitude_m=RANDOM_RANGES[
+        "floor_amplitude_m"][1], terrain_cell_m=FLOOR_CELL_M))
+
+
+def random_model(world: mujoco.MjModel, d: dict[str, float], robot_mass_kg: float) -> mujoco.MjModel:
+    """One random model (a draw of ``draw_models``) of ``random_world``'s structure."""
+    p = Perturbation("random", "random model", friction_scale=d["friction_scale"], mass_scale=d["mass_scale"],
+                     payload_kg=d["payload_share"] * robot_mass_kg, payload_offset_m=(d["payload_x_m"],
+                                                                                      d["payload_y_m"], 0.0))
+    m = edit_model(world, p)
+    m.actuator_forcerange[:] *= d["motor_strength"]
+    m.actuator_biasprm[:, 1:3] *= d["servo_gain_scale"]  # -kp, -kd of MuJoCo's pid actuator
+    m.actuator_gainprm[:, 0] *= d["servo_gain_scale"]  # ki
+    a = d["floor_amplitude_m"]
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    hf = m.geom_dataid[floor]
+    rows = slice(m.hfield_adr[hf], m.hfield_adr[hf] + m.hfield_nrow[hf] * m.hfield_ncol[hf])
+    m.hfield_data[rows] = np.random.default_rng(d["floor_seed"]).random(rows.stop - rows.start)
+    m.hfield_size[hf, 2] = max(2 * a, 1e-9)  # heights span [z - a, z + a] around the plane's height
+    m.geom_pos[floor, 2] = world.geom_pos[floor, 2] + RANDOM_RANGES["floor_amplitude_m"][1] - a
+    return m
+
+
+def random_models(mspec: mujoco.MjSpec, draws: Sequence[dict[str, float]], robot_mass_kg: float) -> list[mujoco.MjModel]:
+    world = random_world(mspec)
+    return [random_model(world, d, robot_mass_kg) for d in draws]

@@ -41,3 +41,28 @@ def current(url: str) -> str | None:
 
 def at_head(url: str) -> bool:
     return current(url) == head(url)
+
+
+class SchemaError(RuntimeError):
+    """The database is reachable but not at gaitmend's schema, and migrating it failed."""
+
+
+def ensure_schema(url: str) -> str | None:
+    """An API started on its own (``uvicorn --factory app.api:create_app``, not `gaitmend
+    serve`) migrates its database at start-up, as serve does, instead of answering 500 "no
+    such table" until something does. Returns what it did in words (None: already at head,
+    or out of reach, which the API answers as 503 per request); raises SchemaError, saying
+    how to fix it, when the migration fails."""
+    try:
+        now, want = current(url), head(url)
+    except Exception:  # noqa: BLE001  (unreachable now: every request answers 503 until it is back)
+        return None
+    if now == want:
+        return None
+    try:
+        upgrade(url)
+    except Exception as e:  # noqa: BLE001
+        raise SchemaError(f"the database {url.split('@')[-1]} is at schema revision {now or 'none (no tables)'}, not "
+                          f"{want}, and migrating it failed ({type(e).__name__}: {e}); run `gaitmend db upgrade` "
+                          "with the same GAITMEND_DATABASE_URL / GAITMEND_DATA_DIR (`gaitmend serve` does it)") from e
+    return f"migrated the database from revision {now or 'none (no tables)'} to {want}"

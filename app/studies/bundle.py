@@ -25,13 +25,29 @@ def study_files(study_spec: dict, points: list[dict[str, Any]], agg: dict, infea
     for p in points:
         files[f"points/{p['index']:04d}.json"] = dumps({
             "index": p["index"], "overrides": p["overrides"], "status": p["status"], "error": p.get("error"),
-            "job_id": p.get("job_id"), "spec": p["spec"], "summary": p.get("summary")}).encode()
+            "job_id": p.get("job_id"), "spec": p["spec"], "summary": p.get("summary"),
+            "verdict": point_verdict(study_spec, p)}).encode()
     manifest = {"format": "gaitmend-study/1", "gaitmend_version": __version__, "study": study_spec,
                 "points": [{"index": p["index"], "overrides": p["overrides"], "job_id": p.get("job_id"),
                             "status": p["status"]} for p in points],
                 "infeasible": infeasible} | (extra or {})
     files["manifest.json"] = json.dumps(manifest, indent=1).encode()
     return files
+
+
+def point_verdict(study_spec: dict, p: dict[str, Any]) -> dict | None:
+    """A succeeded point's verdict in brief (app/jobs/verdict.py's ``brief``: the held-out
+    figure, target, controls, the sentence), as the job page and the API state it."""
+    if p["status"] != "succeeded" or not p.get("summary"):
+        return None
+    from app.jobs.base import SpecError
+    from app.jobs.registry import get_kind
+    from app.jobs.verdict import brief
+
+    try:
+        return brief(get_kind(study_spec["base"]["kind"]).verdict(json.loads(dumps(p["summary"]))))
+    except (SpecError, KeyError, TypeError, ValueError):  # a summary of an older release
+        return None
 
 
 def zip_bytes(files: dict[str, bytes]) -> bytes:

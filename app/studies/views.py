@@ -145,13 +145,24 @@ def target_cell(verdicts: list[dict], met: list[int]) -> Any:
     return kit.cell(text, text=text, note="; ".join(sorted({str(r["target"]) for r in rows})))
 
 
+def held_out_cell(h: dict | None) -> Any:
+    """The group's held-out random models kept over its points, the value their share (the
+    column sorts by it), the words app/jobs/verdict.py's and a fragile group marked."""
+    if not h:
+        return kit.cell(None, text="–")
+    kept = f"{h['met']} of {h['judged']}" if h["judged"] else f"{h['n']} not judged"
+    return kit.cell(h["share"], better=False if h["fragile"] else None,
+                    text=kept + ("" if h["fell"] is None else f", {h['fell']} fell"),
+                    note=f"{h['text']} over {h['points']} point(s)" + ("; fragile" if h["fragile"] else ""))
+
+
 def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
     """The method against each control pooled over each group's points (seeds): the mean
     paired difference with its 95 % interval and Wilcoxon p (app/jobs/verdict.py's
     ``pooled``), beat / lost only when the interval excludes 0 and p < 0.05, else "not
     shown" with the reason in the cell's note; target met and robustness counted over the
     points."""
-    from app.jobs.verdict import fmt, study_verdict
+    from app.jobs.verdict import FRAGILE_RULE, fmt, study_verdict
 
     groups = _point_verdicts(kind, points, group_by)
     rows = []
@@ -160,7 +171,7 @@ def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
         label = group_label(group_by, json.loads(key))
         met = v["target_met"]
         rob = v["robustness"]
-        base = [label, target_cell(verdicts, met),
+        base = [label, target_cell(verdicts, met), held_out_cell(v["held_out"]),
                 f"{rob[0]} of {rob[1]}" if rob else "–"]
         if not v["controls"]:
             rows.append(base + ["–", "–", "–"])
@@ -175,14 +186,15 @@ def verdict_panel(kind, points: list[dict], group_by: list[str]) -> dict | None:
                                                      note=f"{c['n']} seed(s): {c['why']}"), f"{diff}; 95 % interval {inter}{p}"])
     if not rows:
         return None
-    cap = ("Did the method work over the seeds? Per group: the points meeting the target, the robustness re-runs "
-           "meeting it, and the method against each control at the same budget as the mean paired difference over "
+    cap = ("Did the method work over the seeds? Per group: the points meeting the target, the held-out random "
+           f"models keeping it over the points (their falls; {FRAGILE_RULE}; sort by it), the named-case and "
+           "timestep re-runs meeting it, and the method against each control at the same budget as the mean paired difference over "
            "the points (positive: the method is better) with its 95 % interval (Student t below 10 seeds, BCa "
            "bootstrap from 10) and Wilcoxon's signed-rank p; beat or lost only when the interval excludes 0 and "
            "p < 0.05, else 'not shown' (the reason in the cell's note), never a finding either way.")
     return kit.panel("verdict", "Verdict over the seeds", cap,
-                     table=kit.table(["group", "target met", "robustness met", "control", "outcome",
-                                      "method minus control"], rows))
+                     table=kit.table(["group", "target met", "held-out models kept", "re-runs met", "control",
+                                      "outcome", "method minus control"], rows))
 
 
 def study_views(spec: dict[str, Any], points: list[dict[str, Any]], agg: dict[str, Any]) -> list[dict]:

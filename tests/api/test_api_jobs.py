@@ -204,7 +204,7 @@ def test_robots_health_and_openapi(client):
     robots = {r["name"]: r for r in client.get("/api/robots").json()}
     assert set(robots) == set(ROBOTS) | {"heavy_hexapod", "lizard", "quadropod", "tshape", "lshape", "hshape", "silo6",
                                          "quadruped25"}
-    assert robots["jethexa"]["kinds"] == ["recovery"] and robots["heavy_hexapod"]["kinds"] == ["tipping"]
+    assert robots["jethexa"]["kinds"] == ["recovery", "repertoire"] and robots["heavy_hexapod"]["kinds"] == ["tipping"]
     assert robots["lizard"]["kinds"] == ["multigait"] and robots["lizard"]["modules"] == 7
     assert robots["jethexa"]["legs"] == [1, 2, 3, 4, 5, 6] and "parameters" in robots["jethexa"]
     h = client.get("/api/health").json()

@@ -64,14 +64,15 @@ def test_upload_list_get_delete_a_third_party_robot(client, settings):
     assert r.status_code == 201, r.text
     robot = r.json()
     assert robot["name"] == "gym ant" and robot["detected"] and len(robot["legs"]["legs"]) == 4
-    assert robot["kinds"] == ["recovery"]  # a job names it by its id (tests/robots/test_user_recovery.py)
+    # a job of either kind names it by its id (tests/robots/test_user_recovery.py, tests/jobs/repertoire)
+    assert robot["kinds"] == ["recovery", "repertoire"]
     again = client.post("/api/robots", files={"model": ("ant.xml", _ant(), "application/xml")}, data={"name": "gym ant"})
     assert again.status_code == 200 and again.json()["id"] == robot["id"]
     listed = client.get("/api/robots").json()
     assert [x["name"] for x in listed if x.get("builtin")][:1] == ["jethexa"]  # built-ins first, as before
     assert [x["id"] for x in listed if not x.get("builtin")] == [robot["id"]]
     assert client.get(f"/api/robots/{robot['id']}").json()["legs"] == robot["legs"]
-    assert client.get("/api/robots/jethexa").json()["kinds"] == ["recovery"]
+    assert client.get("/api/robots/jethexa").json()["kinds"] == ["recovery", "repertoire"]
     assert client.delete(f"/api/robots/{robot['id']}").status_code == 204
     assert client.get(f"/api/robots/{robot['id']}").status_code == 404
     assert _stored(settings) == (0, [])

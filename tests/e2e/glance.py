@@ -99,6 +99,10 @@ def check_list_row(page, server, job_id: str) -> None:
         expect(cell).to_contain_text(head["unit"])
     if row["verdict"]["robustness"]:
         expect(cell).to_contain_text(f"robust {row['verdict']['robustness'][0]}/{row['verdict']['robustness'][1]}")
+    held = row["verdict"].get("held_out")
+    if held:  # the held-out random models, before the re-runs (issue 46)
+        kept = f"{held['met']}/{held['judged']}" if held["judged"] else f"{held['n']} not judged"
+        expect(cell.locator(".held-out")).to_contain_text(f"held-out {kept}")
     expect(tr.locator("td.run")).to_contain_text(f"{row['budget']} evals")
     if row["seed"] is not None:
         expect(tr.locator("td.run")).to_contain_text(f"seed {row['seed']}")

@@ -113,7 +113,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     with server.client("alice") as c:
         stored = c.get(f"/api/robots/{robot_id}").json()
     assert "front_left" in [leg["name"] for leg in stored["legs"]["legs"]]
-    assert stored["kinds"] == ["recovery"]
+    assert stored["kinds"] == ["recovery", "repertoire"]
     expect(page.locator(f'#mine-rows tr[data-id="{robot_id}"]')).to_contain_text("front_left")
     # the saved robot in viser's client: its recording is served by a signed link, and drawn
     expect(page.locator("#preview-card")).to_be_visible(timeout=10_000)

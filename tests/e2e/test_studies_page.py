@@ -133,6 +133,13 @@ def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_pag
     expect(page.locator("#panel-verdict")).to_contain_text("not judged")
     expect(page.locator("#panel-verdict")).to_contain_text("needs >= 3 s")
     expect(page.locator("#panel-verdict")).not_to_contain_text("no target")
+    # the held-out random models over the points, a column the table sorts by (issue 46)
+    held = page.locator("#panel-verdict thead th").filter(has_text="held-out models kept")
+    expect(held).to_have_count(1)
+    held.locator("button.sort").click()
+    expect(held).to_have_attribute("aria-sort", "descending")
+    held.locator("button.sort").press("Enter")
+    expect(held).to_have_attribute("aria-sort", "ascending")
     expect(page.locator("#panel-metric-0 .plot[data-rendered='1']")).to_be_attached(timeout=30_000)
     assert "null" not in page.locator("main").inner_text()
     page.screenshot(path=shots / "study-1280.png", full_page=True)
@@ -160,7 +167,7 @@ def _verdict_fits_a_phone(pg):
     assert wrap.evaluate("w => w.scrollWidth <= w.clientWidth + 1"), \
         wrap.evaluate("w => [w.scrollWidth, w.clientWidth]")
     heads = table.locator("thead th").all_inner_texts()
-    assert len(heads) == 6, heads
+    assert len(heads) == 7, heads
     right = wrap.bounding_box()["x"] + wrap.bounding_box()["width"]
     for row in table.locator("tbody tr").all():
         cells = row.locator("td")

@@ -123,14 +123,17 @@ def test_the_default_spec_validates_and_states_its_budget(kind):
     assert again == spec
 
 
+def _leaves(kind: Kind, types: tuple[str, ...]) -> list[str]:
+    """Every field of the kind's form of one of ``types``; a kind without one fails (every
+    kind has numbers and integers today: one that had none would be checked by nothing)."""
+    paths = [f["path"] for f in kind.form() if f.get("type") in types]
+    assert paths, f"{kind.name} has no {types} field for the contract to check"
+    return paths
+
+
 def _leaf(kind: Kind, types: tuple[str, ...]) -> str:
-    for f in kind.form():
-        if f.get("type") in types and f["path"] not in ("seed",) and "." in f["path"]:
-            return f["path"]
-    for f in kind.form():
-        if f.get("type") in types:
-            return f["path"]
-    pytest.skip(f"{kind.name} has no {types} field")
+    paths = _leaves(kind, types)
+    return next((p for p in paths if p != "seed" and "." in p), paths[0])
 
 
 def _set(data: dict, path: str, value) -> dict:
@@ -156,24 +159,31 @@ def test_an_unknown_field_is_rejected_by_name(kind):
     assert "unknown field" in _rejected(base | {"gravity": 3}, "gravity")
     section = _leaf(kind, ("integer", "number", "boolean", "string")).rsplit(".", 1)[0]
     if section and "." not in section and section in kind.Spec.model_fields:
-        _rejected(_set(base, f"{section}.gravity", 3), f"{section}.gravity")
+        assert "unknown field" in _rejected(_set(base, f"{section}.gravity", 3), f"{section}.gravity")
 
 
 @pytest.mark.parametrize("bad", ["7", True, [1]])
 def test_a_wrong_type_is_rejected_by_name(kind, bad):
-    path = _leaf(kind, ("integer", "number"))
-    _rejected(_set({"kind": kind.name}, path, bad), path)
+    """Every integer and number field of the form, not one: a string, a boolean or a list is
+    refused under the field's own path with the type it wanted."""
+    typed = {f["path"]: f["type"] for f in kind.form() if f.get("type") in ("integer", "number")}
+    for path in _leaves(kind, ("integer", "number")):
+        message = _rejected(_set({"kind": kind.name}, path, bad), path)
+        assert f"valid {typed[path]}" in message, (path, message)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_a_non_finite_number_is_rejected_by_name(kind, bad):
-    path = _leaf(kind, ("number",))
-    assert "finite" in _rejected(_set({"kind": kind.name}, path, bad), path)
+    for path in _leaves(kind, ("number",)):
+        assert "finite" in _rejected(_set({"kind": kind.name}, path, bad), path), path
 
 
 def test_an_integer_field_refuses_a_float(kind):
-    path = _leaf(kind, ("integer",))
-    _rejected(_set({"kind": kind.name}, path, 2.5), path)
+    """2.5 in any integer field is refused as not an integer (not rounded, not truncated to
+    2), under that field's path."""
+    for path in _leaves(kind, ("integer",)):
+        message = _rejected(_set({"kind": kind.name}, path, 2.5), path)
+        assert "valid integer" in message, (path, message)
 
 
 # -- the run --------------------------------------------------------------------------------------
@@ -221,6 +231,8 @@ def test_the_bundle_readme_lists_exactly_the_files_it_holds(kind, tmp_path):
     assert manifest["kind"] == kind.name and manifest["evaluations"] == res.evaluations
     assert kind.title in readme
     assert any(n.startswith("plots/") for n in names), "a kind writes at least one figure"
+    # the verdict, as the job page and `gaitmend run` state it (issue 46: held-out figure first)
+    assert f"## Verdict\n\nVerdict: {kind.verdict(json.loads(dumps(res.summary)))['sentence']}\n" in readme
 
 
 def test_headline_tables_progress_and_history_render(kind):

@@ -5,6 +5,7 @@ re-runs everything (the old runs kept as a record), and two machines' copies mer
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -148,5 +149,17 @@ def test_a_reproduction_killed_midway_continues_where_it_stopped(science, tmp_pa
     assert all(started.count(s) == 1 for s in range(len(done)))
 
 
-def test_the_root_is_the_repository():
-    assert (ledger.ROOT / "app" / "jobs" / "ledger.py").exists()
+def test_the_root_is_the_repository(tmp_path):
+    """ROOT is the checkout that holds the code, wherever the process runs: imported from a
+    process whose working directory is elsewhere, it is the folder above tests/ (found here
+    from this file), and a science file named relative to it is hashed from there (the
+    version computed by hand: sha256 over name, NUL, bytes, NUL)."""
+    repo = Path(__file__).resolve().parents[2]
+    rel = "app/jobs/ledger.py"
+    expected = hashlib.sha256(rel.encode() + b"\0" + (repo / rel).read_bytes() + b"\0").hexdigest()[:12]
+    code = "from app.jobs import ledger; print(ledger.ROOT); print(ledger.code_version(['app/jobs/ledger.py']))"
+    env = os.environ | {"PYTHONPATH": str(repo), "PYTHONDONTWRITEBYTECODE": "1"}
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == [str(repo), expected]
+    assert ledger.ROOT == repo

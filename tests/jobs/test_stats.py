@@ -199,3 +199,10 @@ def test_a_study_pools_through_the_same_rule():
     assert pooled([3.0, -2.0, 1.0, -5.0, 0.5, 2.0])["why"] == "the 95 % interval includes 0"
     one = pooled([2.0])
     assert one["outcome"] == "not shown" and one["interval"] is None and one["why"] == "one seed: no interval"
+
+
+def test_wilson_interval_of_a_share():
+    lo, hi = stats.wilson(5, 20)
+    assert 0.11 < lo < 0.112 and 0.468 < hi < 0.47  # the textbook 95 % Wilson interval of 5/20
+    assert stats.wilson(0, 20)[0] == 0.0 and stats.wilson(20, 20)[1] == 1.0  # clamped to [0, 1]
+    assert all(x != x for x in stats.wilson(0, 0))  # no models: no interval (nan)

@@ -81,5 +81,25 @@ def test_ik_matches_mujoco_forward_kinematics():
 
 
 def test_unreachable_targets_are_clamped_not_nan():
-    p = np.array([[1.0, 0.0, -0.5], [0.0, 0.0, 0.0]])
-    assert np.all(np.isfinite(leg_ik(p, LENGTHS)))
+    """A target beyond the reach gets the fully stretched leg, one inside it the fully folded
+    leg, each pointing from the femur joint at the target: the tip lands where the ray from
+    the femur joint to the target meets the reach's outer (L2 + L3) or inner (|L2 - L3|)
+    sphere, worked out here by hand. A target on the boundary, where rounding pushes the
+    cosine past 1, is reached exactly."""
+    L1, L2, L3 = LENGTHS
+    far = [[1.0, 0.0, -0.5], [0.1, 0.3, 0.2], [-0.2, -0.1, -0.3]]
+    near = [[0.0, 0.0, 0.0], [0.03, 0.02, -0.01], [0.04, -0.01, 0.02]]
+    for targets, reach in ((far, L2 + L3), (near, abs(L2 - L3))):
+        p = np.array(targets)
+        sol = leg_ik(p, LENGTHS)
+        assert np.all(np.isfinite(sol))
+        yaw = np.arctan2(p[:, 1], p[:, 0])
+        joint = np.column_stack([L1 * np.cos(yaw), L1 * np.sin(yaw), np.zeros(len(p))])  # the femur joint
+        ray = (p - joint) / np.linalg.norm(p - joint, axis=1, keepdims=True)
+        dist = np.linalg.norm(p - joint, axis=1)
+        assert np.all(dist > reach) if reach == L2 + L3 else np.all(dist < reach)  # unreachable indeed
+        np.testing.assert_allclose(leg_fk(sol, LENGTHS), joint + reach * ray, atol=1e-9)
+    edge = leg_fk(np.array([[0.3, a, 0.0] for a in np.linspace(-1.2, 1.2, 25)]), LENGTHS)
+    sol = leg_ik(edge, LENGTHS)
+    assert np.all(np.isfinite(sol))
+    np.testing.assert_allclose(leg_fk(sol, LENGTHS), edge, atol=1e-9)

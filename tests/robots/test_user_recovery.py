@@ -24,7 +24,9 @@ from app.jobs.recovery.userrobot import UserRobot, neighbours_of, spec_error  # 
 from app.robots.detect import detect_legs  # noqa: E402
 from app.robots.legmap import LegMapError, Robot  # noqa: E402
 from app.robots.upload import from_dir, prepare  # noqa: E402
-from app.robots.walkable import NamedDamage, make_walkable  # noqa: E402
+from app.robots.damage import (Damage, JointDamage, LockedJointDamage, ShortenedLegDamage,  # noqa: E402
+                               WeakJointDamage)
+from app.robots.walkable import make_walkable  # noqa: E402
 
 RID = "ab" * 16  # an uploaded robot's id, as the store makes them
 
@@ -95,9 +97,11 @@ def test_the_dm_control_quadruped_with_a_locked_knee_walks_further_after_a_short
 def test_damage_types_edit_the_model_as_stated():
     robot = _hexapod()
     legs = robot.legs.legs
-    w = make_walkable(robot, NamedDamage(lost_legs=(legs[0].name,), locked=((legs[1].name, legs[1].joints[2], 0.4),),
-                                         weak=((legs[2].name, legs[2].joints[1], 0.5),),
-                                         passive=((legs[3].name, legs[3].joints[0]),)))
+    w = make_walkable(robot, Damage(lost_legs=[legs[0].name],
+                                   locked_joints=[LockedJointDamage.held_at(legs[1].name, legs[1].joints[2], 0.4)],
+                                   weak_joints=[WeakJointDamage(leg=legs[2].name, joint=legs[2].joints[1],
+                                                                torque_scale=0.5)],
+                                   passive_joints=[JointDamage(leg=legs[3].name, joint=legs[3].joints[0])]))
     m = w.spec.compile()
     names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in range(m.nu)}
     assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, legs[0].joints[0]) < 0  # the lost leg is gone
@@ -126,7 +130,7 @@ def test_damage_types_edit_the_model_as_stated():
 def test_a_shortened_leg_has_its_foot_segment_cut_by_the_length():
     robot = _hexapod()
     leg = robot.legs.legs[2]
-    w = make_walkable(robot, NamedDamage(shortened=((leg.name, 0.05),)))
+    w = make_walkable(robot, Damage(shortened_legs=[ShortenedLegDamage(leg=leg.name, length_m=0.05)]))
     segment = []
     for m, foot in ((robot.model(), leg.foot.name), (w.spec.compile(), f"leg{w.numbers[leg.name]}_tip")):
         d = mujoco.MjData(m)
@@ -135,7 +139,7 @@ def test_a_shortened_leg_has_its_foot_segment_cut_by_the_length():
         segment.append(np.linalg.norm(d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, foot)] - d.xanchor[j]))
     assert segment[1] == pytest.approx(segment[0] - 0.05, abs=1e-9)
     with pytest.raises(LegMapError, match="at most 80 %"):
-        make_walkable(robot, NamedDamage(shortened=((leg.name, 0.9 * segment[0]),)))
+        make_walkable(robot, Damage(shortened_legs=[ShortenedLegDamage(leg=leg.name, length_m=float(0.9 * segment[0]))]))
 
 
 def test_what_cannot_walk_or_does_not_fit_is_refused_naming_it(quadruped):
@@ -146,7 +150,7 @@ def test_what_cannot_walk_or_does_not_fit_is_refused_naming_it(quadruped):
                                         legs)
     assert spec_error(_spec({"locked_joints": [{"leg": "front_left", "joint": "knee_front_left"}]}), legs) is None
     with pytest.raises(LegMapError, match="shares its body"):  # yaw and pitch share the hip body
-        UserRobot(RID, quadruped, NamedDamage(locked=(("front_left", "yaw_front_left", 0.0),)))
+        UserRobot(RID, quadruped, Damage(locked_joints=[LockedJointDamage(leg="front_left", joint="yaw_front_left")]))
     for bad, field in (({"kind": "recovery", "robot_damage": {}}, "robot_damage"),
                        ({"kind": "recovery", "robot": RID, "damage": {"lost_legs": [1]}}, "damage"),
                        ({"kind": "recovery", "robot": RID, "gait": {"stance_height_m": 0.12}}, "gait.stance_height_m"),
@@ -176,7 +180,7 @@ def test_the_cli_adds_a_robot_and_runs_recovery_on_it(tmp_path):
     model.write_text(_hexapod().mjcf)
     added = CliRunner().invoke(cli, ["robot", "add", str(model), "--json"], env=env, catch_exceptions=False)
     robot = json.loads(added.stdout.strip().splitlines()[-1])
-    assert robot["kinds"] == ["recovery"]
+    assert robot["kinds"] == ["recovery", "repertoire"]
     leg = robot["legs"]["legs"][1]
     spec = {"kind": "recovery", "robot": robot["id"], "search": {"population": 4, "generations": 1},
             "robot_damage": {"weak_joints": [{"leg": leg["name"], "joint": leg["joints"][2], "torque_scale": 0.3}]},

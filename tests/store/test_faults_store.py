@@ -19,7 +19,7 @@ from app.store import repo
 from app.store.db import session_scope
 from app.store.errors import safe_message, transient
 from app.store.migrate import upgrade
-from app.store.models import Job, JobCheckpoint, utcnow
+from app.store.models import Job, JobCheckpoint, Worker, utcnow
 from app.studies.fair import feed, select_fair, study_share
 
 BASE = {"kind": "recovery", "damage": {"lost_legs": [1, 6]},
@@ -165,7 +165,7 @@ def _worker(url, name, slots=1, seen=None):
     with session_scope(url) as s:
         repo.worker_seen(s, name, "embedded", slots)
         if seen is not None:
-            s.execute(update(repo.Worker).where(repo.Worker.name == name).values(last_seen_at=seen))
+            s.execute(update(Worker).where(Worker.name == name).values(last_seen_at=seen))
 
 
 def test_health_is_degraded_while_jobs_wait_with_idle_or_no_workers_and_on_low_disk(tmp_path):

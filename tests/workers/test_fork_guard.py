@@ -39,6 +39,9 @@ def test_pool_processes_forked_during_housekeeping_passes_never_hang(tmp_path):
         while not keeper.stopped.is_set():
             keeper.tick()
             ticks += 1
+            # a real housekeeper waits between passes; back to back, this thread retakes the
+            # guard's (unfair) lock the instant it lets it go and a fork waits seconds for it
+            time.sleep(0.0005)
 
     t = threading.Thread(target=loop, daemon=True)
     t.start()

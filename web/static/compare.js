@@ -44,6 +44,16 @@
     if (list.some((c) => specText(c.job))) rows.push(["Search", list.map((c) => specText(c.job) || "–")]);
     rows.push(["Budget (evaluations, the spec's formula)", list.map((c) => (c.views && c.views.budget ? c.views.budget.evaluations : "–"))]);
     rows.push(["Wall time (s)", list.map((c) => (GM.FINAL.has(c.job.status) && typeof c.job.wall_s === "number" ? num(c.job.wall_s, 1) : "–"))]);
+    // the verdict's held-out figure (app/jobs/verdict.py), the same words as the job page
+    const held = (c) => ((c.views && c.views.verdict && c.views.verdict.robustness) || {}).held_out;
+    if (list.some(held)) {
+      rows.push(["Held-out random models (the verdict)", list.map((c) => {
+        const h = held(c);
+        if (!h) return "–";
+        return el("span", { class: "held-out", "data-fragile": String(!!h.fragile) },
+          el("span", { class: `mark ${h.fragile ? "unmet" : "met"}`, text: h.fragile ? "✗ fragile" : "✓ robust" }), " ", h.text);
+      })]);
+    }
     // the kind's headline rows, by label, with units and direction in the row name
     const labels = [];
     for (const c of list) for (const r of (c.views && c.views.headline) || []) {

@@ -284,7 +284,12 @@
     const box = $("verdict");
     if (!v) { box.hidden = true; return; }
     box.hidden = false;
-    $("verdict-sentence").textContent = v.sentence || "";
+    const held = (v.robustness || {}).held_out;
+    // a fragile gait: the sentence opens with why, marked so it is the first thing read
+    const warn = held && held.fragile && (v.sentence || "").startsWith(held.headline) ? held.headline : null;
+    box.dataset.fragile = held ? String(!!held.fragile) : "";
+    fill($("verdict-sentence"), warn ? el("strong", { class: "fragile", text: warn }) : null,
+      warn ? v.sentence.slice(warn.length) : v.sentence || "");
     let t = v.target || {};
     // a target the kind states but did not judge this run by (e.g. a walk too short for it):
     // the headline row that carries the target says why, in words
@@ -315,13 +320,20 @@
       v.criteria && v.criteria.length ? el("p", { class: "small muted", text: `Compared on: ${v.criteria.join(", then ")}.` }) : null);
     const r = v.robustness;
     const notJudged = r ? r.total - r.met - r.failed.length : 0; // neither met nor missed: not judged
-    fill($("verdict-robustness"), el("h3", { text: "Robustness" }),
-      r ? el("p", {}, el("span", { class: `mark ${r.met === r.total ? "met" : notJudged === r.total ? "none" : "unmet"}`,
-                                   text: `${r.met} of ${r.total}` }),
-             " re-runs meet the target", notJudged ? `; ${notJudged} not judged` : "")
-        : el("p", { class: "small", text: "No robustness re-runs were recorded." }),
-      r ? el("ul", { class: "verdict-list small" }, r.groups.map((g) => el("li", { "data-group": g.name, text: `${g.label}: ${g.met} of ${g.total}` }))) : null,
-      r && r.failed.length ? el("p", { class: "small muted", text: `Missed under: ${r.failed.join("; ")}.` }) : null);
+    // the held-out random models lead (models the search never saw), then the named cases
+    // and the timestep checks, each its own count
+    const heldLine = held ? el("p", { class: "held-out", "data-fragile": String(!!held.fragile) },
+      el("span", { class: `mark ${held.fragile ? "unmet" : "met"}`, text: held.fragile ? "✗ fragile" : "✓ robust" }), " ",
+      el("strong", { text: held.text })) : null;
+    const reruns = r && r.total ? el("p", {}, el("span", { class: `mark ${r.met === r.total ? "met" : notJudged === r.total ? "none" : "unmet"}`,
+                                                  text: `${r.met} of ${r.total}` }),
+      " named-case and timestep re-runs meet the target", notJudged ? `; ${notJudged} not judged` : "") : null;
+    fill($("verdict-robustness"), el("h3", { text: "Robustness" }), heldLine, reruns,
+      !r ? el("p", { class: "small", text: "No robustness re-runs were recorded." }) : null,
+      r ? el("ul", { class: "verdict-list small" }, r.groups.map((g) => el("li", { "data-group": g.name },
+        `${g.label}: ${g.met} of ${g.total}`, g.fell === null || g.fell === undefined ? "" : `, ${g.fell} fall`))) : null,
+      r && r.failed.length ? el("p", { class: "small muted", text: `Missed under: ${r.failed.join("; ")}.` }) : null,
+      held ? el("p", { class: "small muted rule", text: `The gait is called ${held.rule}.` }) : null);
     performance.mark("gm-verdict");
   }
 

@@ -299,7 +299,16 @@
          r.better ? el("span", { class: "small muted", text: ` (${r.better} better)` }) : null),
       el("div", { class: "verdict-brief small" },
         v.target_met === true ? el("span", { class: "mark met", text: "✓ target" }) : v.target_met === false ? el("span", { class: "mark unmet", text: "✗ target" }) : null,
-        tally ? ` vs controls: ${tally}` : "", v.robustness ? ` · robust ${v.robustness[0]}/${v.robustness[1]}` : ""));
+        tally ? ` vs controls: ${tally}` : "", heldText(v.held_out), v.robustness ? ` · robust ${v.robustness[0]}/${v.robustness[1]}` : ""));
+  }
+
+  // the held-out random models first (app/jobs/verdict.py's brief): kept k/n, falls, fragile
+  function heldText(h) {
+    if (!h) return "";
+    const falls = h.fell === null || h.fell === undefined ? "" : `, ${h.fell} fall`;
+    return el("span", { class: "held-out", title: h.text }, " · ",
+      h.fragile ? el("span", { class: "mark unmet", text: "✗ fragile" }) : null, h.fragile ? " " : "",
+      h.judged ? `held-out ${h.met}/${h.judged}${falls}` : `held-out ${h.n} not judged${falls}`);
   }
 
   function runText(item) {

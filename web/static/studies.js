@@ -44,6 +44,39 @@
     table.classList.add("stack");
   }
 
+  // A table whose columns sort on a click (or Enter) on their name: by the cell's number
+  // (data-sort, e.g. the held-out share) where it has one, else by its words; cells without
+  // a value go last either way. The header keeps its words (stackOnPhone labels cells by them).
+  function sortable(table) {
+    if (!table) return;
+    const heads = [...table.querySelectorAll("thead th")];
+    const key = (tr, i) => {
+      const c = tr.children[i];
+      if (!c) return null;
+      if (c.dataset.sort !== undefined) return Number(c.dataset.sort);
+      const t = c.textContent.trim();
+      return t === "–" || t === "" ? null : t;
+    };
+    heads.forEach((th, i) => {
+      const words = th.textContent.trim();
+      const b = el("button", { type: "button", class: "sort", text: words, title: `sort by ${words}` });
+      th.replaceChildren(b);
+      b.addEventListener("click", () => {
+        const down = th.getAttribute("aria-sort") !== "descending";
+        heads.forEach((h) => h.removeAttribute("aria-sort"));
+        th.setAttribute("aria-sort", down ? "descending" : "ascending");
+        const body = table.querySelector("tbody");
+        const rows = [...body.children].map((tr, k) => [tr, key(tr, i), k]);
+        rows.sort((a, b) => {
+          if (a[1] === null || b[1] === null) return (a[1] === null) - (b[1] === null) || a[2] - b[2];
+          const d = typeof a[1] === "number" && typeof b[1] === "number" ? a[1] - b[1] : String(a[1]).localeCompare(String(b[1]));
+          return (down ? -d : d) || a[2] - b[2];
+        });
+        body.replaceChildren(...rows.map((r) => r[0]));
+      });
+    });
+  }
+
   async function one() {
     $("new-study").hidden = true;
     const s = await api(`/api/studies/${id}`);
@@ -62,6 +95,7 @@
         j.error ? ` ${j.error}` : "")))].filter(Boolean));
     const v = await api(s.links.views);
     GMViews.panels($("study-views"), v.panels);
+    sortable($("study-views").querySelector("#panel-verdict table"));
     stackOnPhone($("study-views").querySelector("#panel-verdict table"));
     if (s.status === "running" || s.status === "queued") setTimeout(() => one().catch(showError), 3000);
   }

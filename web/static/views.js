@@ -29,7 +29,8 @@ const GMViews = (() => {
     if (c.note) parts.push(el("div", { class: "cell-note", text: c.note }));
     if (c.met === true) classes.push("is-met");
     if (c.met === false) classes.push("is-unmet");
-    return el(tag, { class: classes.filter(Boolean).join(" ") || null }, parts);
+    // a number to sort the column by (studies.js sorts the verdict over the seeds with it)
+    return el(tag, { class: classes.filter(Boolean).join(" ") || null, "data-sort": typeof c.value === "number" ? String(c.value) : null }, parts);
   }
 
   // a column header: right-aligned over a column of numbers; an unnamed column (the row

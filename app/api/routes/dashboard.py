@@ -26,7 +26,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, FastAPI, Path as PathParam, Query, Request
 from fastapi.concurrency import run_in_threadpool
-from fastapi.responses import HTMLResponse, JSONResponse, Response
+from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from app.api import glance
@@ -342,6 +342,13 @@ def _page(name: str):
 for _path, _name in (("/", "jobs"), ("/jobs/{job_id}", "job"), ("/compare", "compare"), ("/studies", "studies"),
                      ("/studies/{study_id}", "studies"), ("/robots/new", "robot_add")):
     router.add_api_route(_path, _page(_name), include_in_schema=False, methods=["GET"])
+
+
+@router.get("/robots", include_in_schema=False)
+async def robots_page():
+    """The robots (built-in and yours) are listed on the page that adds one: /robots, where a
+    newcomer looks first, goes there (307: a later list page of its own may take /robots)."""
+    return RedirectResponse("/robots/new", status_code=307)
 
 
 @router.get("/vendor/{name}.min.js", include_in_schema=False)

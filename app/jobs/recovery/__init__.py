@@ -81,8 +81,8 @@ class RecoveryKind(PackageKind):
 
     # -- members whose modules are slow to import: imported when first called ---------
     run = Deferred(".run", "run")
-    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
-    bench = Deferred(".bench", "BENCH", value=True)
+    experiments = Deferred(".reproduce.experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".reproduce.bench", "BENCH", value=True)
 
 
 KIND = RecoveryKind()

@@ -28,7 +28,6 @@ import math
 
 import mujoco
 import numpy as np
-from mujoco import rollout
 
 from app.robots.ik import leg_ik
 from app.jobs.recovery.closedloop import ChunkController, Law
@@ -38,7 +37,7 @@ from app.robots.catalog import RobotEntry
 from app.robots.hexapod import ALL_CONTACTS, JOINT_NAMES
 from app.jobs.recovery.metrics import body_metrics, euler_zyx, fallen, fitness_bound
 from app.sim.perturb import same_signature
-from app.sim.threads import sim_threads
+from app.sim.batch import RolloutPool
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -132,10 +131,8 @@ class GaitEvaluator:
         self.n_walk = int(round(cfg.duration_s / self.dt))
         self.n_period = int(round(cfg.period_s / self.dt))
         self.nstep = self.n_settle + self.n_walk
-        self.nthread = cfg.nthread or sim_threads()
-        self._datas = [mujoco.MjData(model) for _ in range(self.nthread)]
-        self._runner = rollout.Rollout(nthread=self.nthread) if self.nthread > 1 else None
-        self._buffers: dict[str, np.ndarray] = {}
+        self._pool = RolloutPool(model, cfg.nthread)
+        self.nthread = self._pool.nthread
 
         self.root_quat = (1.0, 0.0, 0.0, 0.0)  # the trunk's orientation in every walk's first state
         self._leg_layout(robot, model, cfg)
@@ -225,22 +222,9 @@ class GaitEvaluator:
 
     # -- simulation ---------------------------------------------------------------------
     def _rollout(self, models, state: np.ndarray, ctrl: np.ndarray):
-        """One native rollout call; its outputs land in buffers kept between calls (fresh
-        arrays each chunk cost page faults, not simulation)."""
+        """One native rollout call (app/sim/batch.py)."""
         m = models[0] if len(self.variants) == 1 else models
-        A, T = ctrl.shape[:2]
-        out = {"state": self._buffer("state", (A, T, self._nstate)),
-               "sensordata": self._buffer("sensordata", (A, T, self.model.nsensordata))}
-        if self._runner is not None:
-            return self._runner.rollout(m, self._datas, state, ctrl, **out)
-        return rollout.rollout(m, self._datas[0], state, ctrl, **out)
-
-    def _buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
-        n = math.prod(shape)
-        buf = self._buffers.get(name)
-        if buf is None or buf.size < n:
-            buf = self._buffers[name] = np.empty(n)
-        return buf[:n].reshape(shape)
+        return self._pool.run(m, state, ctrl, self._nstate, self.model.nsensordata)
 
     def simulate(self, params: np.ndarray, record: bool = False, cutoff: Cutoff | None = None):
         """Runs every candidate on every variant (batch element b = candidate b // K on
@@ -372,6 +356,4 @@ class GaitEvaluator:
         }
 
     def close(self) -> None:
-        if self._runner is not None:
-            self._runner.close()
-            self._runner = None
+        self._pool.close()

@@ -23,9 +23,11 @@ robot stood ``settle_steps`` ticks on the gait's first pose):
   * the integrals stop growing where their term alone reaches the limit (anti-windup);
   * a new command is ramped in linearly over the next ``update_steps`` ticks, so the
     set-points never jump;
-- each tip through the closed-form leg IK (Eq. 11; the same arithmetic as
-  app/robots/ik.py ``leg_ik``, checked bit for bit by gaitmend's tests) -> coxa, femur,
-  tibia angles in radians, from the model's zero pose.
+- each tip through the closed-form leg IK (Eq. 11) -> coxa, femur, tibia angles in
+  radians, from the model's zero pose. The IK is the robot layer's (app/robots/ik.py, numpy
+  only): the bundle ships that file as ``controller/ik.py`` beside this one, and this module
+  imports it from there when it runs outside gaitmend, so the robot runs the IK the
+  simulation ran, from one source.
 
 Everything is batched over ``batch`` robots (the simulation runs a whole population at
 once); on a robot, ``batch`` is 1.
@@ -38,23 +40,15 @@ from pathlib import Path
 
 import numpy as np
 
+if __package__ and __package__.split(".")[0] == "app":  # inside gaitmend
+    from app.robots.ik import leg_ik
+else:  # on the robot: the bundle's controller/ik.py, the same file
+    from ik import leg_ik  # type: ignore[no-redef]
+
+__all__ = ["GAINS", "LIMITS", "GaitController", "leg_ik", "walk", "yaw_of"]
+
 GAINS = ("yaw_gain", "yaw_integral_gain", "lateral_gain", "lateral_integral_gain")
 LIMITS = ("stride_limit_m", "lateral_limit_m")
-
-
-def leg_ik(p: np.ndarray, lengths) -> np.ndarray:
-    """Joint angles (..., 3) for tip positions p (..., 3) in the leg frame (origin at the
-    coxa axis, x outward, z up); points out of reach are clamped to the boundary."""
-    L1, L2, L3 = lengths
-    x, y, z = p[..., 0], p[..., 1], p[..., 2]
-    q1 = np.arctan2(y, x)
-    r = np.cos(q1) * x + np.sin(q1) * y - L1
-    D = (r * r + z * z - L2 * L2 - L3 * L3) / (2.0 * L2 * L3)
-    D = np.clip(D, -1.0, 1.0)
-    q3 = -np.arccos(D)
-    s3, c3 = np.sin(q3), np.cos(q3)
-    q2 = np.arctan2(z, r) - np.arctan2(L3 * s3, L3 * c3 + L2)
-    return np.stack([q1, q2, q3], axis=-1)
 
 
 def yaw_of(quat: np.ndarray) -> np.ndarray:

@@ -1,9 +1,9 @@
 """Randomised robust search (issue 24, spec section ``randomised``): each generation draws K
-random models from the stated ranges (``cases.RANDOM_RANGES``) and scores every candidate
+random models from the stated ranges (app/sim/perturb.py ``RANDOM_RANGES``) and scores every candidate
 on all K in one batched rollout; its fitness is the mean of the Eq. 5 fitness over the K
 models, or their CVaR (the mean of the worst ``cvar_share``).
 
-The draw: ``cases.draw_models(seed, K, SEARCH_STREAM, generation)``, a stream of the job's
+The draw: ``perturb.draw_models(seed, K, SEARCH_STREAM, generation)``, a stream of the job's
 seed that neither the search's own draws nor the held-out set use, indexed by the
 generation (the optimizer's, restored from a checkpoint), so a resumed search draws the
 same models and continues bit-identically.
@@ -23,14 +23,14 @@ import mujoco
 import numpy as np
 
 from app.jobs.loop import Generation
-from app.jobs.recovery.cases import RANDOM_RANGES, RANGE_TEXT, SEARCH_STREAM, draw_models, random_model, random_world
 from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
 from app.jobs.recovery.metrics import fitness
 from app.jobs.recovery.robust import cvar
 from app.jobs.recovery.sequences import GaitSequence
 from app.optim.de import DifferentialEvolution
 from app.robots.catalog import RobotEntry
-from app.sim.perturb import same_signature
+from app.sim.perturb import (RANDOM_RANGES, RANGE_TEXT, SEARCH_STREAM, draw_models, random_model, random_world,
+                              same_signature)
 
 PARENTS_TEXT = ("DE's parents are scored again on every generation's draw, in the same rollout as the trials, so "
                 "the selection compares a trial and its parent on the same models; those walks count in the budget")

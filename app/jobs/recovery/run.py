@@ -30,7 +30,7 @@ from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.recovery.trajectory import bounds_of, param_names
 from app.optim.registry import make_optimizer
 from app.robots.catalog import ROBOTS, RobotEntry, get_robot
-from app.robots.damage import DamageSpec, LockedJoint, WeakJoint
+from app.robots.damage import Damage
 from app.sim.perturb import Perturbation, edit_model
 
 # -- problem setup -------------------------------------------------------------------------
@@ -39,13 +39,10 @@ def functional_legs(spec: RecoverySpec) -> list[int]:
     return [l for l in range(1, 7) if l not in spec.damage.lost_legs]
 
 
-def damage_spec(spec: RecoverySpec) -> DamageSpec:
-    d = spec.damage
-    return DamageSpec(
-        lost_legs=tuple(d.lost_legs),
-        locked_joints=tuple(LockedJoint(j.leg, j.joint, float(np.radians(j.angle_deg))) for j in d.locked_joints),
-        weak_joints=tuple(WeakJoint(j.leg, j.joint, j.torque_scale) for j in d.weak_joints),
-    )
+def damage_spec(spec: RecoverySpec) -> Damage:
+    """The built-in robot's damage in the robot layer's vocabulary (the paper's leg numbers
+    translated to the leg map's names by the spec)."""
+    return spec.damage.named()
 
 
 def search_bounds(spec: RecoverySpec, robot: RobotEntry) -> tuple[np.ndarray, np.ndarray]:

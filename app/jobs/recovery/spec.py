@@ -12,7 +12,9 @@ from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
 from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
 from app.robots.catalog import ROBOTS
-from app.robots.hexapod import DEFAULT_TIMESTEP
+from app.robots.damage import Damage as MapDamage
+from app.robots.damage import LockedJointDamage, WeakJointDamage, damaged_once
+from app.robots.hexapod import DEFAULT_TIMESTEP, joint_name, leg_name
 from app.jobs.recovery.cases import CASE_NAMES
 from app.jobs.recovery.robust import AGGREGATES, RANDOM_AGGREGATES
 
@@ -37,6 +39,10 @@ class WeakJointIn(StrictModel):
 
 
 class Damage(StrictModel):
+    # The built-in hexapod's damage in the paper's spelling, legs by number (1..6) and joints
+    # coxa/femur/tibia; ``named()`` is the robot layer's one vocabulary (app/robots/damage.py),
+    # by the leg map's names, which the job applies.
+
     lost_legs: list[Leg] = Field(default_factory=list, max_length=6)
     locked_joints: list[LockedJointIn] = Field(default_factory=list, max_length=18)  # 6 legs x 3 joints
     weak_joints: list[WeakJointIn] = Field(default_factory=list, max_length=18)
@@ -54,68 +60,26 @@ class Damage(StrictModel):
 
     @model_validator(mode="after")
     def _joints_on_present_legs(self):
-        _damaged_once(self, ("locked_joints", "weak_joints"), str)
+        damaged_once(self, ("locked_joints", "weak_joints"), str)
         return self
 
-
-def _damaged_once(damage, fields: tuple[str, ...], show) -> None:
-    """Every joint damage on a leg that is not lost, and no joint damaged twice; ``show``
-    writes a leg or joint in the message (numbers as they are, names quoted)."""
-    seen = set()
-    for name in fields:
-        for j in getattr(damage, name):
-            if j.leg in damage.lost_legs:
-                raise ValueError(f"{name}: leg {show(j.leg)} is listed as lost")
-            if (j.leg, j.joint) in seen:
-                raise ValueError(f"{name}: joint {show(j.joint)} of leg {show(j.leg)} is damaged twice")
-            seen.add((j.leg, j.joint))
+    def named(self) -> MapDamage:
+        """The numbers translated to the built-in leg map's names (leg 2's femur: leg2, leg2_femur)."""
+        return MapDamage(
+            lost_legs=[leg_name(l) for l in self.lost_legs],
+            locked_joints=[LockedJointDamage(leg=leg_name(j.leg), joint=joint_name(j.leg, j.joint), angle_deg=j.angle_deg)
+                           for j in self.locked_joints],
+            weak_joints=[WeakJointDamage(leg=leg_name(j.leg), joint=joint_name(j.leg, j.joint),
+                                         torque_scale=j.torque_scale) for j in self.weak_joints])
 
 
-# An uploaded robot's damage names its leg map's legs and joints (app/robots/legmap.py).
-MapName = Annotated[str, Field(min_length=1, max_length=128, pattern=r"^[^\x00-\x1f\x7f]+$")]
 ROBOT_ID = r"^[0-9a-f]{32}$"  # an uploaded robot's id (app/store/robots.py)
 
 
-class NamedJointIn(StrictModel):
-    leg: MapName
-    joint: MapName
-
-
-class NamedLockedJointIn(NamedJointIn):
-    angle_deg: float = Field(0.0, ge=-180.0, le=180.0, description="the joint's value it is held at (a slide "
-                                                                     "joint: 0, held at its reference)")
-
-
-class NamedWeakJointIn(NamedJointIn):
-    torque_scale: float = Field(0.5, gt=0.0, le=1.0)
-
-
-class ShortenedLegIn(StrictModel):
-    leg: MapName
-    length_m: float = Field(gt=0.0, le=1.0, description="cut from the foot segment (its last joint to its foot), "
-                                                        "at most 80 % of it")
-
-
-class RobotDamage(StrictModel):
+class RobotDamage(MapDamage):  # the robot layer's one vocabulary (app/robots/damage.py), as it is
     """An uploaded robot's damage by its leg map's names: lost legs, locked joints, weak
     joints (servo force limit scaled), passive joints (no servo: the joint swings freely
     with its damping) and shortened legs (the foot segment cut by a length)."""
-
-    lost_legs: list[MapName] = Field(default_factory=list, max_length=16)
-    locked_joints: list[NamedLockedJointIn] = Field(default_factory=list, max_length=128)
-    weak_joints: list[NamedWeakJointIn] = Field(default_factory=list, max_length=128)
-    passive_joints: list[NamedJointIn] = Field(default_factory=list, max_length=128)
-    shortened_legs: list[ShortenedLegIn] = Field(default_factory=list, max_length=16)
-
-    @model_validator(mode="after")
-    def _once(self):
-        if len(set(self.lost_legs)) != len(self.lost_legs):
-            raise ValueError("lost_legs: each leg may be listed once")
-        short = [l.leg for l in self.shortened_legs]
-        if len(set(short)) != len(short) or set(short) & set(self.lost_legs):
-            raise ValueError("shortened_legs: each leg may be listed once, and not if it is lost")
-        _damaged_once(self, ("locked_joints", "weak_joints", "passive_joints"), repr)
-        return self
 
 
 class ShortWalks(StrictModel):

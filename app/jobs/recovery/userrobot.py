@@ -30,7 +30,6 @@ turns it into what the recovery job's steps read of a robot (``UserRobot``, in t
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 
 import mujoco
@@ -40,7 +39,8 @@ from app.jobs.recovery.sequences import GaitSequence, InfeasibleMorphology, plan
 from app.jobs.recovery.trajectory import bounds_of, tip_positions
 from app.robots.legmap import LegMap, LegMapError, Robot
 from app.robots.numik import LegIK
-from app.robots.walkable import NamedDamage, Walkable, heading_quat, leg_numbers, make_walkable
+from app.robots.damage import Damage
+from app.robots.walkable import Walkable, heading_quat, leg_numbers, make_walkable
 
 JETHEXA_STANCE_M = 0.10  # the built-in robot's H, to which its bounds belong
 
@@ -154,7 +154,7 @@ class UserRobot:
     (``RobotEntry``'s names), with its own leg layout and IK for the evaluator
     (``gait_layout``, app/jobs/recovery/evaluate.py)."""
 
-    def __init__(self, robot_id: str, robot: Robot, damage: NamedDamage, timestep: float | None = None):
+    def __init__(self, robot_id: str, robot: Robot, damage: Damage, timestep: float | None = None):
         self.name = robot_id
         self.robot = robot
         self.nominal, self.stance = nominal_stance(robot)
@@ -264,15 +264,9 @@ class UserRobot:
                 "ik": self.ik_stats | {"per_call_wall_s": self.ik_stats["wall_s"] / calls}}  # clock: verify skips
 
 
-def named_damage(spec) -> NamedDamage:
-    d = spec.robot_damage
-    if d is None:
-        return NamedDamage()
-    return NamedDamage(lost_legs=tuple(d.lost_legs),
-                       locked=tuple((j.leg, j.joint, math.radians(j.angle_deg)) for j in d.locked_joints),
-                       weak=tuple((j.leg, j.joint, j.torque_scale) for j in d.weak_joints),
-                       passive=tuple((j.leg, j.joint) for j in d.passive_joints),
-                       shortened=tuple((l.leg, l.length_m) for l in d.shortened_legs))
+def named_damage(spec) -> Damage:
+    """An uploaded robot's damage: the spec's ``robot_damage`` (the robot layer's vocabulary), else none."""
+    return spec.robot_damage or Damage()
 
 
 def search_bounds(spec, robot: UserRobot, legs: list[int], lost: list[int]) -> tuple[np.ndarray, np.ndarray]:

@@ -49,8 +49,8 @@ class TippingKind(PackageKind):
 
     # -- members whose modules are slow to import: imported when first called ---------
     run = Deferred(".run", "run")
-    experiments = Deferred(".experiments", "EXPERIMENTS", value=True)
-    bench = Deferred(".experiments", "BENCH", value=True)
+    experiments = Deferred(".reproduce.experiments", "EXPERIMENTS", value=True)
+    bench = Deferred(".reproduce.experiments", "BENCH", value=True)
 
 
 KIND = TippingKind()

@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from app.jobs.energy import experiments as ex
+from app.jobs.energy.reproduce import experiments as ex
 from app.jobs.energy.spec import EnergySpec
 
 

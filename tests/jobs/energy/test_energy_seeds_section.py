@@ -5,7 +5,7 @@ no optimisation)."""
 
 from __future__ import annotations
 
-from app.jobs.energy import experiments as ex
+from app.jobs.energy.reproduce import experiments as ex
 from app.jobs.energy.spec import EnergySpec, Search
 
 
@@ -64,7 +64,11 @@ def test_the_paired_verdict_over_five_default_seeds():
     assert "Partial" not in md and "in 0/5 = 0.00" in md
     assert "GA against its random search, J (lower is better): +0.1" in md  # every pair favours the GA
     assert "**not shown (interval excludes 0, but 5 pairs cannot give Wilcoxon p < 0.05)**" in md
-    assert "GA vs random search at equal budget: not shown" in ex.render_seeds_summary([ledger(big)])
+    summary = ex.render_seeds_summary([ledger(big)])
+    # the verdict is on J, named as such, and the cost of transport's own verdict stands beside it
+    assert "GA vs random search at equal budget, on J (the search's objective" in summary
+    assert "): not shown (interval excludes 0" in summary
+    assert "on the final cost of transport random search is lower in 0 of 5 seeds" in summary
 
 
 def test_a_small_budget_ledger_still_renders_as_its_own_budget():

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 
-from app.jobs.freegait import experiments as fx
+from app.jobs.freegait.reproduce import experiments as fx
 from app.jobs.freegait.spec import FreegaitSpec
 
 

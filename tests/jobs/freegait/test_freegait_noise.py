@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 
-from app.jobs.freegait.experiments import NoiseParams, _world, noise, render_noise
+from app.jobs.freegait.reproduce.experiments import NoiseParams, _world, noise, render_noise
 from app.jobs.freegait.planner.route import Route
 from app.jobs.freegait.planner.walk import WalkConfig, walk
 

@@ -1,6 +1,6 @@
 """The multigait benchmark the lead's `gaitmend bench` calls."""
 
-from app.jobs.multigait.bench import bench_multigait
+from app.jobs.multigait.reproduce.bench import bench_multigait
 
 
 def test_quick_bench_reports_the_figures():

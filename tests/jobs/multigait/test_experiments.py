@@ -1,4 +1,4 @@
-"""app/jobs/multigait/experiments.py's generated words: the generation-mean sentence says
+"""app/jobs/multigait/reproduce/experiments.py's generated words: the generation-mean sentence says
 what the paired verdict shows (a rise, a fall, or neither), and the seeds-needed column of
 the PSO-against-random table is never below the pairs the signed-rank test can reject with."""
 
@@ -9,8 +9,8 @@ import re
 import pytest
 
 from app.jobs import stats
-from app.jobs.multigait import experiments as ex
-from app.jobs.multigait.compare import METRICS
+from app.jobs.multigait.reproduce import experiments as ex
+from app.jobs.multigait.reproduce.compare import METRICS
 
 
 def _run(first: float, last: float, best: float = 20.0) -> dict:

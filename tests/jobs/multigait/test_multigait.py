@@ -140,8 +140,28 @@ def test_other_seed_other_gaits(small_run):
     spec, full = small_run
     other = parse_spec({**SMALL, "search": {**SMALL["search"], "seed": 4, "generations": 1},
                         "reuse": {"enabled": False}, "verify": {"nodes": 0}})
-    res = multigait.run(other, Ctx())
-    assert res.summary["best_params"]["values"] != full.summary["best_params"]["values"][: len(res.summary["best_params"]["values"])]
+    saved = []
+    ctx = Ctx()
+    ctx.save_checkpoint = lambda state: saved.append(copy.deepcopy(state))
+    res = multigait.run(other, ctx)
+    # the search's first swarm is the one PSO draws from seed 4, not the one it draws from the spec's seed 3
+    from app.jobs.multigait.run import set_up
+    from app.optim.registry import make_optimizer
+
+    job = set_up(other, Ctx())
+    job.sim.close()
+    s = other.search
+
+    def first_swarm(seed):
+        return make_optimizer("pso", job.lower, job.upper, s.particles, seed, **s.pso_coefficients()).ask()
+
+    after_gen0 = saved[0]["search"]["optimizer"]
+    assert after_gen0["generation"] == 1
+    assert np.array_equal(np.array(after_gen0["pbest"]), first_swarm(4))
+    assert (first_swarm(4) != first_swarm(spec.seed)).all()
+    # and the answer is the best particle that seed's search saw
+    last = [c["search"]["optimizer"] for c in saved if "optimizer" in c.get("search", {})][-1]
+    assert res.summary["best_params"]["values"] == pytest.approx(last["pbest"][int(np.argmax(last["pbest_f"]))])
 
 
 def test_damaged_robot_has_fewer_parameters():
@@ -167,12 +187,46 @@ def test_staircase_expansions_are_simulated():
     assert s["result"]["final_best"] == pytest.approx(np.linalg.norm(pos - goal, axis=1).min())
 
 
-def test_plots(small_run, tmp_path):
-    _, res = small_run
+def test_plots(small_run, tmp_path, saved_figures):
+    """Each figure is written (PNG and SVG) and draws the result's own numbers, each derived
+    here from the summary and traces: the history's series, every gait's pivot trace from its
+    start, the per-gait bars sorted by distance, the tree's nodes, the composition error per
+    node and the reuse means."""
+    spec, res = small_run
+    s, tr = res.summary, res.traces
     files = multigait.figures(res, tmp_path)
     names = {p.name for p in files}
     for n in ("convergence", "gait_traces", "gait_distance_rotation", "tree_map", "composition_error", "reuse"):
-        assert f"{n}.png" in names and f"{n}.svg" in names
+        assert f"{n}.png" in names and f"{n}.svg" in names and (tmp_path / f"{n}.png").stat().st_size > 0
+
+    lines = {ln.get_label(): list(ln.get_ydata()) for ln in saved_figures["convergence.png"].axes[0].get_lines()}
+    for key, label in multigait.history_axis(spec.model_dump())["series"].items():
+        if any(isinstance(r.get(key), (int, float)) for r in res.history):
+            ys = [r.get(key, np.nan) for r in res.history]
+            assert np.allclose(lines[label], ys, equal_nan=True), key
+
+    drawn = [ln.get_xydata() for ln in saved_figures["gait_traces.png"].axes[0].get_lines()]
+    assert len(drawn) == s["gaits"]
+    for j, xy in enumerate(drawn):
+        p = np.asarray(tr[f"gait{j + 1}"]["pivot_mu"])
+        assert np.allclose(xy, p[:, :2] - p[0, :2])
+
+    dist_ax, rot_ax = saved_figures["gait_distance_rotation.png"].axes
+    by_distance = sorted(s["per_gait"], key=lambda r: r["distance_mu"], reverse=True)
+    assert [b.get_height() for b in dist_ax.patches] == pytest.approx([r["distance_mu"] for r in by_distance])
+    assert [b.get_height() for b in rot_ax.patches] == pytest.approx([abs(r["rotation_deg"]) for r in by_distance])
+
+    tree = tr.get("tree", s["tree"])
+    nodes = [ln for ln in saved_figures["tree_map.png"].axes[0].get_lines() if ln.get_marker() == "."]
+    assert len(nodes) == 1 and np.allclose(nodes[0].get_xydata(), np.asarray(tree["pos_mu"])[:, :2])
+
+    c = tr["composition"]
+    err = np.linalg.norm(np.asarray(c["composed_mu"])[1:, :2] - np.asarray(c["simulated_mu"])[1:, :2], axis=1)
+    (err_line,) = saved_figures["composition_error.png"].axes[1].get_lines()
+    assert np.allclose(err_line.get_xdata(), np.asarray(c["depth"])[1:]) and np.allclose(err_line.get_ydata(), err)
+
+    for ax, key in zip(saved_figures["reuse.png"].axes, ("distance_mu", "coverage_pct"), strict=True):
+        assert [b.get_height() for b in ax.patches] == pytest.approx([v[key]["mean"] for v in s["reuse"].values()])
 
 
 def test_the_page_shows_each_table_once_and_no_raw_line(small_run):

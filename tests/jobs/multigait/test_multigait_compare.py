@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from app.jobs.multigait.compare import CompareParams, compare, mann_whitney, ruggedness
+from app.jobs.multigait.reproduce.compare import CompareParams, compare, mann_whitney, ruggedness
 
 
 def test_mann_whitney_is_one_sided():

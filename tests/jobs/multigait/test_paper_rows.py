@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.jobs.multigait.paper_rows import RowsParams, _row_spec, ceiling, cell_coverage, not_attempted, plan
+from app.jobs.multigait.reproduce.paper_rows import RowsParams, _row_spec, ceiling, cell_coverage, not_attempted, plan
 from app.jobs.multigait.spec import MultigaitSpec
 from app.robots.modular import SHAPES
 
@@ -47,7 +47,7 @@ def test_not_attempted_lists_what_the_data_lacks():
 def test_paper_budget_hours_scale_by_evaluations_from_the_rows():
     """The paper-budget estimate comes from the data's rows: 48 evaluations in 24 s is 0.5 s
     an evaluation, so a 3020-evaluation run is about 25 min and 800 of them 336 h."""
-    from app.jobs.multigait.paper_rows import _paper_budget_hours
+    from app.jobs.multigait.reproduce.paper_rows import _paper_budget_hours
 
     runs = [{"spec": {"search": {"particles": 8, "generations": 5}}, "wall_s": w} for w in (20.0, 28.0)]
     text = _paper_budget_hours(runs)

@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from app.jobs.multigait import stairs as st
+from app.jobs.multigait.reproduce import stairs as st
 from app.jobs.multigait.spec import MultigaitSpec
 
 

@@ -1,4 +1,4 @@
-"""The damage atlas as data (issue 28, app/jobs/recovery/atlas_check.py): each (loss, seed) a
+"""The damage atlas as data (issue 28, app/jobs/recovery/reproduce/atlas_check.py): each (loss, seed) a
 real search appended to its ledger and skipped on a re-run, and the page rendered from the
 ledger and Table II's rows alone (what it counts, which Table II rows it takes)."""
 
@@ -7,7 +7,7 @@ import json
 import pytest
 
 from app.jobs.ledger import Ledger
-from app.jobs.recovery import atlas_check
+from app.jobs.recovery.reproduce import atlas_check
 
 
 @pytest.fixture

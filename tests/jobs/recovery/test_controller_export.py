@@ -69,6 +69,11 @@ def test_the_module_shipped_is_the_module_that_ran(bundle):
     from app.jobs.recovery import gait_controller
 
     assert (folder / "controller" / "gait_controller.py").read_text() == Path(gait_controller.__file__).read_text()
+    # ... and its IK is the robot layer's file, shipped beside it (the check script above runs
+    # the pair outside gaitmend)
+    from app.robots import ik
+
+    assert (folder / "controller" / "ik.py").read_text() == Path(ik.__file__).read_text()
 
 
 def test_open_loop_setpoints_are_the_period_the_simulation_repeated(bundle):

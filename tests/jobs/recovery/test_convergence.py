@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from app.jobs.recovery.convergence import RULE, check, halving_deltas
+from app.jobs.recovery.reproduce.convergence import RULE, check, halving_deltas
 
 
 def metrics(x_cm, y_cm, yaw):

@@ -1,7 +1,6 @@
-"""Generations to converge (paper 000's "almost 30 generations", app/jobs/recovery/curves.py),
+"""Generations to converge (paper 000's "almost 30 generations", app/jobs/recovery/reproduce/curves.py),
 counted from rows' best-F curves: fixture curves whose answers are known by hand."""
-
-from app.jobs.recovery import curves
+from app.jobs.recovery.reproduce import curves
 
 
 def _curve(bests):

@@ -3,8 +3,7 @@ Table II's rows: each figure below is the fixture rows' own, and a row that reco
 load says so (no simulation here)."""
 
 import json
-
-from app.jobs.recovery import experiments, jobtime
+from app.jobs.recovery.reproduce import experiments, jobtime
 
 V = experiments.ROW_VERSION
 

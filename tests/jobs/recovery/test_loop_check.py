@@ -5,8 +5,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-
-from app.jobs.recovery import loop_check
+from app.jobs.recovery.reproduce import loop_check
 
 ROOT = Path(__file__).resolve().parents[3]
 

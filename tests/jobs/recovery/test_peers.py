@@ -1,4 +1,4 @@
-"""Issue 28's peers of the paper DE on Table II (app/jobs/recovery/peers.py, peers_check.py):
+"""Issue 28's peers of the paper DE on Table II (app/jobs/recovery/reproduce/peers.py, peers_check.py):
 scipy's DE and CMA-ES at our budget appended to their ledger and skipped on a re-run, the
 paired statistics of the Table II page, and the page rendered from the files alone."""
 
@@ -6,8 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-
-from app.jobs.recovery import experiments, peers, peers_check
+from app.jobs.recovery.reproduce import experiments, peers, peers_check
 
 ROOT = Path(__file__).resolve().parents[3]
 

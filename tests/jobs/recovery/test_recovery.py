@@ -100,9 +100,25 @@ def test_cancel_is_seen_between_generations(tmp_path):
 
 
 def test_cmaes_option_runs(tmp_path):
+    """optimizer: cmaes drives the search with CMA-ES: a fresh CMA-ES on the same bounds and
+    seed, told the fitness values the run recorded, proposes exactly the candidates the run
+    scored, and the answer is the one it proposed with the best value of all generations."""
+    from app.optim.cmaes import CMAES
+
     spec = parse_spec(SMALL | {"search": {"optimizer": "cmaes", "population": 8, "generations": 2, "seed": 0}})
-    s = run(spec, Ctx(tmp_path)).summary
-    assert len(s["history"]) == 3 and s["best"]["fitness"] >= s["history"][0]["generation_best"]
+    ctx = Ctx(tmp_path)
+    s = run(spec, ctx).summary
+    told = ctx.checkpoints[-1]["search"]["optimizer"]["told"]
+    assert len(told) == 3 and all(len(f) == 8 for f in told)
+    assert [r["generation_best"] for r in s["history"]] == [max(f) for f in told]
+    lo, hi = search_bounds(spec, JETHEXA)
+    replay, asked = CMAES(lo, hi, population=8, seed=0), []
+    for f in told:
+        asked.append(replay.ask())
+        replay.tell(f)
+    g, i = max(((g, i) for g in range(3) for i in range(8)), key=lambda gi: told[gi[0]][gi[1]])
+    assert s["best"]["fitness"] == told[g][i]
+    assert list(s["best"]["params"].values()) == pytest.approx(list(asked[g][i]), abs=1e-12)
 
 
 def test_neighbours_of_lost_legs_get_relaxed_y0_bounds():

@@ -3,8 +3,7 @@
 import json
 
 import pytest
-
-from app.jobs.recovery import experiments as reproduce
+from app.jobs.recovery.reproduce import experiments as reproduce
 
 
 def test_table2_resumes_and_formats(tmp_path, monkeypatch):
@@ -38,7 +37,7 @@ def test_old_format_rows_are_dropped_not_tabled(tmp_path, monkeypatch):
 
 
 def test_convergence_rule_on_the_documented_answers():
-    """The rule (app/jobs/recovery/convergence.py) on every answer the docs report at the default step
+    """The rule (app/jobs/recovery/reproduce/convergence.py) on every answer the docs report at the default step
     (Table II, the robust comparison's nominal answers, the convergence searches),
     re-simulated here at the step and at half of it: the docs' verdict and numbers are what
     the code gives (docs/recovery.md, "Timestep"). At 1 ms the answers for the paper's four
@@ -51,7 +50,7 @@ def test_convergence_rule_on_the_documented_answers():
     import numpy as np
 
     from app.jobs.recovery.spec import RecoverySpec
-    from app.jobs.recovery.convergence import check, halving_deltas
+    from app.jobs.recovery.reproduce.convergence import check, halving_deltas
 
     dt = RecoverySpec().sim.timestep_s
     answers = reproduce.documented_answers(dt, Path(__file__).resolve().parents[3] / "docs")

@@ -2,7 +2,8 @@
 tables, the dashboard, the atlas and the experiments' tables all judge a gait by it, so a
 gait that fell can never read "met" anywhere, however far and straight it walked."""
 
-from app.jobs.recovery import atlas, experiments, present, views
+from app.jobs.recovery import present, views
+from app.jobs.recovery.reproduce import atlas, experiments
 from app.jobs.recovery.metrics import (LIMITS, TARGET, basis_text, limits, meets_target, target_checks,
                                       target_for, target_met)
 
@@ -132,4 +133,4 @@ def test_the_verdict_judges_by_the_target_the_run_stated():
     # not judged, not "0 of n meet the target"
     short["robustness"]["cases"][0]["target_met"] = None
     assert "robustness re-runs are not judged" in KIND.verdict(short)["sentence"], KIND.verdict(short)["sentence"]
-    assert "robustness re-runs meet the target" in KIND.verdict(scaled(summary_of(PACED_4S), 4.0))["sentence"]
+    assert "timestep checks meet the target" in KIND.verdict(scaled(summary_of(PACED_4S), 4.0))["sentence"]

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import pytest
 
-from app.jobs.tipping import checks
-from app.jobs.tipping.checks import (CASES, ConvergenceParams, FrictionParams, RobustnessParams, TimingParams,
+from app.jobs.tipping.reproduce import checks
+from app.jobs.tipping.reproduce.checks import (CASES, ConvergenceParams, FrictionParams, RobustnessParams, TimingParams,
                                      convergence, friction, robustness, timing)
-from app.jobs.tipping.checks_docs import render_convergence, render_friction, render_robustness, render_timing
+from app.jobs.tipping.reproduce.checks_docs import render_convergence, render_friction, render_robustness, render_timing
 from app.jobs.tipping.spec import TippingSpec
 
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.jobs.tipping.experiments import PAPER_FOOT_Y, paper_swing_limit
+from app.jobs.tipping.reproduce.experiments import PAPER_FOOT_Y, paper_swing_limit
 from app.jobs.tipping.scenario import ControllerConfig, planner_workspace
 from app.jobs.tipping.stability.foothold import reachable_space
 from app.robots.heavy_hexapod import HEAVY

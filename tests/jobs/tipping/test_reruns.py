@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 
 from app.jobs.ledger import Ledger
-from app.jobs.tipping import reruns
-from app.jobs.tipping.reruns import SweepParams, _cliff_plan, _sweep_plan, sweep, sweep_job
-from app.jobs.tipping.reruns_docs import render_cliff, render_sweep_tilt, sweep_grid
+from app.jobs.tipping.reproduce import reruns
+from app.jobs.tipping.reproduce.reruns import SweepParams, _cliff_plan, _sweep_plan, sweep, sweep_job
+from app.jobs.tipping.reproduce.reruns_docs import render_cliff, render_sweep_tilt, sweep_grid
 from app.jobs.tipping.spec import TippingSpec
 
 
