@@ -24,6 +24,27 @@ PHONE = {"width": 390, "height": 844}
 AXE_RESULTS: dict[str, dict[str, int]] = {}  # "page @ width" -> counts by impact (printed at the end)
 
 
+# Chromium caps a capture's height, and a capture taken while the compositor is busy can fail
+# with "Unable to capture screenshot" (a CI run failed on the phone jobs list that way).
+SHOT_MAX_H = 8000
+
+
+def page_shot(page, path) -> bytes:
+    """A full-page screenshot saved under ``path`` (an artifact, never an assertion), at most
+    SHOT_MAX_H pixels tall; retried once after a frame when Chromium refuses the capture."""
+    from playwright.sync_api import Error
+
+    h = min(int(page.evaluate("document.documentElement.scrollHeight")), SHOT_MAX_H)
+    clip = {"x": 0, "y": 0, "width": page.viewport_size["width"], "height": max(h, 1)}
+    try:
+        return page.screenshot(path=str(path), full_page=True, clip=clip)
+    except Error as e:
+        if "Unable to capture screenshot" not in str(e):
+            raise
+        page.wait_for_timeout(500)
+        return page.screenshot(path=str(path), full_page=True, clip=clip)
+
+
 def axe(page, name: str) -> list[dict]:
     """Runs axe-core over the page (iframes left out: the replay is viser's client), records
     the counts by impact under ``name`` and returns the critical and serious violations."""
@@ -114,7 +135,7 @@ def job_page_everywhere(new_page, server, job_id: str, name: str, shots: Path) -
         pg = new_page(viewport=vp)
         pg.goto(f"{server.url}/jobs/{job_id}")
         expect(pg.locator("body[data-drawn='1']")).to_be_attached(timeout=60_000)
-        pg.screenshot(path=shots / f"{name}-job-{tag}.png", full_page=True)
+        page_shot(pg, shots / f"{name}-job-{tag}.png")
         no_axe_faults(pg, f"{name} job page")
         if vp is PHONE:
             fits_width(pg)

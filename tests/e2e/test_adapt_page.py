@@ -84,7 +84,7 @@ def test_enter_a_measurement_and_get_the_next_gait(new_page, server, repertoire,
     assert pg.locator("#trial-legend").inner_text() == "Measured on trial 2"
     assert pg.locator("#ad-error").is_hidden() and pg.locator("#forward_m").get_attribute("aria-invalid") is None
     glance.fits_width(pg)
-    pg.screenshot(path=str(shots / f"adapt-{viewport['width']}.png"), full_page=True)
+    glance.page_shot(pg, shots / f"adapt-{viewport['width']}.png")
 
     # trials until the session stops (at the latest after max_trials 3); the page says so and why
     while pg.locator("#trial-form").is_visible():

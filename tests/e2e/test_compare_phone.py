@@ -49,7 +49,7 @@ def test_the_compare_legend_fits_a_phone(new_page, server, shots, second_job, ot
         area = plot.locator(".draglayer .nsewdrag").first.bounding_box()
         assert legend["y"] + legend["height"] <= area["y"] + 1, (viewport, legend, area)  # above the lines, not on them
         if viewport is glance.PHONE:
-            pg.screenshot(path=shots / "compare-legend-390.png", full_page=True)
+            glance.page_shot(pg, shots / "compare-legend-390.png")
             glance.fits_width(pg)
         else:
             assert not any("<br>" in n for n in names), names  # the desktop's legend as it was

@@ -278,7 +278,7 @@ def test_submit_watch_open_plots_replay_download(page, new_page, server, shots):
         if share > 0.02:
             break
     assert share > 0.02, f"the replay canvas looks blank ({share:.2%} non-background pixels)"
-    jp.screenshot(path=shots / "job-1280.png", full_page=True)
+    glance.page_shot(jp, shots / "job-1280.png")
     # the verdict at the top: the recovery target, the method against the baseline and the
     # random search at the same budget, robustness k of n with numerics and physical apart
     v = glance.check_verdict(jp, server, job_id)
@@ -309,7 +309,7 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
     pg = new_page(viewport=PHONE)
     pg.goto(server.url + "/")
     expect(pg.locator(f'#jobs-body tr[data-id="{job_id}"]')).to_be_visible()
-    pg.screenshot(path=shots / "jobs-390.png", full_page=True)
+    glance.page_shot(pg, shots / "jobs-390.png")
     assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
     pg.goto(f"{server.url}/jobs/{job_id}")
     expect(pg.locator("#plot-gait .main-svg").first).to_be_visible(timeout=30_000)
@@ -319,7 +319,7 @@ def test_phone_layout_has_no_horizontal_scroll(new_page, server, shots):
     pg.locator("#replay").scroll_into_view_if_needed()  # the frame loads lazily, once near the screen
     expect(pg.frame_locator("#replay").locator("canvas").first).to_be_visible(timeout=60_000)
     pg.wait_for_timeout(1500)
-    pg.screenshot(path=shots / "job-390.png", full_page=True)
+    glance.page_shot(pg, shots / "job-390.png")
     assert pg.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
     glance.no_axe_faults(pg, "recovery job page")
     pg.goto(server.url + "/")
@@ -350,7 +350,7 @@ def test_compare_two_jobs(page, server, shots, second_job):
         want = c.post("/api/web/check", json=spec).json()["evaluations"]
     budget = page.locator("#groups tr").filter(has_text="Budget (evaluations")
     expect(budget.locator("td").first).to_have_text(str(want))
-    page.screenshot(path=shots / "compare-1280.png", full_page=True)
+    glance.page_shot(page, shots / "compare-1280.png")
     glance.no_axe_faults(page, "compare page")
 
 

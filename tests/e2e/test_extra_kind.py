@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
+
+import glance
 from service_support import deployment, migrated
 
 from tests.e2e.conftest import serve
@@ -118,7 +120,7 @@ def test_a_kind_registered_outside_app_through_the_dashboard(page, new_page, ser
     assert share > 0.01, f"the replay canvas looks blank ({share:.2%} non-background pixels)"
 
     jp.evaluate("window.scrollTo(0, 0)")
-    jp.screenshot(path=shots / "ballistic-job-1280.png", full_page=True)
+    glance.page_shot(jp, shots / "ballistic-job-1280.png")
 
     # the whole bundle, fetched with the token
     with jp.expect_download() as dl:

@@ -256,12 +256,12 @@ def test_compare_separates_kinds(page, new_page, server, shots, second_job):
     kinds = page.evaluate("""[...document.querySelectorAll('[id^="plot-compare-"]')].map(d =>
         [...new Set(d.data.map(t => t.name.split(' · ')[0]))])""")
     assert sorted(k for ks in kinds for k in ks) == ["multigait", "recovery"] and all(len(ks) == 1 for ks in kinds), kinds
-    page.screenshot(path=shots / "compare-kinds-1280.png", full_page=True)
+    glance.page_shot(page, shots / "compare-kinds-1280.png")
     glance.no_axe_faults(page, "compare page")
     phone = new_page(viewport=glance.PHONE)  # opened at a phone's width (plots size to it as they draw)
     phone.goto(page.url)
     expect(phone.locator('[id^="plot-compare-"][data-rendered="1"]')).to_have_count(2, timeout=30_000)
-    phone.screenshot(path=shots / "compare-kinds-390.png", full_page=True)
+    glance.page_shot(phone, shots / "compare-kinds-390.png")
     glance.no_axe_faults(phone, "compare page")
     glance.fits_width(phone)
 

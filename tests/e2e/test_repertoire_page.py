@@ -92,7 +92,7 @@ def test_the_page_shows_the_map_its_progress_and_replays_picked_elites(new_page,
     for t in elites:
         expect(pg.locator(f'#replay-tracks button[data-track="{t["name"]}"]')).to_have_text(t["label"])
         expect(pg.locator("#panel-replays")).to_contain_text(t["label"])
-    pg.screenshot(path=shots / f"repertoire-job-{width}.png", full_page=True)
+    glance.page_shot(pg, shots / f"repertoire-job-{width}.png")
     glance.no_axe_faults(pg, "repertoire job page")
     if width == "390":
         glance.fits_width(pg)

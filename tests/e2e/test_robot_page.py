@@ -101,7 +101,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     assert y["L0"] < y["L2"], y
     assert {r["id"] for r in _own_robots(server)} == before
     glance.no_axe_faults(page, "add robot")
-    page.screenshot(path=str(shots / "robot-add-desktop.png"), full_page=True)
+    glance.page_shot(page, shots / "robot-add-desktop.png")
 
     # edit a leg's name (the drawing follows), save: the stored map carries the edit
     page.fill(f"#lm-name-{first}", "front_left")
@@ -134,7 +134,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     expect(phone.locator("#legmap-rows tr")).to_have_count(6)
     glance.fits_width(phone)
     glance.no_axe_faults(phone, "add robot")
-    phone.screenshot(path=str(shots / "robot-add-phone.png"), full_page=True)
+    glance.page_shot(phone, shots / "robot-add-phone.png")
 
     # the New job form offers it and draws its legs; one leg lost, by the edited name
     page.goto(f"{server.url}/")

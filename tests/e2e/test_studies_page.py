@@ -90,7 +90,7 @@ def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_pag
     (recovery: the forward distance, in cm) with the verdict pooled over the seeds."""
     page.goto(f"{server.url}/studies")
     expect(page.locator("#st-kind option")).not_to_have_count(0)
-    page.screenshot(path=shots / "studies-1280.png", full_page=True)
+    glance.page_shot(page, shots / "studies-1280.png")
     glance.no_axe_faults(page, "studies list")
     # a list draws no plot: plotly.min.js is never fetched
     assert not page.evaluate("performance.getEntriesByType('resource').some(r => r.name.includes('plotly'))")
@@ -142,14 +142,14 @@ def test_a_custom_study_without_metrics_reports_the_kinds_headline(page, new_pag
     expect(held).to_have_attribute("aria-sort", "ascending")
     expect(page.locator("#panel-metric-0 .plot[data-rendered='1']")).to_be_attached(timeout=30_000)
     assert "null" not in page.locator("main").inner_text()
-    page.screenshot(path=shots / "study-1280.png", full_page=True)
+    glance.page_shot(page, shots / "study-1280.png")
     glance.no_axe_faults(page, "study page")
     for path, name in ((f"/studies/{sid}", "study"), ("/studies", "studies")):
         pg = new_page(viewport=glance.PHONE)
         pg.goto(server.url + path)
         expect(pg.locator("#panel-aggregate, #study-list").first).to_be_visible(timeout=30_000)
         pg.wait_for_timeout(500)
-        pg.screenshot(path=shots / f"{name}-390.png", full_page=True)
+        glance.page_shot(pg, shots / f"{name}-390.png")
         glance.no_axe_faults(pg, f"{name} page")
         glance.fits_width(pg)
         if name == "study":

@@ -94,7 +94,7 @@ def test_the_jobs_list_and_the_compare_page_say_the_same(new_page, server, shots
     for name, jid in held_jobs.items():
         assert _held(server, jid)["text"] in text, (name, text)
     expect(row.locator('[data-fragile="true"]')).to_have_count(1)
-    pg.screenshot(path=shots / "compare-held-out-1280.png", full_page=True)
+    glance.page_shot(pg, shots / "compare-held-out-1280.png")
 
 
 def test_robots_leads_to_the_robots_page(page, server):
