@@ -7,14 +7,12 @@ each proposed gait is printed and its measurement is read from stdin, one line a
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.markup import escape
 
-from app.cli.common import cli, err, fail, fail_fields
+from app.cli.common import cli, fail, fail_fields
 from app.jobs.base import SpecError
 
 METHODS = ("ite", "gaitmend")  # app/adapt/methods.py ITE and GAITMEND
@@ -40,23 +38,48 @@ def _reality(path: Path):
 
 @cli.command()
 def adapt(
-    maps: list[Path] = typer.Argument(..., metavar="BUNDLE_OR_RESULT...", help=(
-        "repertoire results: a bundle zip, its folder or manifest.json, or a result JSON; the first is ITE's map")),
+    maps: list[Path] = typer.Argument(None, metavar="BUNDLE_OR_RESULT...", help=(
+        "repertoire results: a bundle zip, its folder or manifest.json, or a result JSON; the first is ITE's map "
+        "(with --server: repertoire job ids on the server)"), show_default=False),
     simulate: Optional[Path] = typer.Option(None, "--simulate", metavar="REALITY.json", help=(
         "play the trials on a simulated reality: {\"robot\", \"damage\", \"perturbation\"} (docs/adapt.md); "
         "without it, each measurement is read from stdin: forward_m lateral_m yaw_deg fell duration_s")),
-    method: str = typer.Option("ite", "--method", help="ite (Cully et al. 2015, one map) or gaitmend (several maps, "
-                                                       "straight, falls count 0)"),
+    method: Optional[str] = typer.Option(None, "--method", help="ite (Cully et al. 2015, one map; the default) or "
+                                                                 "gaitmend (several maps, straight, falls count 0)"),
     as_json: bool = typer.Option(False, "--json", help="the outcome as one JSON object on the last stdout line"),
+    server: Optional[str] = typer.Option(None, "--server", help=(
+        "run the session on this API (its dashboard page shows it): the arguments are repertoire job ids there")),
+    session: Optional[str] = typer.Option(None, "--session", help=(
+        "go on with this open session on the server (--server, or GAITMEND_SERVER); no arguments")),
+    token: Optional[str] = typer.Option(None, "--token", help="API token for the server (default GAITMEND_TOKEN)"),
+    alpha: Optional[float] = typer.Option(None, "--alpha", help="new server sessions: stop when the best measured "
+                                                                 "reaches alpha x the best prediction (default 0.9)"),
+    max_trials: Optional[int] = typer.Option(None, "--max-trials", help="new server sessions: at most this many "
+                                                                          "trials (default 20)"),
+    bundles: Optional[Path] = typer.Option(None, "--bundles", metavar="DIR", help=(
+        "server sessions: save each proposed gait for the robot (set-points, controller) as DIR/trialN.zip")),
 ):
     """Adapt: propose a gait from the maps, play it, post the measurement, until the method stops."""
+    if method is not None and method not in METHODS:
+        fail(f"--method: unknown method {method!r}; allowed: {', '.join(METHODS)}")
+    if server is not None or session is not None:
+        if simulate is not None:
+            fail("--simulate plays a local loop over bundles; it does not go with --server or --session")
+        from app.cli.adapt_server import adapt_on_server
+
+        adapt_on_server([str(m) for m in maps or []], server, session, token, method, alpha, max_trials, bundles, as_json)
+        return
+    if alpha is not None or max_trials is not None or bundles is not None:
+        fail("--alpha, --max-trials and --bundles are for sessions on a server (--server); "
+             "a local loop uses the method's published stop rule")
     from app.adapt import methods as M
     from app.adapt.maps import MapError, read_repertoires
     from app.adapt.simulate import adapt as run_adapt
     from app.adapt.simulate import run as run_loop
 
-    if method not in METHODS:
-        fail(f"--method: unknown method {method!r}; allowed: {', '.join(METHODS)}")
+    method = method or "ite"
+    if not maps:
+        fail("BUNDLE_OR_RESULT: give at least one repertoire (a bundle, its folder or a result JSON)")
     reality = _reality(simulate) if simulate is not None else None
     try:
         reps = read_repertoires(maps)
@@ -92,22 +115,10 @@ def adapt(
 
 def _typed_in(rep, p):
     """One trial run by hand: the gait to run, then its measurement from stdin (None at the
-    end of input). A bad line is asked again in a terminal and ends the command (exit 2)
-    from a pipe or file."""
-    from app.adapt.lab import FIELDS, parse_line
-
+    end of input)."""
     x = [float(v) for v in rep.params[p.elite]]
     print(f"run: map {p.map!r} elite {p.elite} (cell {rep.cells[p.elite]}), predicted {p.predicted:.4f} m/s; "
           f"gait x = {json.dumps(x)}", flush=True)
-    while True:
-        err.print(f"measured ({' '.join(FIELDS)}): ", end="", highlight=False)
-        line = sys.stdin.readline()
-        if not line:
-            return None
-        try:
-            return parse_line(line)
-        except SpecError as e:
-            item = e.errors[0]
-            if not sys.stdin.isatty():
-                fail(f"measurement of trial for elite {p.elite}: {item['field']}: {item['message']}")
-            err.print("[bold red]error:[/] " + escape(f"{item['field']}: {item['message']}; again"), highlight=False)
+    from app.cli.measured import read_measurement
+
+    return read_measurement(f"elite {p.elite}")

@@ -6,9 +6,14 @@ and its proposals are those of a session that was never interrupted."""
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+import zipfile
+
 import httpx
 import pytest
-from service_support import Proc, deployment, free_port, wait_for
+from service_support import ENTRY, Proc, deployment, free_port, proc_env, wait_for
 
 import gaitmend
 
@@ -83,10 +88,49 @@ def test_a_session_survives_a_kill_9_of_serve_and_its_worker(tmp_path):
             assert strip(s["trials"]) == strip(last["trials"]) and len(s["trials"]) == TRIALS
             assert s["decision"] == last["decision"] and s["status"] == last["status"] == "finished"
             zipped = c.proposal_bundle(sid, 3, tmp_path / "trial3.zip")
-            import json
-            import zipfile
-
             with zipfile.ZipFile(zipped) as z:
                 assert json.loads(z.read("gait.json")) == proposals[2]
+            _the_cli_runs_a_server_session(c, env, job.id, straight, tmp_path)
     finally:
         proc.stop()
+
+
+def _cli(env, *args, stdin: str = ""):
+    return subprocess.run([sys.executable, "-c", ENTRY, "adapt", *args], env=proc_env(env), input=stdin,
+                          capture_output=True, text=True, timeout=120)
+
+
+def _line(k: int) -> str:
+    m = _measured(k)
+    return f"{m['forward_m']} {m['lateral_m']} {m['yaw_deg']} {'yes' if m['fell'] else 'no'} {m['duration_s']}\n"
+
+
+def _the_cli_runs_a_server_session(c, env, job_id, straight, tmp_path):
+    """`gaitmend adapt --server`: the lab types two trials, stops, goes on with --session
+    (a bad line from a pipe is exit 2 and posts nothing) and finishes; the server holds what
+    was typed and the CLI proposed what the API proposes."""
+    bundles = tmp_path / "for-the-robot"
+    r = _cli(env, job_id, "--server", c.server, "--method", "gaitmend", "--max-trials", "3", "--alpha", "1.0",
+             "--bundles", str(bundles), stdin=_line(1) + _line(2))
+    assert r.returncode == 1, r.stderr  # the input ended before the method stopped
+    sid = r.stdout.split("session ", 1)[1].split()[0]
+    s = c.adaptation(sid)
+    assert [(t["trial"], t["forward_m"], t["fell"]) for t in s["trials"]] == [(1, -0.001, False), (2, -0.002, True)]
+    assert [(t["map"], t["elite"]) for t in s["trials"]] == [(p["map"], p["elite"]) for p in straight[:2]]
+    with zipfile.ZipFile(bundles / "trial2.zip") as z:
+        assert json.loads(z.read("gait.json"))["elite"] == straight[1]["elite"]
+    assert f"/adaptations/{sid}" in r.stdout and "measurements ended after 2 trials" in r.stdout
+
+    bad = _cli(env, "--session", sid, "--server", c.server, stdin="0.1 0 0 maybe 10\n")
+    assert bad.returncode == 2 and "fell" in bad.stderr, bad.stderr
+    assert c.adaptation(sid)["trials_done"] == 2  # nothing written
+    mixed = _cli(env, job_id, "--session", sid, "--server", c.server)
+    assert mixed.returncode == 2 and "--session" in mixed.stderr
+    refused = _cli(env, job_id, "--server", c.server, "--alpha", "7", stdin="")
+    assert refused.returncode == 2 and "alpha" in refused.stderr, refused.stderr
+
+    done = _cli(env, "--session", sid, "--server", c.server, "--json", stdin=_line(3))
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["session"] == sid and out["status"] == "finished" and len(out["trials"]) == 3
+    assert out["trials"] == c.adaptation_trials(sid)
