@@ -52,13 +52,23 @@ def test_run_writes_a_bundle_and_json_summary_and_the_manifest_reproduces_it(tmp
     readme = (folder / "README.md").read_text()
     assert "gaitmend verify manifest.json" in readme and "pip install \"gaitmend==" not in readme
 
-    same = gaitmend("verify", str(folder), "--quiet")  # re-runs and compares every number
-    assert same.returncode == 0 and "same numbers" in same.stdout, same.stdout + same.stderr
+    same = gaitmend("verify", str(folder), "--quiet", "--json")  # re-runs and compares every number
+    assert same.returncode == 0 and same.stdout.startswith("identical: same numbers"), same.stdout + same.stderr
+    checked = json.loads(same.stdout.strip().splitlines()[-1])
+    assert checked["outcome"] == "identical" and checked["numbers"] > 100 and checked["made_on"] == checked["machine"]
     result = json.loads((folder / "result.json").read_text())
-    result["best"]["fitness"] += 1e-9
+    fitness = result["best"]["fitness"]
+    result["best"]["fitness"] = fitness * (1 + 1e-12)  # floating-point order: equal within the stated tolerance
+    (folder / "result.json").write_text(json.dumps(result))
+    near = gaitmend("verify", str(folder), "--quiet", "--json")
+    assert near.returncode == 0 and near.stdout.startswith("equal within tolerance: 1 of"), near.stdout + near.stderr
+    assert json.loads(near.stdout.strip().splitlines()[-1])["where"] == "best.fitness"
+    assert gaitmend("verify", str(folder), "--quiet", "--exact").returncode == 1  # not bit for bit
+    result["best"]["fitness"] = fitness + 1e-6
     (folder / "result.json").write_text(json.dumps(result))
     differ = gaitmend("verify", str(folder / "manifest.json"), "--quiet")
     assert differ.returncode == 1 and "DIFFERENT: best.fitness" in differ.stdout, differ.stdout + differ.stderr
+    assert "1 of " in differ.stdout and "made on " in differ.stdout and "verified on " in differ.stdout
 
 
 def test_verify_compares_a_bundle_null_with_a_fresh_nan():

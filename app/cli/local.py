@@ -104,9 +104,18 @@ def _bundle_files(path: Path) -> tuple[dict, dict]:
 
 @cli.command()
 def verify(bundle: Path = typer.Argument(..., help="a result bundle: .zip, unpacked folder, or its manifest.json"),
-           quiet: bool = typer.Option(False, "--quiet", help="no progress bar")):
+           quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+           exact: bool = typer.Option(False, "--exact", help="only bit-identical passes (exit 1 when within "
+                                                              "tolerance)"),
+           as_json: bool = typer.Option(False, "--json", help="the comparison as one JSON object on the last stdout "
+                                                               "line")):
     """Re-run a bundle's job here and compare every number of its result with the bundle's
-    (wall-clock times excepted). Exit 0 when they are the same, 1 at the first difference."""
+    (wall-clock times excepted): identical, equal within a stated tolerance (floating-point
+    order: exit 0, 1 with --exact), or different (exit 1), with the figures and the machines."""
+    from app.core.host import machine, machine_text
+    from app.results.bundle import versions
+    from app.results.verify import compare
+
     try:
         man, saved = _bundle_files(bundle)
     except (OSError, KeyError, ValueError, zipfile.BadZipFile) as e:
@@ -121,13 +130,21 @@ def verify(bundle: Path = typer.Argument(..., help="a result bundle: .zip, unpac
     with tempfile.TemporaryDirectory() as tmp, (progress or contextlib.nullcontext()):
         task = progress.add_task(f"verify {man.get('job_id', '')}", total=None, info="") if progress else None
         result = kind.run(spec, LocalContext(Path(tmp), progress, task, kind))
-    fresh = json.loads(dumps(result.summary))
-    diff = first_difference(saved, fresh)
-    if diff is None:
-        print(f"same numbers: {bundle} reproduces (every number of result.json, wall-clock times excepted)")
-        return
-    print(f"DIFFERENT: {diff}")
-    raise typer.Exit(1)
+    c = compare(saved, json.loads(dumps(result.summary)))
+    here, made = machine(), man.get("machine")
+    print(c.text())
+    print(f"made on {machine_text(made) if made else 'a machine the bundle does not name (an older bundle)'} "
+          f"with {_versions_text(man.get('versions', {}))}; verified on {machine_text(here)} with "
+          f"{_versions_text(versions())}")
+    if as_json:
+        print(json.dumps(c.to_json() | {"made_on": made, "machine": here, "versions_made": man.get("versions"),
+                                        "versions": dict(versions())}))
+    if c.outcome == "different" or (exact and c.outcome != "identical"):
+        raise typer.Exit(1)
+
+
+def _versions_text(v: dict) -> str:
+    return ", ".join(f"{k} {v[k]}" for k in ("mujoco", "numpy", "python") if k in v) or "unrecorded versions"
 
 
 @cli.command()
@@ -244,12 +261,14 @@ def _cross_kind_experiments():
     """Reproductions that span the kinds: `gaitmend reproduce <name>` (app/cli/bench.py's
     measures every kind with the function `gaitmend bench` calls; app/cli/examples.py's runs
     the README's example lines through the CLI; app/adapt/reproduce's evaluates the
-    adaptation methods of issue 44, which is no kind's)."""
+    adaptation methods of issue 44, which is no kind's; app/cli/machines.py re-runs the
+    committed reference results on this machine)."""
     from app.adapt.reproduce.experiment import EXPERIMENT as ADAPT
     from app.cli.bench import EXPERIMENT as BENCH
     from app.cli.examples import EXPERIMENT as EXAMPLES
+    from app.cli.machines import EXPERIMENT as MACHINES
 
-    return [BENCH, EXAMPLES, ADAPT]
+    return [BENCH, EXAMPLES, ADAPT, MACHINES]
 
 
 for _exp in _cross_kind_experiments():

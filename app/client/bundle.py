@@ -44,13 +44,20 @@ class Figure:
 
 @dataclasses.dataclass(frozen=True)
 class Verification:
-    """What ``Bundle.verify`` found: ``same`` and the first ``difference`` (None when same)."""
+    """What ``Bundle.verify`` found: ``outcome`` (identical, within_tolerance or different:
+    app/results/verify.py), the first ``difference`` (None when identical) and the whole
+    ``comparison``. True unless different, as `gaitmend verify` exits 0; ``same``: bit for bit."""
 
-    same: bool
+    outcome: str
     difference: str | None
+    comparison: Any
+
+    @property
+    def same(self) -> bool:
+        return self.outcome == "identical"
 
     def __bool__(self) -> bool:
-        return self.same
+        return self.outcome != "different"
 
 
 class Bundle:
@@ -194,10 +201,10 @@ class Bundle:
         """Re-run the job here from its manifest and compare every number of the fresh
         result with result.json, wall-clock figures excepted (`gaitmend verify`)."""
         from app.jobs.registry import parse_spec
-        from app.results.verify import first_difference, rerun
+        from app.results.verify import compare, rerun
 
-        diff = first_difference(self.summary, rerun(parse_spec(self.spec)))
-        return Verification(diff is None, diff)
+        c = compare(self.summary, rerun(parse_spec(self.spec)))
+        return Verification(c.outcome, c.first, c)
 
 
 def open_bundle(path: str | Path) -> Bundle:

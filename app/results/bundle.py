@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from app import __version__
+from app.core.host import machine
 from app.jobs.base import JobResult, dumps
 from app.jobs.registry import get_kind
 
@@ -56,6 +57,7 @@ def manifest(job_id: str, spec: Any, result: JobResult) -> dict:
         "spec": spec.model_dump(mode="json"),
         "seed": spec.seed,
         "versions": dict(versions()),
+        "machine": machine(),  # where the job ran (`gaitmend verify` prints it beside its own)
         "model_sha256": model_sha256(result.model_xml),
         "wall_s": result.summary["timing"]["wall_s"],
         "evaluations": result.evaluations,

@@ -14,7 +14,8 @@ from pathlib import Path
 from app.jobs.ledger import ROOT
 from app.jobs.registry import KINDS
 from app.jobs.reporting import SUMMARY, Section, pages, regenerate, sections_in
-from app.results import benchmarks, examples, loadtest, notebook_figures, observed, robot_figures, scaling
+from app.results import (benchmarks, examples, loadtest, notebook_figures, observed, reproducibility,
+                         robot_figures, scaling)
 
 
 def all_sections() -> dict[str, Section]:
@@ -24,14 +25,15 @@ def all_sections() -> dict[str, Section]:
     (app/results/examples.py, `gaitmend reproduce readme-examples`) and the submission latency
     (app/results/loadtest.py, scripts/loadtest.py) and what the test suite observes
     (app/results/observed.py), a study's scaling over workers (app/results/scaling.py) and
-    the robot layer's timings (app/results/robot_figures.py), by name (a name is unique)."""
+    the robot layer's timings (app/results/robot_figures.py) and whether results reproduce on
+    other machines (app/results/reproducibility.py), by name (a name is unique)."""
     from app.adapt.reproduce import report as adapt_report  # docs/adapt.md's evaluation (issue 44)
 
     out: dict[str, Section] = {}
     declared = [s for kind in KINDS.values() for exp in kind.experiments() for s in exp.sections]
     for s in [*declared, *notebook_figures.SECTIONS, *benchmarks.sections(), *examples.sections(),
               *loadtest.sections(), *observed.sections(), *scaling.sections(),
-              *robot_figures.sections(), *adapt_report.sections()]:
+              *robot_figures.sections(), *adapt_report.sections(), *reproducibility.sections()]:
         if s.name in out or s.name == SUMMARY:
             raise ValueError(f"generated section {s.name!r} is declared twice")
         out[s.name] = s

@@ -48,7 +48,7 @@ def test_open_bundle_of_every_kind(kind, bundles, finished, tmp_path):
 def test_bundle_verify_reruns_and_compares(bundles, tmp_path):
     b = gaitmend.open_bundle(bundles["recovery"])
     v = b.verify()
-    assert v and v.same and v.difference is None
+    assert v and v.same and v.outcome == "identical" and v.difference is None and v.comparison.numbers > 100
     # a number changed in result.json is found, named by its path
     with zipfile.ZipFile(bundles["recovery"]) as z:
         z.extractall(tmp_path / "b")
@@ -56,7 +56,8 @@ def test_bundle_verify_reruns_and_compares(bundles, tmp_path):
     res["best"]["fitness"] += 1.0
     (tmp_path / "b" / "result.json").write_text(json.dumps(res))
     v = gaitmend.open_bundle(tmp_path / "b").verify()
-    assert not v and v.difference.startswith("best.fitness")
+    assert not v and not v.same and v.outcome == "different" and v.difference.startswith("best.fitness")
+    assert v.comparison.differing == 1 and v.comparison.where == "best.fitness"
 
 
 def test_not_a_bundle(tmp_path):

@@ -1,0 +1,94 @@
+"""Whether a result reproduces on another machine (issue 45), rendered from
+docs/reproducibility.json: each reference result (the README's example jobs, made once and
+committed under docs/reproducibility/) re-run by `gaitmend reproduce machines` on a machine
+and compared number by number as `gaitmend verify` does (app/results/verify.py: identical,
+equal within the stated tolerance, or different). The second table reads the figures of
+docs/benchmarks.json that are results rather than times (the recovery bench's baseline
+fitness, the energy bench's GA best J: the same spec and seed on every host) and shows
+them by CPU."""
+
+from __future__ import annotations
+
+from app.core.host import machine_text
+from app.jobs.reporting import Section, md_table, missing
+from app.results.verify import ABS_TOL, REL_TOL
+
+JSON = "docs/reproducibility.json"
+COMMAND = "gaitmend reproduce machines --write-docs"
+BENCH_JSON = "docs/benchmarks.json"
+BENCH_COMMAND = "gaitmend reproduce bench --write-docs"
+OUTCOME_TEXT = {"identical": "identical", "within_tolerance": "within tolerance", "different": "**different**"}
+# docs/benchmarks.json figures that are results of a fixed spec and seed, not times
+BENCH_RESULTS = (("recovery", "recovery", "paper.fitness", "Recovery bench, the paper DE's best F (legs 1 & 6, seed 0: "
+                                                           "the default job's whole search)"),
+                 ("recovery", "recovery", "baseline_fitness", "Recovery bench, the baseline gait's F"),
+                 ("energy", "energy", "ga_best_J", "Energy bench, the GA's best J (40 x 41, seed 0)"))
+
+
+def _at(d: dict | None, path: str):
+    for k in path.split("."):
+        d = d.get(k) if isinstance(d, dict) else None
+    return d
+
+
+def _made(r: dict) -> str:
+    return machine_text(r["made_on"], cores=False) if r.get("made_on") else "not recorded"
+
+
+def _same_cpu(r: dict) -> bool:
+    return bool(r.get("made_on")) and machine_text(r["made_on"], cores=False) == machine_text(r["machine"], cores=False)
+
+
+def render_table(data: dict | None) -> str:
+    runs = (data or {}).get("runs", [])
+    if not runs:
+        return missing(JSON, COMMAND)
+    rows = []
+    for r in runs:
+        diff = ("-" if r["outcome"] == "identical" else
+                f"{r['differing']:,} of {r['numbers']:,}; largest relative {r['max_rel']:.2g} at `{r['where']}`"
+                if r["where"] else f"{r['other']} other")
+        rows.append([r["reference"], _made(r), r["made_commit"][:10], machine_text(r["machine"], cores=False),
+                     r["commit"][:10], f"mujoco {r['versions']['mujoco']}, numpy {r['versions']['numpy']}",
+                     OUTCOME_TEXT[r["outcome"]] + ("" if not _same_cpu(r) else " (same CPU)"), diff])
+    cross = [r for r in runs if r.get("made_on") and not _same_cpu(r)]
+    counts = {o: sum(r["outcome"] == o for r in cross) for o in OUTCOME_TEXT}
+    tail = (f"Across CPU models: {len(cross)} re-run{'s' if len(cross) != 1 else ''} so far, {counts['identical']} identical, "
+            f"{counts['within_tolerance']} within tolerance, {counts['different']} different."
+            if cross else "No reference has been re-run on a CPU model other than its maker's yet: the next run "
+                          f"of `{COMMAND}` on another machine appends its rows.")
+    return (md_table(["reference", "made on", "made at", "re-run on", "re-run at", "versions (re-run)", "outcome",
+                      "numbers that differ"], rows)
+            + f"\nEach row re-runs one reference result from its manifest and compares every number of result.json "
+              f"(wall-clock figures excepted): identical bit for bit, within tolerance (every number within "
+              f"{REL_TOL:g} relative or {ABS_TOL:g} absolute), or different. {tail}\n")
+
+
+def render_bench(data: dict | None) -> str:
+    runs = (data or {}).get("runs", [])
+    rows, seen = [], set()
+    for kind, group, key, label in BENCH_RESULTS:
+        for r in runs:
+            v = _at(r.get("figures", {}).get(group), key)
+            m = r.get("machine") or {}
+            if r.get("kind") != kind or v is None or "cpu_family" not in m:
+                continue
+            cpu = machine_text(m, cores=False)
+            if (key, cpu, v) not in seen:
+                seen.add((key, cpu, v))
+                rows.append([label, cpu, repr(v), r["commit"][:10]])
+    if not rows:
+        return missing(BENCH_JSON, BENCH_COMMAND)
+    values = {key: {row[2] for row in rows if row[0] == label} for _, _, key, label in BENCH_RESULTS}
+    cpus = {key: {row[1] for row in rows if row[0] == label} for _, _, key, label in BENCH_RESULTS}
+    said = "; ".join(f"{label}: {len(values[key])} distinct value{'s' if len(values[key]) != 1 else ''} on "
+                     f"{len(cpus[key])} CPU model{'s' if len(cpus[key]) != 1 else ''}"
+                     for _, _, key, label in BENCH_RESULTS if cpus[key])
+    return (md_table(["figure", "CPU", "value", "commit"], rows)
+            + f"\nEach distinct (figure, CPU, value) once, from every bench run that recorded its CPU's family and "
+              f"model. {said}.\n")
+
+
+def sections() -> tuple[Section, ...]:
+    return (Section("reproducibility", (JSON,), lambda d: render_table(d[0])),
+            Section("reproducibility-bench", (BENCH_JSON,), lambda d: render_bench(d[0])))
