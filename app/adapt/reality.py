@@ -2,7 +2,9 @@
 place of a lab. It is a robot, a damage and a perturbed world, none of which the method
 sees; a trial plays one elite of a map on it and returns what a lab would measure.
 
-- ``robot``: a built-in robot the repertoire kind serves (the kind's ``robots``).
+- ``robot``: a built-in robot the repertoire kind serves (the kind's ``robots``), or the id
+  of an uploaded robot (its model and leg map come from a loader: `gaitmend adapt` reads
+  this machine's robots, `gaitmend robot add`; the evaluation prepares its own).
 - ``damage``: the repertoire kind's damage, by the leg map's names: the one vocabulary of
   app/robots/damage.py (lost legs, locked, weak, passive and stiff joints, shortened legs);
   the model is the class itself, taken from the kind's spec, and it is checked against the
@@ -21,10 +23,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
+from collections.abc import Callable
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import Field, ValidationError, field_validator
+from pydantic import Field, PrivateAttr, ValidationError, field_validator
 
 from app.adapt.maps import Repertoire
 from app.adapt.methods import Map
@@ -53,29 +57,49 @@ class World(StrictModel):
         return Perturbation("reality", "the simulated reality", **self.model_dump())
 
 
+ROBOT_ID = r"^[0-9a-f]{32}$"  # an uploaded robot's id (the repertoire spec's)
+
+
 class Reality(StrictModel):
-    robot: str = Field("jethexa", max_length=64, description="a built-in robot the repertoire kind serves")
+    robot: str = Field("jethexa", max_length=64, description=(
+        "a built-in robot the repertoire kind serves, or the id of an uploaded robot (32 hex digits)"))
     damage: Damage = Field(default_factory=Damage)
     perturbation: World = Field(default_factory=World)
+    _stored: Any = PrivateAttr(None)  # the uploaded robot (app/robots/legmap.py Robot), None for a built-in
 
     @field_validator("robot")
     @classmethod
-    def _builtin(cls, v: str) -> str:
-        if v not in KIND.robots:
-            raise ValueError(f"unknown robot {v!r}; a simulated reality is one of {sorted(KIND.robots)}")
+    def _known(cls, v: str) -> str:
+        if v not in KIND.robots and not re.fullmatch(ROBOT_ID, v):
+            raise ValueError(f"unknown robot {v!r}; a simulated reality is one of {sorted(KIND.robots)} or the id "
+                             "of an uploaded robot (32 hex digits)")
         return v
 
+    @property
+    def stored(self) -> Any:
+        return self._stored
+
     @classmethod
-    def parse(cls, data: Any) -> Reality:
+    def parse(cls, data: Any, robots: Callable[[str], Any] | None = None) -> Reality:
         """Validate ``data`` (decoded JSON); SpecError naming every bad field. The damage is
-        checked against the robot by the repertoire kind's spec (its messages name the field)."""
+        checked against the robot by the repertoire kind's spec (its messages name the field);
+        an uploaded robot is read with ``robots(id)`` (SpecError when there is none) and the
+        damage checked against its leg map."""
         if not isinstance(data, dict):
             raise SpecError([{"field": "reality", "message": "a reality must be a JSON object"}])
         try:
             r = cls.model_validate_json(json.dumps(data, allow_nan=True))
         except ValidationError as e:
             raise SpecError.from_validation(e, cls) from None
-        KIND.Spec.parse({"kind": KIND.name, "robot": r.robot, "damage": data.get("damage", {})})
+        spec = KIND.Spec.parse({"kind": KIND.name, "robot": r.robot, "damage": data.get("damage", {})})
+        if r.robot not in KIND.robots:
+            if robots is None:
+                raise SpecError([{"field": "robot", "message": f"{r.robot!r} is an uploaded robot's id, and no "
+                                                               "robots are available here to read it from"}])
+            r._stored = robots(r.robot)
+            problem = KIND.user_robot_error(spec, r._stored.legs.to_json())
+            if problem:
+                raise SpecError([{"field": "damage", "message": problem}])
         return r
 
 
@@ -106,7 +130,8 @@ def play_many(reality: Reality, rep: Repertoire, elites) -> list[Measured]:
     idx = [int(i) for i in elites]
     if not idx:
         return []
-    m = KIND.play(_spec(reality, rep), rep.params[idx], rep.joints, reality.perturbation.perturbation())
+    m = KIND.play(_spec(reality, rep), rep.params[idx], rep.joints, reality.perturbation.perturbation(),
+                  reality.stored)
     return [Measured(float(m["forward_m"][k]), float(m["lateral_m"][k]), float(m["yaw_deg"][k]), bool(m["fell"][k]),
                      float(m["duration_s"][k])) for k in range(len(idx))]
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from app.adapt import methods as M
 from app.adapt.maps import Repertoire
@@ -55,15 +56,16 @@ class Outcome:
 
 
 def run(reps: Sequence[Repertoire], measure: Callable[[Repertoire, M.Proposal], Measured | None], s: M.Settings,
-        robot: str | None, on_trial: Callable[[Row], None] | None = None) -> Outcome:
+        robot: str | None, on_trial: Callable[[Row], None] | None = None, stored: Any = None) -> Outcome:
     """The loop over any source of measurements: ``measure`` returns the trial's measurement,
     or None when there is none (the lab's input ended): the loop stops there, its decision
-    marked as such. ``robot``: whose recovery target rows are checked against (None: none)."""
+    marked as such. ``robot``: whose recovery target rows are checked against (None: none);
+    ``stored``: the uploaded robot when ``robot`` is one."""
     by = {r.map.name: r for r in reps}
     maps = [r.map for r in reps]
     trials: list[M.Trial] = []
     rows: list[Row] = []
-    target = _target(robot)
+    target = _target(robot, stored)
     while not (d := M.decide(maps, trials, s)).stop:
         p = M.propose(maps, trials, s)
         rep = by[p.map]
@@ -75,21 +77,21 @@ def run(reps: Sequence[Repertoire], measure: Callable[[Repertoire, M.Proposal], 
         t = M.Trial(p.map, p.elite, m.forward_m, m.lateral_m, m.yaw_rad, m.fell, m.duration_s)
         trials.append(t)
         row = Row(len(trials), p, rep.cells[p.elite], m, t.performance(s.straight, s.falls),
-                  None if target is None else recovered(m.forward_m, m.fell, m.duration_s, robot))
+                  None if target is None else recovered(m.forward_m, m.fell, m.duration_s, robot, stored))
         rows.append(row)
         if on_trial is not None:
             on_trial(row)
     return Outcome(rows, d, target)
 
 
-def _target(robot: str | None) -> float | None:
+def _target(robot: str | None, stored: Any = None) -> float | None:
     try:
-        return target_speed(robot) if robot is not None else None
-    except (KeyError, AttributeError):  # not a built-in robot: no leg length to scale by
+        return target_speed(robot, stored) if robot is not None else None
+    except (KeyError, AttributeError):  # an uploaded robot's id without its model: no leg length to scale by
         return None
 
 
 def adapt(reps: Sequence[Repertoire], reality: Reality, s: M.Settings,
           on_trial: Callable[[Row], None] | None = None) -> Outcome:
     """The loop on a simulated reality: each proposal played on it (app/adapt/reality.py)."""
-    return run(reps, lambda rep, p: play(reality, rep, p.elite), s, reality.robot, on_trial)
+    return run(reps, lambda rep, p: play(reality, rep, p.elite), s, reality.robot, on_trial, reality.stored)

@@ -30,8 +30,10 @@ def _reality(path: Path):
         fail(f"--simulate: {path} is a folder; give a reality JSON")
     except BodyError as e:
         fail_fields(e.errors, f"{path}: ")
+    from app.cli.robot import load_local_robot
+
     try:
-        return Reality.parse(data)
+        return Reality.parse(data, robots=load_local_robot)  # an uploaded robot: one stored here
     except SpecError as e:
         fail_fields(e.errors, f"{path}: ")
 
@@ -42,7 +44,8 @@ def adapt(
         "repertoire results: a bundle zip, its folder or manifest.json, or a result JSON; the first is ITE's map "
         "(with --server: repertoire job ids on the server)"), show_default=False),
     simulate: Optional[Path] = typer.Option(None, "--simulate", metavar="REALITY.json", help=(
-        "play the trials on a simulated reality: {\"robot\", \"damage\", \"perturbation\"} (docs/adapt.md); "
+        "play the trials on a simulated reality: {\"robot\" (built-in, or an id of `gaitmend robot list`), "
+        "\"damage\", \"perturbation\"} (docs/adapt.md); "
         "without it, each measurement is read from stdin: forward_m lateral_m yaw_deg fell duration_s")),
     method: Optional[str] = typer.Option(None, "--method", help="ite (Cully et al. 2015, one map; the default) or "
                                                                  "gaitmend (several maps, straight, falls count 0)"),

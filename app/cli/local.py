@@ -263,12 +263,13 @@ def _cross_kind_experiments():
     the README's example lines through the CLI; app/adapt/reproduce's evaluates the
     adaptation methods of issue 44, which is no kind's; app/cli/machines.py re-runs the
     committed reference results on this machine)."""
+    from app.adapt.reproduce.experiment import ANT_EXPERIMENT as ADAPT_ANT
     from app.adapt.reproduce.experiment import EXPERIMENT as ADAPT
     from app.cli.bench import EXPERIMENT as BENCH
     from app.cli.examples import EXPERIMENT as EXAMPLES
     from app.cli.machines import EXPERIMENT as MACHINES
 
-    return [BENCH, EXAMPLES, ADAPT, MACHINES]
+    return [BENCH, EXAMPLES, ADAPT, ADAPT_ANT, MACHINES]
 
 
 for _exp in _cross_kind_experiments():

@@ -72,10 +72,12 @@ class RunsJob(abc.ABC):
         The API asks before it queues the job."""
         return None
 
-    def play(self, spec: Any, gaits: Any, joints: list[str], perturbation: Any = None) -> dict[str, list[Any]]:
+    def play(self, spec: Any, gaits: Any, joints: list[str], perturbation: Any = None,
+             stored: Any = None) -> dict[str, list[Any]]:
         """Plays gaits of the kind's own controller on the robot of ``spec`` (its damage, its
         trial length and timestep) under ``perturbation`` (app/sim/perturb.py ``Perturbation``,
-        None: the nominal model), as a lab would run them: ``gaits`` (P, n) are parameters
+        None: the nominal model), as a lab would run them; ``stored``: the uploaded robot
+        (app/robots/legmap.py ``Robot``) when ``spec.robot`` is one. ``gaits`` (P, n) are parameters
         over the servos named ``joints`` (the order of the map that holds them; a servo the
         damaged robot no longer has is dropped). Returns per gait the measured ``forward_m``,
         ``lateral_m``, ``yaw_deg``, ``fell`` and ``duration_s`` (lists). The adaptation's

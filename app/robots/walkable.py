@@ -304,3 +304,32 @@ def _without(leg: Leg, locked: dict[str, float], foot_site: str | None = None) -
     stance = None if leg.stance is None else [leg.stance[k] for k in keep]
     foot = leg.foot if foot_site is None else Foot(kind="site", name=foot_site)
     return leg.model_copy(update={"joints": [leg.joints[k] for k in keep], "stance": stance, "foot": foot})
+
+
+def leg_length_m(robot: Robot) -> float:
+    """An uploaded robot's leg length, as a built-in robot's is the sum of its leg's link
+    lengths: per leg, the distances from each joint's anchor to the next joint's and from the
+    last joint's to the foot, at the model's rest pose, summed; the mean over the legs (m)."""
+    spec = robot.spec()
+    name_parts(spec)
+    model = spec.compile()
+    legs = robot.legs
+    kin = _Kin.at_rest(model, mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, legs.trunk))
+    lengths = []
+    for leg in legs.legs:
+        points = [kin.data.xanchor[mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, j)] for j in leg.joints]
+        points.append(kin.foot_point(leg.foot))
+        lengths.append(sum(float(np.linalg.norm(b - a)) for a, b in zip(points, points[1:])))
+    return float(np.mean(lengths))
+
+
+def foot_segment_m(robot: Robot, leg: str) -> float:
+    """The length of leg ``leg``'s foot segment at the model's rest pose: its last joint's
+    anchor to its foot (m), what a shortened-leg damage cuts from (app/robots/damage.py)."""
+    spec = robot.spec()
+    name_parts(spec)
+    model = spec.compile()
+    kin = _Kin.at_rest(model, mujoco.mj_name2id(model, OBJ.mjOBJ_BODY, robot.legs.trunk))
+    l = robot.legs.leg(leg)
+    anchor = kin.data.xanchor[mujoco.mj_name2id(model, OBJ.mjOBJ_JOINT, l.joints[-1])]
+    return float(np.linalg.norm(kin.foot_point(l.foot) - anchor))

@@ -41,6 +41,7 @@ import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,10 +49,10 @@ from app.adapt import methods as M
 from app.adapt.maps import Repertoire, in_space_of, read_repertoire
 from app.adapt.reality import Measured, Reality, play_many, pooled, rescore, scenario_priors
 from app.adapt.recovered import recovered, target_speed
-from app.adapt.reproduce.params import COMMAND, JSON, Params
+from app.adapt.reproduce.params import ANT_COMMAND, COMMAND, JSON, Params
 from app.adapt.simulate import run as run_loop
 from app.core.host import machine
-from app.jobs.base import MemoryContext, dumps
+from app.jobs.base import MemoryContext, SpecError, dumps
 from app.jobs.ledger import ROOT, write_json_atomic
 from app.jobs.registry import get_kind, parse_spec
 
@@ -76,6 +77,48 @@ PRIOR_DAMAGES = {  # the maps' damages besides the intact robot's: no reality is
 REALITY_LOST = ("leg2", "leg3", "leg4", "leg5")  # legs a reality may lose (the maps lost leg1 and leg6)
 JOINTS = ("coxa", "femur", "tibia")
 TYPES = ("lost_leg", "locked_joints", "lost_leg_and_locked_joint")
+
+# the uploaded robot: the Gymnasium ant, prepared as an upload is (app/jobs/repertoire/reproduce/runs.py)
+ANT = "gym_ant"
+ANT_PRIOR_DAMAGES = {
+    "lost front_left_leg": {"lost_legs": ["front_left_leg"]},
+    "locked back_leg.ankle_3": {"locked_joints": [{"leg": "back_leg", "joint": "ankle_3", "angle_deg": 20.0}]},
+}
+ANT_REALITY_LOST = ("front_right_leg", "back_leg", "right_back_leg")  # the maps lost front_left_leg
+ANT_TYPES = ("lost_leg", "locked_joint", "weak_joint", "passive_joint", "shortened_leg")
+
+
+@dataclasses.dataclass(frozen=True)
+class Profile:
+    """A robot the evaluation runs on: its name on the page, the spec's robot (a built-in's
+    name or the uploaded robot's id) and the uploaded robot itself (None for a built-in),
+    the maps' stated damages, the legs a reality may lose, its damage types and which of
+    its realities' results were seen while arms were designed."""
+
+    name: str
+    robot: str
+    stored: Any
+    prior_damages: dict
+    reality_lost: tuple[str, ...]
+    types: tuple[str, ...]
+    design_seen: int | None
+
+    def robots(self, robot_id: str) -> Any:
+        """The loader a Reality and a run context take: the one uploaded robot."""
+        if self.stored is None or robot_id != self.robot:
+            raise SpecError([{"field": "robot", "message": f"no uploaded robot {robot_id!r} in this evaluation"}])
+        return self.stored
+
+
+def profile_of(name: str) -> Profile:
+    if name == ROBOT:
+        return Profile(ROBOT, ROBOT, None, PRIOR_DAMAGES, REALITY_LOST, TYPES, DESIGN_SEEN)
+    if name == ANT:
+        from app.jobs.repertoire.reproduce.runs import uploaded
+
+        robot_id, stored = uploaded(ANT)
+        return Profile(ANT, robot_id, stored, ANT_PRIOR_DAMAGES, ANT_REALITY_LOST, ANT_TYPES, None)
+    raise ValueError(f"no evaluation profile for robot {name!r}")
 
 _G = M.GAITMEND
 # name: (words, settings, the maps it holds, the target stated); maps: "ite" (ITE's map), "all" (every map),
@@ -111,12 +154,13 @@ DE_BELIEVED = {"run": False, "reason": (
 
 # -- maps -------------------------------------------------------------------------------------------
 
-def map_specs(quick: bool = False) -> dict[str, dict]:
+def map_specs(quick: bool = False, profile: Profile | None = None) -> dict[str, dict]:
     """name -> the repertoire spec of each map (ITE's first)."""
+    profile = profile or profile_of(ROBOT)
     budget = QUICK_BUDGET if quick else MAP_BUDGET
-    base = {"kind": "repertoire", "robot": ROBOT, "seed": 0} | budget
+    base = {"kind": "repertoire", "robot": profile.robot, "seed": 0} | budget
     out = {"intact": base | {"descriptor": {"type": "contact_share"}}}
-    for k, (name, damage) in enumerate(PRIOR_DAMAGES.items()):
+    for k, (name, damage) in enumerate(profile.prior_damages.items()):
         out[name] = base | {"seed": k + 1, "damage": damage, "descriptor": {"type": "contact_share"}}
     return out
 
@@ -131,15 +175,16 @@ def _digest(rep: Repertoire) -> str:
 def build_maps(p: Params, log: Callable[[str], None]) -> tuple[list[Repertoire], list[dict]]:
     """The maps in ITE's map's space (ITE's first), and what the JSON says of each."""
     kind = get_kind("repertoire")
+    profile = profile_of(p.robot)
     p.maps_dir.mkdir(parents=True, exist_ok=True)
     reps, info = [], []
-    for name, spec in map_specs(p.quick).items():
+    for name, spec in map_specs(p.quick, profile).items():
         key = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:12]
         path = p.maps_dir / f"{name.replace(' ', '_').replace('.', '_')}-{key}.json"
         if not path.exists():
             log(f"building map {name} ({spec['search']['iterations']} x {spec['search']['batch_size']} gaits) ...")
             t0 = time.perf_counter()
-            path.write_text(dumps(kind.run(parse_spec(spec), MemoryContext()).summary))
+            path.write_text(dumps(kind.run(parse_spec(spec), MemoryContext(robots=profile.robots)).summary))
             log(f"map {name}: {time.perf_counter() - t0:.0f} s")
         rep = read_repertoire(path, name)
         reps.append(rep)
@@ -167,22 +212,23 @@ def scenario_maps(p: Params, reps: list[Repertoire], log: Callable[[str], None],
     is (``draw_world``) from its own stream (``TRAIN_STREAM`` + ``draw``), none a reality's
     (gaitmend_worlds, expected_worlds; ``draw`` 1: another set of training worlds,
     gaitmend_worlds_2, to see how much the result owes to the draw)."""
+    profile = profile_of(p.robot)
     pool = pooled(reps)
-    damages = {"intact": {}} | PRIOR_DAMAGES
+    damages = {"intact": {}} | profile.prior_damages
     key = hashlib.sha256("".join(_digest(r) for r in reps).encode()).hexdigest()[:12]
 
     def tables_of(cache: Path, realities: dict[str, dict]) -> dict:
         if cache.exists():
             return _table_read(json.loads(cache.read_text()))
         log(f"re-simulating the {len(pool.map.forward_m)} pooled elites on {len(realities)} stated damages ...")
-        out = rescore(pool, {name: Reality.parse(r) for name, r in realities.items()})
+        out = rescore(pool, {name: Reality.parse(r, profile.robots) for name, r in realities.items()})
         write_json_atomic(cache, _table_json(out))
         return out
 
     tables = tables_of(p.maps_dir / f"scenarios-{key}.json",
-                       {k: {"robot": ROBOT, "damage": d} for k, d in damages.items()})
+                       {k: {"robot": profile.robot, "damage": d} for k, d in damages.items()})
     if worlds:
-        trained = {f"{k} in training world {i}": {"robot": ROBOT, "damage": d, "perturbation": draw_world(
+        trained = {f"{k} in training world {i}": {"robot": profile.robot, "damage": d, "perturbation": draw_world(
             np.random.default_rng([p.seed, TRAIN_STREAM + draw, i]))} for i, (k, d) in enumerate(damages.items())}
         name = f"scenarios-{key}-worlds-{p.seed}" + (f"-{draw}" if draw else "")
         tables = tables | tables_of(p.maps_dir / f"{name}.json", trained)
@@ -191,8 +237,10 @@ def scenario_maps(p: Params, reps: list[Repertoire], log: Callable[[str], None],
 
 # -- realities --------------------------------------------------------------------------------------
 
-def draw_reality(seed: int, k: int) -> dict:
+def draw_reality(seed: int, k: int, profile: Profile | None = None) -> dict:
     """Reality k (module doc): its damage type, damage and held-out perturbation."""
+    if profile is not None and profile.name != ROBOT:
+        return draw_uploaded_reality(seed, k, profile)
     rng = np.random.default_rng([seed, k])
     kind = TYPES[k % len(TYPES)]
 
@@ -217,6 +265,37 @@ def draw_reality(seed: int, k: int) -> dict:
         if damage not in PRIOR_DAMAGES.values():
             break
     return {"id": f"{seed}-{k}", "type": kind, "reality": {"robot": ROBOT, "damage": damage,
+                                                          "perturbation": draw_world(rng)}}
+
+
+def draw_uploaded_reality(seed: int, k: int, profile: Profile) -> dict:
+    """Reality k of an uploaded robot: damage type k mod len(types) of the one damage
+    vocabulary (app/robots/damage.py), by its leg map's names: a lost leg, a joint locked at
+    a random angle, a weak joint (20-50 % of its torque), a passive joint, a leg shortened by
+    15-35 % of its foot segment; never a map's damage; and a held-out world."""
+    rng = np.random.default_rng([seed, k])
+    kind = profile.types[k % len(profile.types)]
+    legs = profile.stored.legs.legs
+    while True:
+        leg = legs[int(rng.integers(0, len(legs)))]
+        joint = leg.joints[int(rng.integers(0, len(leg.joints)))]
+        if kind == "lost_leg":
+            damage = {"lost_legs": [str(rng.choice(profile.reality_lost))]}
+        elif kind == "locked_joint":
+            damage = {"locked_joints": [{"leg": leg.name, "joint": joint, "angle_deg": float(rng.integers(-30, 31))}]}
+        elif kind == "weak_joint":
+            damage = {"weak_joints": [{"leg": leg.name, "joint": joint,
+                                       "torque_scale": round(float(rng.uniform(0.2, 0.5)), 3)}]}
+        elif kind == "passive_joint":
+            damage = {"passive_joints": [{"leg": leg.name, "joint": joint}]}
+        else:
+            from app.robots.walkable import foot_segment_m
+
+            cut = float(rng.uniform(0.15, 0.35)) * foot_segment_m(profile.stored, leg.name)
+            damage = {"shortened_legs": [{"leg": leg.name, "length_m": round(cut, 4)}]}
+        if damage not in profile.prior_damages.values():
+            break
+    return {"id": f"{seed}-{k}", "type": kind, "reality": {"robot": profile.robot, "damage": damage,
                                                           "perturbation": draw_world(rng)}}
 
 
@@ -250,8 +329,9 @@ def tried_text(tried: list[tuple[str, int]]) -> str:
     return ", ".join(f"{m}#{e}" for m, e in tried)
 
 
-def run_arm(reps: list[Repertoire], tables: dict[str, list[Measured]], s: M.Settings, robot: str) -> dict:
-    out = run_loop(reps, lambda rep, prop: tables[rep.map.name][prop.elite], s, robot)
+def run_arm(reps: list[Repertoire], tables: dict[str, list[Measured]], s: M.Settings, robot: str,
+            stored: Any = None) -> dict:
+    out = run_loop(reps, lambda rep, prop: tables[rep.map.name][prop.elite], s, robot, stored=stored)
     d = out.decision
     final = tables[out.rows[d.best_trial].proposal.map][out.rows[d.best_trial].proposal.elite]
     return {"recovered_at": out.recovered_at, "trials": len(out.rows), "stop": d.reason, "method_stopped": d.stop,
@@ -260,11 +340,11 @@ def run_arm(reps: list[Repertoire], tables: dict[str, list[Measured]], s: M.Sett
             "tried": tried_text([(r.proposal.map, r.proposal.elite) for r in out.rows])}
 
 
-def run_random(rep: Repertoire, table: list[Measured], robot: str, seed: int) -> dict:
+def run_random(rep: Repertoire, table: list[Measured], robot: str, seed: int, stored: Any = None) -> dict:
     n = len(table)
     pick = np.random.default_rng(seed).permutation(n)[:MAX_TRIALS]
     ms = [table[i] for i in pick]
-    at = next((k + 1 for k, m in enumerate(ms) if recovered(m.forward_m, m.fell, m.duration_s, robot)), None)
+    at = next((k + 1 for k, m in enumerate(ms) if recovered(m.forward_m, m.fell, m.duration_s, robot, stored)), None)
     best = max(ms, key=_speed)
     return {"recovered_at": at, "trials": len(ms), "stop": f"{len(ms)} random elites of {rep.map.name}",
             "method_stopped": True, "final_speed_m_s": _speed(best), "final_fell": best.fell,
@@ -283,13 +363,13 @@ def _table_read(data: dict) -> dict[str, list[Measured]]:
 
 def evaluate_reality(drawn: dict, reps: list[Repertoire], seed: int, cache: Path | None = None,
                      scenarios: list[Repertoire] | None = None, worlds: list[Repertoire] | None = None,
-                     worlds_2: list[Repertoire] | None = None) -> dict:
+                     worlds_2: list[Repertoire] | None = None, profile: Profile | None = None) -> dict:
     """The oracle and every arm on one reality. ``cache``: where the oracle table of the
     reality is kept (under --maps-dir), so arms can be re-run on it without simulating;
     ``scenarios``: ``scenario_maps`` (the pooled elites: their table is the maps' tables end
     to end)."""
     t0 = time.perf_counter()
-    reality = Reality.parse(drawn["reality"])
+    reality = Reality.parse(drawn["reality"], profile.robots if profile is not None else None)
     if cache is not None and cache.exists():
         tables = _table_read(json.loads(cache.read_text()))
     else:
@@ -298,7 +378,7 @@ def evaluate_reality(drawn: dict, reps: list[Repertoire], seed: int, cache: Path
             cache.parent.mkdir(parents=True, exist_ok=True)
             write_json_atomic(cache, _table_json(tables))
     t_oracle = time.perf_counter() - t0
-    target = target_speed(reality.robot)
+    target = target_speed(reality.robot, reality.stored)
     per_map = {}
     for name, ms in list(tables.items()):
         speeds = [_speed(m) for m in ms]
@@ -322,8 +402,8 @@ def evaluate_reality(drawn: dict, reps: list[Repertoire], seed: int, cache: Path
         if which not in sets:
             continue
         s = dataclasses.replace(s, target_m_s=target) if stated else s
-        arms[name] = run_arm(sets[which], tables, s, reality.robot)
-    arms[RANDOM] = run_random(reps[0], tables[reps[0].map.name], reality.robot, seed)
+        arms[name] = run_arm(sets[which], tables, s, reality.robot, reality.stored)
+    arms[RANDOM] = run_random(reps[0], tables[reps[0].map.name], reality.robot, seed, reality.stored)
     from scipy.stats import spearmanr
 
     ite_speeds = [_speed(m) for m in tables[reps[0].map.name]]
@@ -352,20 +432,29 @@ SAME = ("robot", "seed", "quick", "max_trials", "map_budget", "maps", "types", "
 DESIGN_SEEN = 21
 
 
+def _table_path(p: Params, profile: Profile, reality_id: str) -> Path:
+    """Where a reality's oracle table is kept (the hexapod's under its id alone, as before)."""
+    name = reality_id if profile.name == ROBOT else f"{profile.name}-{reality_id}"
+    return p.maps_dir / "tables" / f"{name}.json"
+
+
 def setup(p: Params, maps: list[dict]) -> dict:
-    return {"robot": ROBOT, "seed": p.seed, "quick": p.quick, "max_trials": MAX_TRIALS,
+    profile = profile_of(p.robot)
+    extra = {} if profile.stored is None else {"robot_id": profile.robot, "uploaded": True}
+    return {"robot": profile.name, **extra, "seed": p.seed, "quick": p.quick, "max_trials": MAX_TRIALS,
             "map_budget": QUICK_BUDGET if p.quick else MAP_BUDGET, "maps": maps,
             "arms": {k: {"words": w, "settings": dataclasses.asdict(s), "maps": which, "target_stated": stated}
                      for k, (w, s, which, stated) in ARMS.items()}
             | {RANDOM: {"words": f"{MAX_TRIALS} elites of ITE's map drawn uniformly without replacement"}},
-            "de_believed": DE_BELIEVED, "design_seen": DESIGN_SEEN, "types": list(TYPES),
-            "prior_damages": PRIOR_DAMAGES,
-            "reality_lost_legs": list(REALITY_LOST)}
+            "de_believed": DE_BELIEVED, "design_seen": profile.design_seen, "types": list(profile.types),
+            "prior_damages": profile.prior_damages,
+            "reality_lost_legs": list(profile.reality_lost)}
 
 
 def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
     from app.adapt.reproduce.report import render
 
+    profile = profile_of(p.robot)
     reps, maps = build_maps(p, log)
     scenarios = scenario_maps(p, reps, log)
     worlds = scenario_maps(p, reps, log, worlds=True)
@@ -378,30 +467,31 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
         raise SystemExit(f"{p.json_out} holds realities of another setup (maps, budget or seed): move it aside "
                          "to start afresh")
     if data is None:
-        data = {"schema": SCHEMA, "experiment": "adapt", "command": COMMAND, "setup": want, "realities": []}
+        data = {"schema": SCHEMA, "experiment": "adapt" if profile.name == ROBOT else f"adapt-{profile.name}",
+                "command": COMMAND if profile.name == ROBOT else ANT_COMMAND, "setup": want, "realities": []}
     if data["setup"] != want:  # arms changed: re-run them on the realities whose table is kept
         data["setup"] = want
         for i, r in enumerate(data["realities"]):
-            cache = p.maps_dir / "tables" / f"{r['id']}.json"
+            cache = _table_path(p, profile, r["id"])
             if cache.exists():
                 k = int(r["id"].rsplit("-", 1)[1])
                 row = evaluate_reality({x: r[x] for x in ("id", "type", "reality")}, reps, p.seed * 100_003 + k, cache,
-                                       scenarios, worlds, worlds_2)
+                                       scenarios, worlds, worlds_2, profile)
                 data["realities"][i] = r | {k: row[k] for k in ("arms", "oracle", "target_m_s")}
                 log(f"reality {r['id']}: arms re-run on its kept table")
         data["realities"] = [r for r in data["realities"] if set(r["arms"]) == set(want["arms"]) | {RANDOM}]
         write_json_atomic(p.json_out, data)
     have = {r["id"] for r in data["realities"]}
     for k in range(p.realities):
-        drawn = draw_reality(p.seed, k)
+        drawn = draw_reality(p.seed, k, profile)
         if drawn["id"] in have:
             continue
         if p.stop_at and time.time() > p.stop_at:
             log(f"stopping before reality {drawn['id']}: --stop-at passed")
             break
         log(f"reality {drawn['id']} ({drawn['type']}, load {os.getloadavg()[0]:.1f}) ...")
-        row = evaluate_reality(drawn, reps, p.seed * 100_003 + k, p.maps_dir / "tables" / f"{drawn['id']}.json",
-                               scenarios, worlds, worlds_2)
+        row = evaluate_reality(drawn, reps, p.seed * 100_003 + k, _table_path(p, profile, drawn["id"]),
+                               scenarios, worlds, worlds_2, profile)
         row |= {"commit": _commit(), "machine": machine(), "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
         data["realities"].append(row)
         write_json_atomic(p.json_out, data)

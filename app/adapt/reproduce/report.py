@@ -24,6 +24,9 @@ from app.jobs.stats import paired, paired_text, wilson
 JSON = "docs/adapt_evaluation.json"
 COMMAND = "gaitmend reproduce adapt --write-docs"
 NAME = "adapt-evaluation"
+ANT_JSON = "docs/adapt_evaluation_ant.json"  # the uploaded robot's (app/adapt/reproduce/params.py)
+ANT_COMMAND = "gaitmend reproduce adapt-ant --write-docs"
+ANT_NAME = "adapt-evaluation-ant"
 NOT_RECOVERED = 21  # trials to recover of a reality not recovered within 20, in the paired test
 ORDER = ("gaitmend", "gaitmend_scenarios", "expected", "gaitmend_worlds", "gaitmend_worlds_2", "expected_worlds", "ite",
          "random",
@@ -132,23 +135,36 @@ def _tables(st: dict, s: dict, n: int, arms=None) -> list[str]:
     return lines
 
 
-def render(data: dict | None) -> str:
+def _robot_text(st: dict) -> str:
+    if st.get("uploaded"):
+        return (f"the Gymnasium ant, uploaded as a user's robot is ({st['robot']}, robot id "
+                f"{st['robot_id'][:8]}...; its damages by its leg map's names)")
+    return f"the hexapod ({st['robot']})"
+
+
+def _target_text(st: dict, target: float) -> str:
+    if st.get("uploaded"):
+        return (f"{target * 100:.1f} cm/s or faster without falling (the hexapod's 5 cm/s scaled by the ant's leg "
+                f"length against the hexapod's, app/adapt/recovered.py)")
+    return f"{target * 100:.0f} cm/s or faster without falling"
+
+
+def render(data: dict | None, json_path: str = JSON, command: str = COMMAND) -> str:
     if not data or not data.get("realities"):
-        return ("No evaluation has run yet: `gaitmend reproduce adapt --write-docs` writes "
-                "docs/adapt_evaluation.json and this section.\n")
+        return f"No evaluation has run yet: `{command}` writes {json_path} and this section.\n"
     st = data["setup"]
     s = summary(data)
     rows = data["realities"]
     n = s["n"]
     types = {t: sum(r["type"] == t for r in rows) for t in st["types"]}
     lines = [
-        f"{n} simulated realities of the hexapod ({st['robot']}) ran"
+        f"{n} simulated realities of {_robot_text(st)} ran"
         + (" (the quick, test-sized setup)" if st["quick"] else "")
         + " (the issue asks for at least 30): " + ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in types.items())
         + f", each with a held-out perturbation (friction, masses, payload, half of them a rough floor). "
         f"Maps: {', '.join(m['name'] + ' (' + str(m['elites']) + ' elites)' for m in st['maps'])}, each "
         f"{_budget_text(st)}; a much smaller budget than ITE's (its maps held about 13,000 gaits). No reality's "
-        f"damage is a map's. Recovered: a trial at {rows[0]['target_m_s'] * 100:.0f} cm/s or faster without falling. "
+        f"damage is a map's. Recovered: a trial at {_target_text(st, rows[0]['target_m_s'])}. "
         f"The maps hold a recovering gait on {s['oracle_recoverable']}/{n} realities (ITE's map alone on "
         f"{s['ite_map_recoverable']}/{n}): the ceiling of every arm.",
         "",
@@ -183,11 +199,10 @@ def render(data: dict | None) -> str:
         lines.append(f"The issue's goals for `{ours}` on {where}: " + "; ".join(
             f"{w}: **{'met' if ok else 'not met'}**" for w, ok in goals) + ".\n")
     lines.append("")
-    lines.append(f"The recovery kind's DE searched on the believed damage: {st['de_believed']['reason']}. The uploaded "
-                 "robot (the Gymnasium ant) is not evaluated: the repertoire kind's `Kind.play` builds built-in robots "
-                 "only (it takes no stored robot).")
+    lines.append(f"The recovery kind's DE searched on the believed damage: {st['de_believed']['reason']}.")
     return "\n".join(lines) + "\n"
 
 
 def sections() -> list[Section]:
-    return [Section(NAME, (JSON,), lambda d: render(d[0]))]
+    return [Section(NAME, (JSON,), lambda d: render(d[0])),
+            Section(ANT_NAME, (ANT_JSON,), lambda d: render(d[0], ANT_JSON, ANT_COMMAND))]

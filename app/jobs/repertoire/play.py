@@ -32,8 +32,8 @@ def on_servos(gaits: np.ndarray, joints: list[str], servos: list[str]) -> np.nda
     return np.concatenate([x[:, cols], x[:, -1:]], axis=1)
 
 
-def play(spec, gaits, joints: list[str], perturbation=None) -> dict[str, list]:
-    body = build(spec)
+def play(spec, gaits, joints: list[str], perturbation=None, stored=None) -> dict[str, list]:
+    body = build(spec, stored)
     p = perturbation or NOMINAL
     world = dataclasses.replace(body, model=perturbed_model(body.mspec, p, body.model))
     c = spec.controller
