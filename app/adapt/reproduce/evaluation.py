@@ -78,7 +78,7 @@ REALITY_LOST = ("leg2", "leg3", "leg4", "leg5")  # legs a reality may lose (the 
 JOINTS = ("coxa", "femur", "tibia")
 TYPES = ("lost_leg", "locked_joints", "lost_leg_and_locked_joint")
 
-# the uploaded robot: the Gymnasium ant, prepared as an upload is (app/jobs/repertoire/reproduce/runs.py)
+# the uploaded robot: the Gymnasium ant, prepared as an upload is (app/robots/upload/samples.py)
 ANT = "gym_ant"
 ANT_PRIOR_DAMAGES = {
     "lost front_left_leg": {"lost_legs": ["front_left_leg"]},
@@ -114,9 +114,9 @@ def profile_of(name: str) -> Profile:
     if name == ROBOT:
         return Profile(ROBOT, ROBOT, None, PRIOR_DAMAGES, REALITY_LOST, TYPES, DESIGN_SEEN)
     if name == ANT:
-        from app.jobs.repertoire.reproduce.runs import uploaded
+        from app.robots.upload.samples import sample_robot
 
-        robot_id, stored = uploaded(ANT)
+        robot_id, stored = sample_robot(ANT)
         return Profile(ANT, robot_id, stored, ANT_PRIOR_DAMAGES, ANT_REALITY_LOST, ANT_TYPES, None)
     raise ValueError(f"no evaluation profile for robot {name!r}")
 

@@ -10,8 +10,6 @@ import dataclasses
 import hashlib
 import json
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +17,7 @@ import numpy as np
 
 from app.jobs.base import MemoryContext, dumps
 from app.jobs.ledger import write_json_atomic
+from app.robots.upload.samples import sample_robot
 
 HELD_OUT_CASES = ("friction_0.7", "friction_1.3", "mass_+10pct", "mass_-10pct")
 KEEPS = 0.5  # a held-out elite "keeps its walk" when it is upright and walks at least half its nominal distance
@@ -28,42 +27,13 @@ ROBOT_NAMES = {"jethexa": "jethexa (built-in hexapod)", "dm_quadruped": "dm_cont
 
 # -- the robots ----------------------------------------------------------------------------------
 
-def _package_file(package: str, rel: str) -> Path:
-    import importlib.util
-
-    spec = importlib.util.find_spec(package)  # the installed wheel, not imported
-    if spec is None or not spec.submodule_search_locations:
-        raise FileNotFoundError(f"{package} is not installed (the test extra brings it: pip install -e '.[test]')")
-    path = Path(list(spec.submodule_search_locations)[0]) / rel
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} is missing from the installed {package}")
-    return path
-
-
-def uploaded(name: str):
-    """(robot id, the stored robot) of an uploaded robot of ``ROBOT_NAMES``, prepared as the
-    API and the CLI store an upload."""
-    from app.robots.legmap import Robot
-    from app.robots.upload import from_dir, prepare
-
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        if name == "dm_quadruped":
-            path = _package_file("dm_control", "suite/quadruped.xml")
-            shutil.copytree(path.parent / "common", folder / "common")  # its three included files
-        elif name == "gym_ant":
-            path = _package_file("gymnasium", "envs/mujoco/assets/ant.xml")
-        else:
-            raise ValueError(f"unknown uploaded robot {name!r}: {sorted(ROBOT_NAMES)}")
-        p = prepare(from_dir(path, folder))
-    return p.content_hash[:32], Robot(name, p.xml, p.assets, p.legs)
-
-
 def robot_of(name: str):
     """(the spec's robot field, the stored robot or None for a built-in)."""
     if name == "jethexa":
         return "jethexa", None
-    return uploaded(name)
+    if name not in ROBOT_NAMES:
+        raise ValueError(f"unknown uploaded robot {name!r}: {sorted(ROBOT_NAMES)}")
+    return sample_robot(name)
 
 
 # -- a run ---------------------------------------------------------------------------------------
