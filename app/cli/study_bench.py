@@ -40,6 +40,7 @@ def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
     from app.core.settings import get_settings
     from app.store.db import session_scope
     from app.store.migrate import upgrade
+    from app.store.models import utcnow
     from app.studies import store
 
     settings = get_settings()
@@ -50,12 +51,13 @@ def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
     study = {"name": "bench", "base": base, "points": [{} for _ in range(points)],
              "report": {"metrics": ["timing.wall_s"]}}
     # points differ only by index: the same spec N times is N real, independent jobs
+    since = utcnow()
     worker = subprocess.Popen([sys.executable, "-c", "from app.cli import main; main()", "worker", "--concurrency", "1"],
                               env=os.environ | {"OMP_NUM_THREADS": "1"}, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         client = TestClient(create_app(settings))
-        time.sleep(8)  # the worker is up (imports) before the clock starts
+        wait_for_workers(settings, 1, since)  # the worker is up (imports) before the clock starts
         log(f"{points} points through one worker ({settings.broker_url.split('@')[-1]}, "
             f"{settings.db_url.split('@')[-1]}) ...")
         t0 = time.monotonic()
@@ -79,6 +81,24 @@ def dispatch_overhead(base: dict, points: int, log=lambda s: None) -> dict:
     finally:
         os.killpg(worker.pid, 9)
         worker.wait()
+
+
+def wait_for_workers(settings, n: int, since, timeout: float = 120.0) -> None:
+    """Until ``n`` workers started after ``since`` are live (each worker's housekeeper writes
+    its row once its consumer is connected to the broker: app/service/housekeeping.py), so a
+    measurement's clock starts when they can take work; RuntimeError after ``timeout``."""
+    from app.store import repo
+    from app.store.db import session_scope
+
+    deadline = time.monotonic() + timeout
+    while True:
+        with session_scope(settings.db_url, readonly=True) as s:
+            live = sum(w.started_at >= since for w in repo.workers_seen(s, 60.0))
+        if live >= n:
+            return
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"{live} of {n} workers came up within {timeout:.0f} s")
+        time.sleep(0.2)
 
 
 def where(url: str) -> str:

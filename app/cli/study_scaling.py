@@ -63,19 +63,22 @@ def served(study: dict, workers: int, log, out: Path | None = None) -> dict:
 
     from app.api import create_app
     from app.core.settings import get_settings
+    from app.cli.study_bench import wait_for_workers
     from app.store.db import session_scope
     from app.store.migrate import upgrade
+    from app.store.models import utcnow
     from app.studies import store
 
     settings = get_settings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.db_url)
+    since = utcnow()
     procs = [subprocess.Popen([sys.executable, "-c", ENTRY, "worker", "--concurrency", "1"],
                               env=os.environ | ONE_THREAD, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               start_new_session=True) for _ in range(workers)]
     try:
         client = TestClient(create_app(settings))
-        time.sleep(10)  # the workers are up (imports) before the clock starts
+        wait_for_workers(settings, workers, since)  # the workers are up (imports) before the clock starts
         t0 = time.monotonic()
         r = client.post("/api/studies", json=study)
         if r.status_code != 201:

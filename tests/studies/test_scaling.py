@@ -27,15 +27,17 @@ STUDY = {"name": "two points", "base": {"kind": "recovery", "robot": "jethexa",
 def test_a_measurement_is_appended_with_its_provenance(tmp_path):
     (tmp_path / "study.json").write_text(json.dumps(STUDY))
     out = tmp_path / "scaling.json"
+    earlier = {"schema": 1, "experiment": "study-scaling", "command": "earlier", "runs": [_run(800.0, 470.0, 920.0)]}
+    out.write_text(json.dumps(earlier))  # a ledger with a run already in it
     env = {k: v for k, v in os.environ.items() if not k.startswith("GAITMEND_")} | {
         "GAITMEND_DATA_DIR": str(tmp_path / "data"), "PYTHONPATH": ROOT}
-    for _ in range(2):
-        r = subprocess.run([sys.executable, "-m", "app.cli.study_scaling", str(tmp_path / "study.json"), "--workers",
-                            "2", "--out", str(tmp_path / "run"), "--json-out", str(out)], env=env, cwd=ROOT,
-                           capture_output=True, text=True, timeout=300)
-        assert r.returncode == 0, r.stderr[-2000:]
+    r = subprocess.run([sys.executable, "-m", "app.cli.study_scaling", str(tmp_path / "study.json"), "--workers",
+                        "2", "--out", str(tmp_path / "run"), "--json-out", str(out)], env=env, cwd=ROOT,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
     data = json.loads(out.read_text())
     assert data["experiment"] == "study-scaling" and len(data["runs"]) == 2  # appended, not replaced
+    assert data["runs"][0] == earlier["runs"][0]
     run = data["runs"][-1]
     assert run["points"] == 2 and run["served_status"] == "succeeded" and run["same_aggregate"] is True
     assert run["bundles"] == 2 and run["bundle_bytes_median"] > 100_000
