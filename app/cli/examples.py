@@ -128,15 +128,15 @@ def measure_example(example: dict, log: Callable[[str], None],
     return measured(work) | {"cpu_s": round(_children_cpu() - c0, 1)}
 
 
-class ExamplesParams(BaseModel):
+class ExampleKinds(BaseModel):
+    """A ``kinds`` option naming README examples by kind ('first': the first command's job),
+    checked against the registry; a reproduction over the examples subclasses it."""
+
     model_config = ConfigDict(extra="forbid")
 
     kinds: str = Field("", description="kinds whose README example to measure again, comma-separated ('first': the "
                                        "first command's job; a new run is appended beside the old); empty: every "
                                        "example the file does not hold yet")
-    readme: Path = Field(Path("README.md"), description="the README whose example lines are measured (relative: "
-                                                        "to the repository)")
-    json_out: Path = Field(Path(rendered.JSON), description="the file each example's run is appended to")
 
     @field_validator("kinds")
     @classmethod
@@ -145,6 +145,12 @@ class ExamplesParams(BaseModel):
         if unknown:
             raise ValueError(f"no kind named {', '.join(unknown)} (kinds: {', '.join(KINDS)}, or first)")
         return v
+
+
+class ExamplesParams(ExampleKinds):
+    readme: Path = Field(Path("README.md"), description="the README whose example lines are measured (relative: "
+                                                        "to the repository)")
+    json_out: Path = Field(Path(rendered.JSON), description="the file each example's run is appended to")
 
 
 def reproduce_examples(p: ExamplesParams, log: Callable[[str], None] = print,

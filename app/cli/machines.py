@@ -18,34 +18,24 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import Field
 
 from app.cli.bench import _names, append_measured, measured
 from app.cli.common import default_spec_data
-from app.cli.examples import FIRST_KEY, parse_examples, parse_first
+from app.cli.examples import FIRST_KEY, ExampleKinds, parse_examples, parse_first
 from app.core.host import machine, machine_text
 from app.jobs.base import Experiment, MemoryContext, dumps
 from app.jobs.ledger import ROOT, write_json_atomic
-from app.jobs.registry import KINDS, get_kind, parse_spec
+from app.jobs.registry import get_kind, parse_spec
 from app.results import reproducibility as rendered
 
 
-class MachinesParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
+class MachinesParams(ExampleKinds):
     kinds: str = Field("", description="only the README examples of these kinds, comma-separated ('first': the first "
                                        "command's job); empty: every example")
     references: str = Field("docs/reproducibility", description="the folder of the committed reference results, one "
                                                                 "folder each (relative: to the repository)")
     json_out: Path = Field(Path(rendered.JSON), description="the file each comparison is appended to")
-
-    @field_validator("kinds")
-    @classmethod
-    def _known(cls, v: str) -> str:
-        unknown = [k for k in _names(v) if k not in KINDS and k != "first"]
-        if unknown:
-            raise ValueError(f"no kind named {', '.join(unknown)} (kinds: {', '.join(KINDS)}, or first)")
-        return v
 
 
 def reference_name(example: dict) -> str:
