@@ -62,7 +62,7 @@ def _cost(data: dict, what: str) -> str:
     loads = [r["result"]["load_after"] for r in current_runs(data) if "load_after" in r["result"]]
     cores = next((r["result"].get("cores") for r in current_runs(data)), "?")
     return (f"\nMachine time: {mt['runs']} {what}, {mt['wall_s']:.0f} s wall, {mt['cpu_s']:.0f} s CPU (load average "
-            f"{_span(loads)} at their ends on {cores} cores, niced beside other work).\n")
+            f"{_span(loads)} at their ends on {cores} cores, beside other work).\n")
 
 
 def _grid(data: dict) -> dict[tuple[str, ...], dict]:

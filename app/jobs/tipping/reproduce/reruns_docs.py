@@ -323,7 +323,7 @@ def render_cliff(datas: list) -> str:
     mt = machine_time(data)
     loads = [r["result"]["load_after"] for r in current_runs(data)]
     text += (f"\n\nMachine time: {mt['runs']} simulations, {mt['wall_s']:.0f} s wall, {mt['cpu_s']:.0f} s CPU (load "
-             f"average {_span(loads)} at their ends, niced beside other work).\n")
+             f"average {_span(loads)} at their ends, beside other work).\n")
     return table + text + progress_note(data, len(current_runs(data)))
 
 
