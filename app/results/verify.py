@@ -20,10 +20,10 @@ def _is_clock(key: str) -> bool:
 
 
 # What "equal within tolerance" means: every number of the fresh result within this relative
-# difference of the bundle's (or this absolute one, for numbers near zero). That is the size
-# of a difference in the order of the same floating-point operations (another BLAS, SIMD
-# width or compiler) that did not grow; a search amplifies any difference it acts on to the
-# percent level within a few generations, so a result between the two is rare.
+# difference of the bundle's (or this absolute one, for numbers near zero): the size of a
+# difference in the order of the same floating-point operations (another BLAS, SIMD width or
+# compiler) that did not grow. A search that acts on a number differing even in its last bit
+# can take another path, after which its numbers differ far beyond this: "different".
 REL_TOL = 1e-9
 ABS_TOL = 1e-12
 OUTCOMES = ("identical", "within_tolerance", "different")
