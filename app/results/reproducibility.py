@@ -39,6 +39,12 @@ def _same_cpu(r: dict) -> bool:
     return bool(r.get("made_on")) and machine_text(r["made_on"], cores=False) == machine_text(r["machine"], cores=False)
 
 
+def _blas(r: dict) -> str:
+    """The kernels numpy's BLAS chose on the re-run's CPU (threadpoolctl's architecture)."""
+    kinds = sorted({f"{b['internal_api']} {b['architecture']}" for b in r.get("blas", []) if b.get("architecture")})
+    return ", ".join(kinds) or "-"
+
+
 def render_table(data: dict | None) -> str:
     runs = (data or {}).get("runs", [])
     if not runs:
@@ -50,15 +56,15 @@ def render_table(data: dict | None) -> str:
                 if r["where"] else f"{r['other']} other")
         rows.append([r["reference"], _made(r), r["made_commit"][:10], machine_text(r["machine"], cores=False),
                      r["commit"][:10], f"mujoco {r['versions']['mujoco']}, numpy {r['versions']['numpy']}",
-                     OUTCOME_TEXT[r["outcome"]] + ("" if not _same_cpu(r) else " (same CPU)"), diff])
+                     _blas(r), OUTCOME_TEXT[r["outcome"]] + ("" if not _same_cpu(r) else " (same CPU)"), diff])
     cross = [r for r in runs if r.get("made_on") and not _same_cpu(r)]
     counts = {o: sum(r["outcome"] == o for r in cross) for o in OUTCOME_TEXT}
     tail = (f"Across CPU models: {len(cross)} re-run{'s' if len(cross) != 1 else ''} so far, {counts['identical']} identical, "
             f"{counts['within_tolerance']} within tolerance, {counts['different']} different."
             if cross else "No reference has been re-run on a CPU model other than its maker's yet: the next run "
                           f"of `{COMMAND}` on another machine appends its rows.")
-    return (md_table(["reference", "made on", "made at", "re-run on", "re-run at", "versions (re-run)", "outcome",
-                      "numbers that differ"], rows)
+    return (md_table(["reference", "made on", "made at", "re-run on", "re-run at", "versions (re-run)",
+                      "BLAS kernels (re-run)", "outcome", "numbers that differ"], rows)
             + f"\nEach row re-runs one reference result from its manifest and compares every number of result.json "
               f"(wall-clock figures excepted): identical bit for bit, within tolerance (every number within "
               f"{REL_TOL:g} relative or {ABS_TOL:g} absolute), or different. {tail}\n")
