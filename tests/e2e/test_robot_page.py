@@ -24,7 +24,7 @@ import glance
 sys.path.insert(0, str(Path(__file__).parents[1] / "robots"))
 from legged_models import HEXAPOD_OTHER, build  # noqa: E402
 
-JOB_TIMEOUT_MS = 90_000
+JOB_TIMEOUT_MS = 180_000  # the shared e2e server may still be running earlier tests' jobs (a CI run waited 90 s in "queued")
 ENTITY_BOMB = b'<?xml version="1.0"?><!DOCTYPE m [<!ENTITY a "aaaaaaaaaa">]><mujoco model="x">&a;</mujoco>'
 
 
