@@ -34,6 +34,7 @@ to play its answer on another damage in a perturbed world (only the repertoire k
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import os
@@ -110,6 +111,7 @@ class Profile:
         return self.stored
 
 
+@functools.lru_cache(maxsize=None)  # the ant is prepared as an upload once, not in every step that asks
 def profile_of(name: str) -> Profile:
     if name == ROBOT:
         return Profile(ROBOT, ROBOT, None, PRIOR_DAMAGES, REALITY_LOST, TYPES, DESIGN_SEEN)
