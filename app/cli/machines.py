@@ -4,8 +4,8 @@ The references are the README's example jobs (app/cli/examples.py reads them fro
 README.md: the first command's default job and one line per kind), each run once and
 committed as a bundle's two files, ``manifest.json`` (its spec, seed, versions and the
 machine that ran it) and ``result.json``, under docs/reproducibility/<name>/. Each run of
-this command re-runs every reference not yet re-run on this CPU model with these versions,
-compares every number as `gaitmend verify` does (app/results/verify.py) and appends the
+this command re-runs every reference not yet re-run on this CPU model with these versions, BLAS
+kernels and numpy SIMD targets, compares every number as `gaitmend verify` does (app/results/verify.py) and appends the
 comparison, the machine, its BLAS and the versions to docs/reproducibility.json, one
 reference at a time (an interruption loses only the one under way). A missing reference is
 made first, on this machine. app/results/reproducibility.py renders the file."""
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -89,13 +90,36 @@ def verify_reference(example: dict, folder: Path) -> dict:
             "made_commit": man["versions"]["commit"],
             "made_versions": {k: man["versions"].get(k) for k in ("mujoco", "numpy", "scipy", "python")},
             "versions": {k: v[k] for k in ("mujoco", "numpy", "scipy", "python")}, "blas": blas(),
+            "numpy_simd": numpy_simd(), **_forced(),
             **compare(saved, fresh).to_json()}
 
 
+def numpy_simd() -> list[str]:
+    """numpy's SIMD dispatch targets this CPU runs (``X86_V3``, ``X86_V4``, ...): its ufuncs
+    (exp, sin, ...) choose their code by them at run time, as its BLAS chooses its kernels;
+    NPY_DISABLE_CPU_FEATURES switches targets off."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    return [t for t in __cpu_dispatch__ if __cpu_features__.get(t)]
+
+
+def _forced() -> dict:
+    """What this run forced on numpy (None each: the CPU's own choice)."""
+    return {"blas_forced": os.environ.get("OPENBLAS_CORETYPE") or None,
+            "numpy_simd_disabled": os.environ.get("NPY_DISABLE_CPU_FEATURES") or None}
+
+
+def _kernels(rows: list[dict]) -> set[str]:
+    """The BLAS kernels of threadpoolctl's rows (``openblas Haswell``): OPENBLAS_CORETYPE
+    changes them on one CPU, so a re-run under other kernels is a configuration of its own."""
+    return {f"{b['internal_api']} {b['architecture']}" for b in rows if b.get("architecture")}
+
+
 def _done_here(data: dict, name: str) -> bool:
-    here, v = machine_text(machine(), cores=False), _stack()
+    here, v, kernels, forced = machine_text(machine(), cores=False), _stack(), _kernels(blas()), _forced()
     return any(r["reference"] == name and machine_text(r["machine"], cores=False) == here
-               and (r["versions"]["mujoco"], r["versions"]["numpy"]) == v for r in data.get("runs", []))
+               and (r["versions"]["mujoco"], r["versions"]["numpy"]) == v and _kernels(r.get("blas", [])) == kernels
+               and r.get("numpy_simd_disabled") == forced["numpy_simd_disabled"] for r in data.get("runs", []))
 
 
 def _stack() -> tuple[str, str]:
@@ -122,7 +146,8 @@ def reproduce_machines(p: MachinesParams, log: Callable[[str], None] = print) ->
                            lambda e: measured(lambda: verify_reference(e, base / reference_name(e))),
                            lambda e: f"{reference_name(e)}: re-run and compared", log)
     if not todo:
-        log(f"every reference has been re-run on this CPU model with these versions ({p.json_out})")
+        log("every reference has been re-run on this CPU model with these versions, BLAS kernels and numpy "
+            f"SIMD targets ({p.json_out})")
     return rendered.render_table(data)
 
 
@@ -130,5 +155,6 @@ EXPERIMENT = Experiment("machines",
                         "whether the README's example jobs reproduce on this machine: each committed reference "
                         "result (docs/reproducibility/) re-run and compared number by number as `gaitmend verify` "
                         "does (identical, within tolerance, different), appended with the machine, its BLAS and the "
-                        "versions; references already re-run on this CPU model with these versions are skipped",
+                        "versions; references already re-run on this CPU model with these versions, BLAS "
+                        "kernels and numpy SIMD targets are skipped",
                         MachinesParams, reproduce_machines, rendered.sections())

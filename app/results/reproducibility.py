@@ -45,6 +45,26 @@ def _blas(r: dict) -> str:
     return ", ".join(kinds) or "-"
 
 
+def _forced(r: dict) -> bool:
+    return bool(r.get("blas_forced") or r.get("numpy_simd_disabled"))
+
+
+def _kernels_text(r: dict) -> str:
+    """BLAS kernels, then numpy's SIMD targets (where recorded), each with what was forced."""
+    out = _blas(r) + (f" (forced: OPENBLAS_CORETYPE={r['blas_forced']})" if r.get("blas_forced") else "")
+    if "numpy_simd" in r:
+        out += "; numpy " + (" ".join(r["numpy_simd"]) or "baseline only")
+        if r.get("numpy_simd_disabled"):
+            out += f" (NPY_DISABLE_CPU_FEATURES={r['numpy_simd_disabled']})"
+    return out
+
+
+def _counts(rows: list[dict]) -> str:
+    c = {o: sum(r["outcome"] == o for r in rows) for o in OUTCOME_TEXT}
+    return (f"{len(rows)} re-run{'s' if len(rows) != 1 else ''}, {c['identical']} identical, "
+            f"{c['within_tolerance']} within tolerance, {c['different']} different")
+
+
 def render_table(data: dict | None) -> str:
     runs = (data or {}).get("runs", [])
     if not runs:
@@ -56,15 +76,19 @@ def render_table(data: dict | None) -> str:
                 if r["where"] else f"{r['other']} other")
         rows.append([r["reference"], _made(r), r["made_commit"][:10], machine_text(r["machine"], cores=False),
                      r["commit"][:10], f"mujoco {r['versions']['mujoco']}, numpy {r['versions']['numpy']}",
-                     _blas(r), OUTCOME_TEXT[r["outcome"]] + ("" if not _same_cpu(r) else " (same CPU)"), diff])
-    cross = [r for r in runs if r.get("made_on") and not _same_cpu(r)]
-    counts = {o: sum(r["outcome"] == o for r in cross) for o in OUTCOME_TEXT}
-    tail = (f"Across CPU models: {len(cross)} re-run{'s' if len(cross) != 1 else ''} so far, {counts['identical']} identical, "
-            f"{counts['within_tolerance']} within tolerance, {counts['different']} different."
-            if cross else "No reference has been re-run on a CPU model other than its maker's yet: the next run "
-                          f"of `{COMMAND}` on another machine appends its rows.")
+                     _kernels_text(r),
+                     OUTCOME_TEXT[r["outcome"]] + ("" if not _same_cpu(r) else " (same CPU)"), diff])
+    cross = [r for r in runs if r.get("made_on") and not _same_cpu(r) and not _forced(r)]
+    tail = (f"Across CPU models, each CPU's own BLAS kernels and SIMD targets: {_counts(cross)}." if cross else
+            "No reference has been re-run on a CPU model other than its maker's yet: the next run "
+            f"of `{COMMAND}` on another machine appends its rows.")
+    for key, what in (("blas_forced", "numpy's BLAS kernels forced to others (OPENBLAS_CORETYPE"),
+                      ("numpy_simd_disabled", "numpy's SIMD targets switched off (NPY_DISABLE_CPU_FEATURES")):
+        forced = [r for r in runs if r.get(key) and _same_cpu(r)]
+        if forced:
+            tail += f" On the maker's own CPU with {what}, nothing else changed): {_counts(forced)}."
     return (md_table(["reference", "made on", "made at", "re-run on", "re-run at", "versions (re-run)",
-                      "BLAS kernels (re-run)", "outcome", "numbers that differ"], rows)
+                      "BLAS kernels; numpy SIMD (re-run)", "outcome", "numbers that differ"], rows)
             + f"\nEach row re-runs one reference result from its manifest and compares every number of result.json "
               f"(wall-clock figures excepted): identical bit for bit, within tolerance (every number within "
               f"{REL_TOL:g} relative or {ABS_TOL:g} absolute), or different. {tail}\n")

@@ -22,8 +22,45 @@ def test_same_cpu_rows_are_not_cross_machine_evidence():
     text = R.render_table({"runs": [_row(INTEL)]})
     assert "identical (same CPU)" in text and "No reference has been re-run on a CPU model other" in text
     text = R.render_table({"runs": [_row(INTEL), _row(AMD, "different", 312, "best.fitness")]})
-    assert "Across CPU models: 1 re-run so far, 0 identical, 0 within tolerance, 1 different." in text
+    assert ("Across CPU models, each CPU's own BLAS kernels and SIMD targets: 1 re-run, 0 identical, 0 within "
+            "tolerance, 1 different.") in text
     assert "312 of 900; largest relative 0.05 at `best.fitness`" in text and "**different**" in text
+
+
+def test_forced_kernels_are_the_control_never_a_cross_machine_result():
+    same = _row(INTEL, "different", 40, "best.fitness") | {"blas_forced": "Sandybridge",
+                                                           "blas": [{"internal_api": "openblas",
+                                                                     "architecture": "Sandybridge"}]}
+    other = _row(AMD, "different", 312, "best.fitness") | {"blas_forced": "Sandybridge"}
+    text = R.render_table({"runs": [_row(AMD, "identical"), same, other]})
+    assert "openblas Sandybridge (forced: OPENBLAS_CORETYPE=Sandybridge)" in text
+    # the forced row on another CPU is in neither count; the one on the maker's CPU is the control
+    assert ("Across CPU models, each CPU's own BLAS kernels and SIMD targets: 1 re-run, 1 identical, 0 within "
+            "tolerance, 0 different.") in text
+    assert "forced to others (OPENBLAS_CORETYPE, nothing else changed): 1 re-run, 0 identical, 0 within " \
+           "tolerance, 1 different." in text
+    simd = _row(INTEL, "within_tolerance", 3, "best.fitness") | {"numpy_simd": [], "numpy_simd_disabled": "X86_V3"}
+    text = R.render_table({"runs": [_row(AMD, "identical"), simd]})
+    assert "numpy baseline only (NPY_DISABLE_CPU_FEATURES=X86_V3)" in text
+    assert "switched off (NPY_DISABLE_CPU_FEATURES, nothing else changed): 1 re-run, 0 identical, 1 within" in text
+    assert "BLAS kernels and SIMD targets: 1 re-run, 1 identical" in text
+
+
+def test_a_rerun_under_other_kernels_is_not_skipped(monkeypatch):
+    from app.cli import machines as M
+
+    here = M.machine()
+    kernels = [{"internal_api": "openblas", "architecture": "Haswell"}]
+    row = {"reference": "first-command", "machine": here, "blas": kernels,
+           "versions": dict(zip(("mujoco", "numpy"), M._stack()))}
+    monkeypatch.setattr(M, "blas", lambda: kernels)
+    assert M._done_here({"runs": [row]}, "first-command")
+    monkeypatch.setenv("NPY_DISABLE_CPU_FEATURES", "X86_V3")
+    assert not M._done_here({"runs": [row]}, "first-command")
+    monkeypatch.delenv("NPY_DISABLE_CPU_FEATURES")
+    monkeypatch.setattr(M, "blas", lambda: [{"internal_api": "openblas", "architecture": "Sandybridge"}])
+    assert not M._done_here({"runs": [row]}, "first-command")
+    assert not M._done_here({"runs": [row]}, "tipping-70afe1fd")
 
 
 def test_the_bench_table_counts_distinct_values_by_cpu():
