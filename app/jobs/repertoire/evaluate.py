@@ -192,6 +192,18 @@ def descriptors(metrics: dict[str, np.ndarray], descriptor) -> np.ndarray:
     return np.clip(np.stack([metrics["forward_m"], metrics["lateral_m"]], axis=-1), lo, hi)
 
 
+def slices(n: int) -> list[tuple[int, int]]:
+    """The 2-D slices a map of n descriptor dimensions is drawn in: consecutive pairs
+    (left and right leg of a rank, for the contact share), the last with the first when n
+    is odd; one axis alone when n is 1."""
+    if n <= 1:
+        return [(0, 0)]
+    pairs = [(i, i + 1) for i in range(0, n - 1, 2)]
+    if n % 2:
+        pairs.append((n - 1, 0))
+    return pairs
+
+
 def descriptor_ranges(descriptor, legs: list[str]) -> tuple[list[str], list[tuple[float, float]]]:
     """(names, bounds) of the descriptor's dimensions."""
     if descriptor.type == "contact_share":

@@ -11,18 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from app.core.plots import _save  # noqa: E402
-
-
-def slices(n: int) -> list[tuple[int, int]]:
-    """The 2-D slices a map of n descriptor dimensions is drawn in: consecutive pairs
-    (left and right leg of a rank, for the contact share), the last with the first when n
-    is odd; one axis alone when n is 1."""
-    if n <= 1:
-        return [(0, 0)]
-    pairs = [(i, i + 1) for i in range(0, n - 1, 2)]
-    if n % 2:
-        pairs.append((n - 1, 0))
-    return pairs
+from app.jobs.repertoire.evaluate import slices  # noqa: E402
 
 
 def progress(history: list[dict], out: Path) -> list[Path]:

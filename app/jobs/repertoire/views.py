@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.jobs import viewkit as vk
+from app.jobs.repertoire.evaluate import slices
 from app.jobs.repertoire.play import ELITE, elite_name
-from app.jobs.repertoire.plots import slices
 
 MAX_POINTS = 5000  # the page draws at most this many elites per slice (the best ones)
 ROW_PX = 300  # height of one row of slices
