@@ -65,6 +65,44 @@ def _counts(rows: list[dict]) -> str:
             f"{c['within_tolerance']} within tolerance, {c['different']} different")
 
 
+COMPARED = ("outcome", "numbers", "differing", "max_rel", "max_abs", "where", "first")
+
+
+def _switch(r: dict) -> str:
+    return "; ".join(f"{env}={r[k]}" for k, env in (("blas_forced", "OPENBLAS_CORETYPE"),
+                                                      ("numpy_simd_disabled", "NPY_DISABLE_CPU_FEATURES")) if r.get(k))
+
+
+def switches(runs: list[dict]) -> str:
+    """What each switch did: a forced re-run against the unforced re-run of the same
+    reference on the same CPU model with the same versions. The comparison with the
+    reference is kept whole (outcome, counts, largest differences, first difference): where
+    it is unchanged the switch changed nothing the reference sees."""
+    said = []
+    for switch in dict.fromkeys(_switch(r) for r in runs if _forced(r)):
+        kept, changed = [], []
+        for f in (r for r in runs if _forced(r) and _switch(r) == switch):
+            base = next((r for r in runs if not _forced(r) and r["reference"] == f["reference"]
+                         and machine_text(r["machine"], cores=False) == machine_text(f["machine"], cores=False)
+                         and r["versions"] == f["versions"]), None)
+            if base is None:
+                continue
+            if all(base.get(k) == f.get(k) for k in COMPARED):
+                kept.append(f["reference"])
+            else:
+                same = base["outcome"] == f["outcome"]
+                changed.append(f"{f['reference']} ({OUTCOME_TEXT[base['outcome']].strip('*')} -> "
+                               f"{OUTCOME_TEXT[f['outcome']].strip('*')}{', other numbers' if same else ''})")
+        if kept or changed:
+            said.append(f"`{switch}` changes the comparison of {', '.join(changed) or 'no reference'} and leaves "
+                        f"{', '.join(kept) or 'none'} exactly as the unforced re-run compared")
+    if not said:
+        return ""
+    return ("\nEach switch against the unforced re-run of the same reference on the same CPU model and versions "
+            "(the comparison with the reference whole: outcome, counts, largest and first difference): "
+            + "; ".join(said) + ".\n")
+
+
 def render_table(data: dict | None) -> str:
     runs = (data or {}).get("runs", [])
     if not runs:
@@ -91,7 +129,7 @@ def render_table(data: dict | None) -> str:
                       "BLAS kernels; numpy SIMD (re-run)", "outcome", "numbers that differ"], rows)
             + f"\nEach row re-runs one reference result from its manifest and compares every number of result.json "
               f"(wall-clock figures excepted): identical bit for bit, within tolerance (every number within "
-              f"{REL_TOL:g} relative or {ABS_TOL:g} absolute), or different. {tail}\n")
+              f"{REL_TOL:g} relative or {ABS_TOL:g} absolute), or different. {tail}\n" + switches(runs))
 
 
 def render_bench(data: dict | None) -> str:

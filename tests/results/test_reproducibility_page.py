@@ -46,6 +46,19 @@ def test_forced_kernels_are_the_control_never_a_cross_machine_result():
     assert "BLAS kernels and SIMD targets: 1 re-run, 1 identical" in text
 
 
+def test_a_switch_is_judged_against_the_unforced_rerun_on_the_same_cpu():
+    base = _row(AMD, "different", 312, "best.fitness") | {"first": "best.fitness: 1 vs 2"}
+    kept = base | {"blas_forced": "Sandybridge"}
+    moved = base | {"numpy_simd_disabled": "X86_V3", "differing": 311}
+    text = R.switches([base, kept, moved])
+    assert "`OPENBLAS_CORETYPE=Sandybridge` changes the comparison of no reference and leaves first-command" in text
+    assert "`NPY_DISABLE_CPU_FEATURES=X86_V3` changes the comparison of first-command (different -> different, " \
+           "other numbers)" in text
+    assert R.switches([kept]) == ""  # no unforced re-run on that CPU to judge it against
+    other_cpu = base | {"machine": INTEL}
+    assert R.switches([other_cpu, kept]) == ""
+
+
 def test_a_rerun_under_other_kernels_is_not_skipped(monkeypatch):
     from app.cli import machines as M
 
