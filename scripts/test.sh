@@ -41,10 +41,10 @@ export PYTHONPYCACHEPREFIX="${TMPDIR:-/tmp}/gaitmend-pycache"
 unset PYTHONDONTWRITEBYTECODE
 # Two parts. Most tests wait on processes they start (workers, servers, a browser), so they
 # run on two pytest-xdist workers, a whole file per worker (a file's module fixtures run
-# once). Three were slower on two cores, with bytecode cached (above) as without: on AMD EPYC
-# family 25 model 1 the parallel part took 1,309 s on three against 1,192 s on two. The tests
-# marked `serial` (fault injection against the real services, with wall-clock bounds:
-# tests/faults) then run alone.
+# once). Three gained nothing before bytecode was cached (1,264 s against 1,272 s) and are
+# slower with it: on AMD EPYC family 25 model 1 the parallel part took 1,309 s on three
+# against 1,192 s on two. The tests marked `serial` (fault injection against the real
+# services, with wall-clock bounds: tests/faults) then run alone.
 # GAITMEND_TEST_WORKERS=N sets the count, 0 runs everything in one process; a `-m` of the
 # caller's runs its selection once, in parallel.
 WORKERS=${GAITMEND_TEST_WORKERS:-2}

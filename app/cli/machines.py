@@ -4,10 +4,12 @@ The references are the README's example jobs (app/cli/examples.py reads them fro
 README.md: the first command's default job and one line per kind), each run once and
 committed as a bundle's two files, ``manifest.json`` (its spec, seed, versions and the
 machine that ran it) and ``result.json``, under docs/reproducibility/<name>/. Each run of
-this command re-runs every reference not yet re-run on this CPU model with these versions, BLAS
-kernels and numpy SIMD targets, compares every number as `gaitmend verify` does (app/results/verify.py) and appends the
-comparison, the machine, its BLAS and the versions to docs/reproducibility.json, one
-reference at a time (an interruption loses only the one under way). A missing reference is
+this command re-runs every reference not yet re-run on this CPU model with these versions,
+BLAS kernels and numpy SIMD targets, compares every number as `gaitmend verify` does
+(app/results/verify.py) and appends the comparison, the machine, its BLAS, numpy's SIMD
+targets, what was forced (OPENBLAS_CORETYPE, NPY_DISABLE_CPU_FEATURES: the controls) and
+the versions to docs/reproducibility.json, one reference at a time (an interruption loses
+only the one under way). A missing reference is
 made first, on this machine. app/results/reproducibility.py renders the file."""
 
 from __future__ import annotations
