@@ -106,22 +106,18 @@ def numpy_simd() -> list[str]:
 
 
 def _forced() -> dict:
-    """What this run forced on numpy (None each: the CPU's own choice)."""
-    return {"blas_forced": os.environ.get("OPENBLAS_CORETYPE") or None,
-            "numpy_simd_disabled": os.environ.get("NPY_DISABLE_CPU_FEATURES") or None}
-
-
-def _kernels(rows: list[dict]) -> set[str]:
-    """The BLAS kernels of threadpoolctl's rows (``openblas Haswell``): OPENBLAS_CORETYPE
-    changes them on one CPU, so a re-run under other kernels is a configuration of its own."""
-    return {f"{b['internal_api']} {b['architecture']}" for b in rows if b.get("architecture")}
+    """What this run forced on numpy, by the switches' fields (None each: the CPU's own choice)."""
+    return {key: os.environ.get(env) or None for key, env, _ in rendered.SWITCHES}
 
 
 def _done_here(data: dict, name: str) -> bool:
-    here, v, kernels, forced = machine_text(machine(), cores=False), _stack(), _kernels(blas()), _forced()
+    """Re-run here already: this CPU model, these versions, these BLAS kernels (on one CPU,
+    OPENBLAS_CORETYPE changes them) and the same numpy SIMD targets switched off."""
+    here, v, kernels, off = machine_text(machine(), cores=False), _stack(), rendered.kernels(blas()), _forced()
     return any(r["reference"] == name and machine_text(r["machine"], cores=False) == here
-               and (r["versions"]["mujoco"], r["versions"]["numpy"]) == v and _kernels(r.get("blas", [])) == kernels
-               and r.get("numpy_simd_disabled") == forced["numpy_simd_disabled"] for r in data.get("runs", []))
+               and (r["versions"]["mujoco"], r["versions"]["numpy"]) == v
+               and rendered.kernels(r.get("blas", [])) == kernels
+               and r.get("numpy_simd_disabled") == off["numpy_simd_disabled"] for r in data.get("runs", []))
 
 
 def _stack() -> tuple[str, str]:

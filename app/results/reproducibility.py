@@ -39,14 +39,24 @@ def _same_cpu(r: dict) -> bool:
     return bool(r.get("made_on")) and machine_text(r["made_on"], cores=False) == machine_text(r["machine"], cores=False)
 
 
+# the switches a re-run may be forced with: (its field in a row, the environment variable, what it does)
+SWITCHES = (("blas_forced", "OPENBLAS_CORETYPE", "numpy's BLAS kernels forced to others"),
+            ("numpy_simd_disabled", "NPY_DISABLE_CPU_FEATURES", "numpy's SIMD targets switched off"))
+
+
+def kernels(blas: list[dict]) -> list[str]:
+    """The kernels of threadpoolctl's rows (``openblas Haswell``), the BLAS chose by the CPU
+    or OPENBLAS_CORETYPE."""
+    return sorted({f"{b['internal_api']} {b['architecture']}" for b in blas if b.get("architecture")})
+
+
 def _blas(r: dict) -> str:
     """The kernels numpy's BLAS chose on the re-run's CPU (threadpoolctl's architecture)."""
-    kinds = sorted({f"{b['internal_api']} {b['architecture']}" for b in r.get("blas", []) if b.get("architecture")})
-    return ", ".join(kinds) or "-"
+    return ", ".join(kernels(r.get("blas", []))) or "-"
 
 
 def _forced(r: dict) -> bool:
-    return bool(r.get("blas_forced") or r.get("numpy_simd_disabled"))
+    return any(r.get(key) for key, _, _ in SWITCHES)
 
 
 def _kernels_text(r: dict) -> str:
@@ -69,8 +79,7 @@ COMPARED = ("outcome", "numbers", "differing", "max_rel", "max_abs", "where", "f
 
 
 def _switch(r: dict) -> str:
-    return "; ".join(f"{env}={r[k]}" for k, env in (("blas_forced", "OPENBLAS_CORETYPE"),
-                                                      ("numpy_simd_disabled", "NPY_DISABLE_CPU_FEATURES")) if r.get(k))
+    return "; ".join(f"{env}={r[key]}" for key, env, _ in SWITCHES if r.get(key))
 
 
 def switches(runs: list[dict]) -> str:
@@ -120,11 +129,10 @@ def render_table(data: dict | None) -> str:
     tail = (f"Across CPU models, each CPU's own BLAS kernels and SIMD targets: {_counts(cross)}." if cross else
             "No reference has been re-run on a CPU model other than its maker's yet: the next run "
             f"of `{COMMAND}` on another machine appends its rows.")
-    for key, what in (("blas_forced", "numpy's BLAS kernels forced to others (OPENBLAS_CORETYPE"),
-                      ("numpy_simd_disabled", "numpy's SIMD targets switched off (NPY_DISABLE_CPU_FEATURES")):
+    for key, env, what in SWITCHES:
         forced = [r for r in runs if r.get(key) and _same_cpu(r)]
         if forced:
-            tail += f" On the maker's own CPU with {what}, nothing else changed): {_counts(forced)}."
+            tail += f" On the maker's own CPU with {what} ({env}, nothing else changed): {_counts(forced)}."
     return (md_table(["reference", "made on", "made at", "re-run on", "re-run at", "versions (re-run)",
                       "BLAS kernels; numpy SIMD (re-run)", "outcome", "numbers that differ"], rows)
             + f"\nEach row re-runs one reference result from its manifest and compares every number of result.json "
