@@ -1,9 +1,10 @@
-"""Peers of the paper's DE on one evaluator: scipy's ``differential_evolution`` and CMA-ES
-(app/optim/cmaes.py through the same search loop as our DE), on the same robot model,
-bounds, objective (Eq. 5), timestep and walk, each answer walked again at the step and at
-half of it. `gaitmend bench` runs them to the target (bench.py); the equal-budget Table II
-comparison (peers_check.py, `gaitmend reproduce recovery-peers`) runs them at the paper's
-budget: population x (generations + 1) walks, 30 x 61 = 1830.
+"""Peers of the paper's DE on one evaluator: scipy's ``differential_evolution``
+(app/optim/scipy_de.py) and CMA-ES (app/optim/cmaes.py through the same search loop as our
+DE), on the same robot model, bounds, objective (Eq. 5), timestep and walk, each answer
+walked again at the step and at half of it. `gaitmend bench` runs them to the target
+(bench.py); the equal-budget Table II comparison (peers_check.py, `gaitmend reproduce
+recovery-peers`) runs them at the paper's budget: population x (generations + 1) walks,
+30 x 61 = 1830.
 """
 
 from __future__ import annotations
@@ -63,40 +64,29 @@ def timed_search(spec: RecoverySpec) -> dict:
 
 
 def scipy_de(job, seed: int, stop: Callable[[np.ndarray, dict | None], bool] | None = None) -> dict:
-    """scipy's differential_evolution on ``job``'s scorer and bounds, set up as our DE:
-    current-to-best/1/bin, our F and CR, our population exactly (an initial population drawn
-    uniformly in the bounds from ``seed``), a whole generation per batched rollout
-    (``updating="deferred"``), search.generations generations after the initial population,
-    no polish and no tolerance stop. ``stop(best_x, its metrics)`` is asked after every
-    generation; True ends the search. Every walk counts in ``evaluations`` and ``sim_steps``."""
-    from scipy.optimize import differential_evolution
+    """scipy's DE (app/optim/scipy_de.py: set up as our DE) on ``job``'s scorer and bounds,
+    with the spec's population, generations, F and CR. ``stop(best_x, its metrics)`` is
+    asked after every generation; True ends the search. Every walk counts in
+    ``evaluations`` and ``sim_steps``."""
+    from app.optim import scipy_de as peer
 
     s = job.spec.search
     seen: dict[bytes, dict] = {}
     count = {"evaluations": 0, "sim_steps": 0}
 
-    def neg_f(xt):  # vectorized: xt is (D, S)
-        x = np.ascontiguousarray(np.asarray(xt).T)
+    def score(x):
         f, m, steps, _ = job.score(x)
         count["evaluations"] += x.shape[0]
         count["sim_steps"] += int(steps)
         for i, row in enumerate(x):
             seen[row.tobytes()] = {k: v[i] for k, v in m.items()}
-        return -np.asarray(f, dtype=float)
+        return f
 
-    def callback(intermediate_result) -> bool:  # scipy passes the OptimizeResult to a parameter of this name
-        x = np.ascontiguousarray(intermediate_result.x)
-        return bool(stop(x, seen.get(x.tobytes())))
-
-    init = job.lower + np.random.default_rng(seed).random((s.population, job.lower.size)) * (job.upper - job.lower)
-    t0 = time.perf_counter()
-    res = differential_evolution(
-        neg_f, list(zip(job.lower, job.upper)), strategy="currenttobest1bin", maxiter=s.generations,
-        mutation=s.f, recombination=s.cr, rng=seed, polish=False, init=init, tol=0, atol=0, updating="deferred",
-        vectorized=True, callback=None if stop is None else callback)
-    return {"best_x": np.asarray(res.x), "fitness": float(-res.fun), "evaluations": count["evaluations"],
-            "sim_steps": count["sim_steps"], "generations_run": int(res.nit) + 1, "stop_reason": str(res.message),
-            "search_wall_s": time.perf_counter() - t0}
+    out = peer.run(score, job.lower, job.upper, population=s.population, generations=s.generations, f=s.f,
+                   cr=s.cr, seed=seed, stop=None if stop is None else (lambda x: stop(x, seen.get(x.tobytes()))))
+    return {"best_x": out["best_x"], "fitness": out["fitness"], "evaluations": count["evaluations"],
+            "sim_steps": count["sim_steps"], "generations_run": out["generations_run"],
+            "stop_reason": out["stop_reason"], "search_wall_s": out["wall_s"]}
 
 
 def scipy_search(spec: RecoverySpec) -> dict:
