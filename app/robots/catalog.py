@@ -1,4 +1,5 @@
-"""Robots gaitmend knows, with the recovery problem's bounds and nominal gait for each."""
+"""Robots gaitmend knows, with the nominal stance and gait of each (the recovery kind's
+search bounds around that stance are the kind's: app/jobs/recovery/trajectory.py)."""
 
 from __future__ import annotations
 
@@ -21,23 +22,21 @@ class RobotEntry:
     build: Callable[[], mujoco.MjSpec]
     legs: tuple[int, ...]
     joints: tuple[str, ...]
-    # Paper 000, Sec. IV-B: X_min / X_max, with y0 paired front (1,2), middle (3,4), rear (5,6).
-    y0_bounds: dict[int, tuple[float, float]]
-    x0_bounds: tuple[float, float]
-    step_length_bounds: tuple[float, float]
-    step_height_bounds: tuple[float, float]
-    # Nominal healthy gait: the centre of the bounds, as a designer would set it.
+    # Nominal stance (body frame, m): each foot's reach x0 out from its hip and lateral
+    # offset y0 (forward positive on the right side), as a designer would set them.
+    x0: float
+    y0: dict[int, float]
+    # Nominal healthy gait.
     nominal_step_length: float
     nominal_step_height: float
     stance_height: float  # H0: hip plane above the foot centres
     period_s: float  # T_g; the paper does not give it (docs/recovery.md, "Choices where the paper is silent")
 
     def nominal_y0(self, leg: int) -> float:
-        lo, hi = self.y0_bounds[leg]
-        return 0.5 * (lo + hi)
+        return self.y0[leg]
 
     def nominal_x0(self) -> float:
-        return 0.5 * sum(self.x0_bounds)
+        return self.x0
 
     def nominal_feet_xy(self) -> dict[int, tuple[float, float]]:
         """Foot positions in the body frame at the nominal stance, for support polygons."""
@@ -120,10 +119,8 @@ class RobotEntry:
             "link_lengths_m": list(g.link_lengths),
             "total_mass_kg": round(g.total_mass, 4),
             "parameters": {
-                "y0_bounds_m": {str(k): list(v) for k, v in self.y0_bounds.items()},
-                "x0_bounds_m": list(self.x0_bounds),
-                "step_length_bounds_m": list(self.step_length_bounds),
-                "step_height_bounds_m": list(self.step_height_bounds),
+                "x0_m": self.x0,
+                "y0_m": {str(k): v for k, v in self.y0.items()},
                 "stance_height_m": self.stance_height,
                 "period_s": self.period_s,
                 "pid": {"kp": g.kp, "kd": g.kd, "ki": g.ki},
@@ -138,10 +135,8 @@ JETHEXA = RobotEntry(
     build=lambda: hexapod.build_spec(hexapod.JETHEXA),
     legs=hexapod.LEG_IDS,
     joints=hexapod.JOINT_NAMES,
-    y0_bounds={1: (-0.01, 0.05), 2: (-0.01, 0.05), 3: (-0.03, 0.03), 4: (-0.03, 0.03), 5: (-0.05, 0.01), 6: (-0.05, 0.01)},
-    x0_bounds=(0.09, 0.13),
-    step_length_bounds=(0.02, 0.05),
-    step_height_bounds=(0.02, 0.05),
+    x0=0.11,
+    y0={1: 0.02, 2: 0.02, 3: 0.0, 4: 0.0, 5: -0.02, 6: -0.02},
     nominal_step_length=0.04,
     nominal_step_height=0.03,
     stance_height=0.10,

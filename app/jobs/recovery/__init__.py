@@ -51,7 +51,11 @@ class RecoveryKind(PackageKind):
         return FILES.get(path) or super().describe_file(path)
 
     def robot_info(self, robot):
-        return ROBOTS[robot].describe()
+        from app.jobs.recovery.trajectory import BUILT_IN
+
+        info = ROBOTS[robot].describe()  # the robot's own; the search box is this kind's
+        info["parameters"] = BUILT_IN[robot].describe() | info["parameters"]
+        return info
 
     def user_robot_error(self, spec, legs):
         from app.jobs.recovery.userrobot import spec_error

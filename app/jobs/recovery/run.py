@@ -27,7 +27,7 @@ from app.jobs.recovery.randomised import RandomisedScorer
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
 from app.jobs.recovery.sequences import GaitSequence, hexapod_neighbours, nominal_tripod, plan_hexapod
 from app.jobs.recovery.spec import RecoverySpec
-from app.jobs.recovery.trajectory import bounds_of, param_names
+from app.jobs.recovery.trajectory import bounds_of, param_names, search_box
 from app.optim.registry import make_optimizer
 from app.robots.catalog import ROBOTS, RobotEntry, get_robot
 from app.robots.damage import Damage
@@ -73,7 +73,7 @@ def sim_config(spec: RecoverySpec, open_loop: bool = False) -> SimConfig:
     """The simulation settings of ``spec``; with ``open_loop``, without the closed-loop
     correction even if the spec asks for it (the answer's open-loop re-runs)."""
     law = None if open_loop else law_of(spec.control, spec.bounds.step_length_m
-                                        or get_robot(spec.robot).step_length_bounds)
+                                        or search_box(get_robot(spec.robot)).step_length)
     return SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
                      stance_height_m=spec.gait.stance_height_m, step_depth_m=spec.gait.step_depth_m, law=law)
 

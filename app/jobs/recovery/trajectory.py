@@ -15,9 +15,12 @@ Positions are in a leg's hip frame: origin at the coxa axis, x outward, y forwar
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from app.jobs.recovery.sequences import GaitSequence
+from app.robots.catalog import RobotEntry
 
 
 def param_names(legs: list[int]) -> list[str]:
@@ -81,20 +84,53 @@ def swing_mask(t: np.ndarray, period: float, seq: GaitSequence, legs: list[int])
 
 
 
+@dataclasses.dataclass(frozen=True)
+class SearchBox:
+    """X_min / X_max of paper 000, Sec. IV-B (m): the lateral offset y0 per leg, the reach
+    x0, the step length and the step height. The spec's ``bounds`` section overrides any."""
+
+    y0: dict[int, tuple[float, float]]
+    x0: tuple[float, float]
+    step_length: tuple[float, float]
+    step_height: tuple[float, float]
+
+    def describe(self) -> dict:
+        return {"y0_bounds_m": {str(k): list(v) for k, v in self.y0.items()}, "x0_bounds_m": list(self.x0),
+                "step_length_bounds_m": list(self.step_length), "step_height_bounds_m": list(self.step_height)}
+
+
+# The built-in robots' boxes, by catalog name (app/robots/catalog.py): the paper's, with y0
+# paired front (1, 2), middle (3, 4), rear (5, 6); each centred on the robot's nominal
+# stance (tests/jobs/recovery/test_recovery.py checks it). An uploaded robot's box scales
+# with its stance height (app/jobs/recovery/userrobot.py).
+BUILT_IN: dict[str, SearchBox] = {
+    "jethexa": SearchBox(
+        y0={1: (-0.01, 0.05), 2: (-0.01, 0.05), 3: (-0.03, 0.03), 4: (-0.03, 0.03), 5: (-0.05, 0.01),
+            6: (-0.05, 0.01)},
+        x0=(0.09, 0.13), step_length=(0.02, 0.05), step_height=(0.02, 0.05)),
+}
+
+
+def search_box(robot) -> SearchBox:
+    """The box of a built-in robot (a ``RobotEntry``) or of an uploaded one (its ``box``)."""
+    return BUILT_IN[robot.name] if isinstance(robot, RobotEntry) else robot.box
+
+
 def bounds_of(b, robot, legs: list[int], relaxed: set[int]) -> tuple[np.ndarray, np.ndarray]:
-    """X_min / X_max of ``legs`` from the spec's bounds ``b`` (they win) and the robot's
-    (``y0_bounds``, ``x0_bounds``, ``step_length_bounds``, ``step_height_bounds``: a built-in
-    or an uploaded robot); the y0 bounds of the ``relaxed`` legs widened."""
+    """X_min / X_max of ``legs`` from the spec's bounds ``b`` (they win) and the robot's box
+    (``search_box``: a built-in or an uploaded robot); the y0 bounds of the ``relaxed`` legs
+    widened."""
+    box = search_box(robot)
     y_lo, y_hi = [], []
     for leg in legs:
-        lo, hi = b.y0_m.get(str(leg), robot.y0_bounds[leg])
+        lo, hi = b.y0_m.get(str(leg), box.y0[leg])
         if leg in relaxed:
             w = (hi - lo) * b.neighbour_relaxation
             lo, hi = lo - w, hi + w
         y_lo.append(lo)
         y_hi.append(hi)
-    x_lo, x_hi = b.x0_m or robot.x0_bounds
-    sl = b.step_length_m or robot.step_length_bounds
-    sh = b.step_height_m or robot.step_height_bounds
+    x_lo, x_hi = b.x0_m or box.x0
+    sl = b.step_length_m or box.step_length
+    sh = b.step_height_m or box.step_height
     return (np.array(y_lo + [x_lo] * len(legs) + [sl[0], sh[0]]),
             np.array(y_hi + [x_hi] * len(legs) + [sl[1], sh[1]]))

@@ -132,6 +132,22 @@ def test_neighbours_of_lost_legs_get_relaxed_y0_bounds():
     assert list(lo[5:10]) == [0.09] * 5 and list(hi[-2:]) == [0.05, 0.05]
 
 
+def test_each_built_in_box_is_centred_on_its_robots_nominal_stance():
+    """The robot owns its stance (app/robots/catalog.py), the kind its search box
+    (trajectory.BUILT_IN): the paper's nominal gait is the centre of the box."""
+    from app.jobs.recovery.trajectory import BUILT_IN
+    from app.robots.catalog import ROBOTS
+
+    assert set(BUILT_IN) == set(ROBOTS)
+    for name, box in BUILT_IN.items():
+        robot = ROBOTS[name]
+        assert sorted(box.y0) == sorted(robot.legs)
+        assert all(0.5 * (lo + hi) == robot.nominal_y0(leg) for leg, (lo, hi) in box.y0.items())
+        assert 0.5 * sum(box.x0) == robot.nominal_x0()
+        assert box.step_length[0] <= robot.nominal_step_length <= box.step_length[1]
+        assert box.step_height[0] <= robot.nominal_step_height <= box.step_height[1]
+
+
 @pytest.mark.parametrize("patch,field", [
     ({"robot": "atlas"}, "robot"),
     ({"damage": {"lost_legs": [1, 3]}}, "damage.lost_legs"),
