@@ -20,7 +20,7 @@ BUILTIN_NAMES = ", ".join(builtin_studies())  # for the help texts: every kind's
 
 def _load(path: Path) -> dict:
     from app.api.body import BodyError, parse_json
-    from app.studies.bundle import load_study_file
+    from app.studies.study_bundle import load_study_file
 
     if not path.exists() and (study := builtin_study(str(path))) is not None:
         return study
@@ -62,7 +62,7 @@ def run(study_path: Path = typer.Argument(..., metavar="STUDY", help="study JSON
     """Run every point of a study here, on all cores, with no server; writes the same
     files as the served study's bundle."""
     from app.studies.aggregate import aggregate
-    from app.studies.bundle import study_files
+    from app.studies.study_bundle import study_files
     from app.studies.local import run_plan
 
     data, plan = _plan(study_path)

@@ -114,7 +114,7 @@ class Job:
 
     def open_bundle(self, path: str | Path | None = None):
         """Download the bundle (see ``bundle``) and open it (``gaitmend.open_bundle``)."""
-        from app.client.bundle import open_bundle
+        from app.client.bundle_reader import open_bundle
 
         return open_bundle(self.bundle(path))
 

@@ -156,7 +156,7 @@
     }, 250);
   }
 
-  // The wall time a spec will take at this server's measured rate (app/api/glance.py says how).
+  // The wall time a spec will take at this server's measured rate (app/api/job_overview.py says how).
   function estimateText(e) {
     if (!e) return "";
     return e.wall_s === null || e.wall_s === undefined ? `Wall time: no estimate yet (${e.basis}).`

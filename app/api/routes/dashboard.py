@@ -29,7 +29,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
 from fastapi.staticfiles import StaticFiles
 
-from app.api import glance
+from app.api import job_overview
 from app.api.auth import LOCAL_OWNER, Principal, principal
 from app.api.deps import Db, db_of, get_db, settings_of
 from app.api.errors import ApiError
@@ -442,15 +442,15 @@ async def kinds() -> list[dict]:
 async def check(request: Request, who: Principal = Depends(principal)):
     """Validate a spec without queuing it: its evaluation budget (the spec's own
     formula, the number the compare page shows) and the wall time it will take at this
-    server's measured rate (app/api/glance.py), or the API's field errors, including an
+    server's measured rate (app/api/job_overview.py), or the API's field errors, including an
     uploaded robot's (a damage it cannot stand on), so the form never asks to confirm a
     long job that POST /api/jobs would refuse."""
     from app.api.routes.jobs import accepted_spec
 
     db = db_of(request)
     spec = await accepted_spec(request, settings_of(request), who, db)  # what POST /api/jobs accepts
-    rate = await db.read(glance.rates)
-    return _budget(spec) | {"estimate": glance.estimate(spec.kind, int(spec.evaluations_budget), rate)}
+    rate = await db.read(job_overview.rates)
+    return _budget(spec) | {"estimate": job_overview.estimate(spec.kind, int(spec.evaluations_budget), rate)}
 
 
 def _stored_budget(spec: dict | None) -> dict[str, Any] | None:
@@ -488,7 +488,7 @@ async def views(request: Request, job_id: JobId, who: Principal = Depends(princi
     bundle member with a short-lived download link and what it is."""
     def read(s):
         job = repo.get_job(s, job_id, who.owner_filter)
-        return job, glance.queue_info(s, job, glance.rates(s)) if job.status not in FINAL else None
+        return job, job_overview.queue_info(s, job, job_overview.rates(s)) if job.status not in FINAL else None
 
     job, queue = await db.read(read)
     kind = _kind(job.kind)
@@ -515,7 +515,7 @@ async def rows(ids: Annotated[str, Query(max_length=3400, pattern=r"^[0-9a-f]{1,
     once succeeded the kind's list headline and its verdict in brief, while queued or running
     its place in the queue and ETA. Ids the caller may not see are left out."""
     wanted = list(dict.fromkeys(ids.split(",")))
-    return _jsonable(await db.read(lambda s: glance.rows(s, wanted, who.owner_filter)))
+    return _jsonable(await db.read(lambda s: job_overview.rows(s, wanted, who.owner_filter)))
 
 
 @router.post("/api/web/study-check", tags=["dashboard"], responses=ERROR_RESPONSES,
@@ -527,7 +527,7 @@ async def study_check(request: Request, who: Principal = Depends(principal), db:
     from app.api.body import BodyError, parse_json
     from app.api.routes.jobs import _read_body, _require_json
     from app.jobs.base import SpecError
-    from app.studies.bundle import load_study_file
+    from app.studies.study_bundle import load_study_file
     from app.studies.spec import expand
 
     settings = settings_of(request)
@@ -540,5 +540,5 @@ async def study_check(request: Request, who: Principal = Depends(principal), db:
         plan = await run_in_threadpool(expand, data)
     except SpecError as e:
         raise ApiError(422, str(e), errors=e.errors) from None
-    est = await db.read(lambda s: glance.study_estimate(s, plan.points))
+    est = await db.read(lambda s: job_overview.study_estimate(s, plan.points))
     return {"name": plan.study.name, "metrics": plan.study.report.metrics, "infeasible": len(plan.infeasible), **est}

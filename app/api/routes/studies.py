@@ -18,7 +18,7 @@ from app.service.dispatch import send
 from app.jobs.base import SpecError
 from app.store import repo
 from app.studies import catalog, store
-from app.studies.bundle import load_study_file, study_files, zip_bytes
+from app.studies.study_bundle import load_study_file, study_files, zip_bytes
 from app.studies.spec import expand
 
 router = APIRouter(prefix="/studies", tags=["studies"])

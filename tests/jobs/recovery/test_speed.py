@@ -198,7 +198,7 @@ def test_the_quick_bench_names_every_figure_of_the_issue():
 
 
 def test_the_speed_page_renders_from_its_rows():
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
 
     run_row = {"lost_legs": [1, 6], "seed": 0, "fitness": 12.0, "target_met": True, "half_step_met": True,
                "search": {"stop_reason": "generations", "generations_run": 61}, "evaluations": 1830,
@@ -285,7 +285,7 @@ def test_the_equal_quality_comparison_is_also_paired_by_seed():
     """Beside the medians the issue's rule compares, the paired test (app/jobs/stats.py) on
     the seeds both ran: a median above the paper DE's on a few seeds is no difference shown,
     and a clear one is shown; a damage with a single pair gets no line."""
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
 
     def run(part, lost, seed, f):
         return {"part": part, "lost_legs": list(lost), "seed": seed, "fitness": f}
@@ -306,7 +306,7 @@ def test_every_alternative_configuration_is_a_part_the_command_accepts():
     from pydantic import ValidationError
 
     from app.jobs.recovery.reproduce.experiments import SpeedParams
-    from app.jobs.recovery.reproduce.speed import ALTERNATIVES, PARTS
+    from app.jobs.recovery.reproduce.speed_measurements import ALTERNATIVES, PARTS
 
     for name in ALTERNATIVES:
         assert f"alt_{name}" in PARTS
@@ -316,7 +316,7 @@ def test_every_alternative_configuration_is_a_part_the_command_accepts():
 
 
 def test_the_scaling_part_times_the_rollout_inside_a_real_search():
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
 
     r = speed.scaling_row(generations=1, reps=1)
     assert r["sim_steps"] > 30 * 10_000  # two generations of 30 walks, most of them whole
@@ -448,7 +448,7 @@ def test_the_perturbed_part_judges_each_answer_as_a_job_judges_its_own():
     for the seed), re-walked under the named cases and the seed's held-out models: each
     case's verdict is the one Table II's job recorded for that answer, and the held-out count
     is what a job's held-out block (robust.held_out) gives the same answer and seed."""
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
     from app.jobs.recovery.metrics import target_met
     from app.jobs.recovery.robust import held_out
     from app.jobs.recovery.run import set_up

@@ -21,14 +21,14 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
-from app.jobs.recovery.reproduce import curves, science
+from app.jobs.recovery.reproduce import curves, science_files
 from app.jobs.recovery.reproduce.rows import KEEP, feasible_losses, leg_losses, search_row
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_atlas.json"
 TABLE2_JSON = "docs/table2.json"
 COMMAND = "gaitmend reproduce recovery-atlas --write-docs"
-SCIENCE = science.BASE
+SCIENCE = science_files.BASE
 TABLE2 = ((1, 6), (3, 4), (1,), (4,))  # their rows come from Table II (experiments.SCENARIOS)
 
 

@@ -31,7 +31,7 @@ from app.jobs.base import BenchEntry, MemoryContext
 from app.jobs.recovery.reproduce.peers import ONLY_SEARCH, scipy_de, timed_search
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
-from app.jobs.recovery.reproduce.speed import EQUAL, throughput
+from app.jobs.recovery.reproduce.speed_measurements import EQUAL, throughput
 
 SCENARIOS = [(1, 6), (3, 4), (1,), (4,)]  # paper 000's Table II
 QUICK = {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 2.0}}

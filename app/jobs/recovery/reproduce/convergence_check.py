@@ -13,7 +13,7 @@ from pydantic import BaseModel, Field
 
 from app.jobs.base import MemoryContext
 from app.jobs.reporting import marked, missing
-from app.jobs.recovery.reproduce.answers import answers_metrics, documented_answers
+from app.jobs.recovery.reproduce.documented_answers import answers_metrics, documented_answers
 from app.jobs.recovery.run import run
 from app.jobs.recovery.spec import RecoverySpec
 from app.jobs.recovery.reproduce.table2_damages import SCENARIOS, _name, _save_rows

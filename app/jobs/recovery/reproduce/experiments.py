@@ -19,11 +19,11 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery.reproduce import (atlas_check, curves, jobtime, loop_check, peers_check, prose, randomised_check,
+from app.jobs.recovery.reproduce import (atlas_check, curves, jobtime, loop_check, peers_check, page_prose, randomised_check,
                                          rejudge)
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of
-from app.jobs.recovery.reproduce.answers import documented_answers  # noqa: F401 (re-exported for the tests)
+from app.jobs.recovery.reproduce.documented_answers import documented_answers  # noqa: F401 (re-exported for the tests)
 from app.jobs.recovery.reproduce.rows import feasible_losses, robustness_row, search_row
 from app.jobs.recovery.metrics import TARGET
 from app.jobs.recovery.run import run
@@ -242,7 +242,7 @@ def render_summary(datas: list) -> str:
 def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
     dmg = [d for d in SCENARIOS if d in fine]
     met = [d for d in dmg if fine[d]["target_met"]]
-    missed2 = [f"{prose.loss(d)} ({prose.misses(coarse[d]['best'])})" for d in dmg if d in coarse and not coarse[d]["target_met"]]
+    missed2 = [f"{page_prose.loss(d)} ({page_prose.misses(coarse[d]['best'])})" for d in dmg if d in coarse and not coarse[d]["target_met"]]
     cases = lambda rows: ", ".join(f"{r['robustness']['met']}" for r in rows)  # noqa: E731
     out = [f"- {len(met)} of {len(dmg)} damages meet the target on the nominal model at 1 ms"
            + (f"; at 2 ms {'; '.join(missed2)} missed it" if missed2 else "") + ". Under the "
@@ -257,17 +257,17 @@ def _seed0_bullets(fine: dict, coarse: dict) -> list[str]:
     shown = [c for c in worst if dmg[0] in broke[c]]  # the first damage's figures where it misses the target
     out.append(f"- {len(steps)} of {len(dmg)} answers keep it at half and a quarter of the step; the cases that break "
                "most of them are " + " and ".join(f"{c} ({len(broke[c])} of {len(dmg)})" for c in worst)
-               + (f" ({prose.loss(dmg[0])} there: " + "; ".join(f"{prose.misses(first[c])} at {c}" for c in shown) + ")"
+               + (f" ({page_prose.loss(dmg[0])} there: " + "; ".join(f"{page_prose.misses(first[c])} at {c}" for c in shown) + ")"
                   if shown else "") + ".")
     rs = [d for d in dmg if fine[d]["random_search"]]
     rs_met = [d for d in rs if fine[d]["random_search"]["target_met"]]
     less = [d for d in rs if fine[d]["random_search"]["metrics"]["y_f_m"] < fine[d]["best"]["y_f_m"]]
     fwd = lambda ds, key: " / ".join(f"{100 * key(fine[d])['y_f_m']:.1f}" for d in ds)  # noqa: E731
     out.append(f"- The random search at the same budget meets the target in {len(rs_met)} of {len(rs)} damages"
-               + (f" (not for {', '.join(prose.loss(d) for d in rs if d not in rs_met)})" if len(rs_met) < len(rs) else "")
+               + (f" (not for {', '.join(page_prose.loss(d) for d in rs if d not in rs_met)})" if len(rs_met) < len(rs) else "")
                + f" and walks less far in {len(less)} of {len(rs)} ({fwd(rs, lambda r: r['random_search']['metrics'])} "
                f"cm against DE's {fwd(rs, lambda r: r['best'])}, in the order of Table II).")
-    base = [prose.loss(d) for d in dmg if fine[d]["baseline_target_met"]]
+    base = [page_prose.loss(d) for d in dmg if fine[d]["baseline_target_met"]]
     out.append(f"- The nominal tripod (no recovery) already meets the target with {', '.join(base)} lost."
                if base else "- The nominal tripod (no recovery) meets the target on none of them.")
     return out
@@ -505,7 +505,7 @@ EXPERIMENTS = [
                (Section(TABLE2_SECTION, (TABLE2_JSON, PEERS_JSON), render_table2),
                 Section("recovery-table2-seed0", (TABLE2_JSON,), render_table2_seed0),
                 Section("recovery-default-result", (TABLE2_JSON,),
-                        lambda datas: prose.render_default_result(datas, ROW_VERSION)),
+                        lambda datas: page_prose.render_default_result(datas, ROW_VERSION)),
                 Section("recovery-job-time", (TABLE2_JSON,), lambda datas: jobtime.render_job_time(datas, ROW_VERSION)),
                 Section("recovery-f-scale", (TABLE2_JSON,), lambda datas: jobtime.render_f_scale(datas, ROW_VERSION)),
                 Section("readme-first-command-time", (TABLE2_JSON, "docs/readme_examples.json"),
@@ -522,8 +522,8 @@ EXPERIMENTS = [
     Experiment("robust", "robust vs nominal recovery on every feasible 1- and 2-leg loss, both answers re-run "
                          "under seven perturbations", RobustParams, _robust,
                tuple(Section(name, (path,), render) for path, (name, _, _, render) in ROBUST_PAGES.items())
-               + (Section("recovery-robust-w20-verdict", (ROBUST_W20_JSON,), prose.render_robust_w20_verdict),
-                  Section("recovery-robust-pilot", (ROBUST_JSON, ROBUST_W20_JSON), prose.render_robust_pilot))),
+               + (Section("recovery-robust-w20-verdict", (ROBUST_W20_JSON,), page_prose.render_robust_w20_verdict),
+                  Section("recovery-robust-pilot", (ROBUST_JSON, ROBUST_W20_JSON), page_prose.render_robust_pilot))),
     Experiment("baselines", "the nominal tripod on every feasible loss and some partial damages: falls, "
                             "already meets the target?", BaselinesParams, _baselines,
                (Section("recovery-baselines", (BASELINES_JSON,), render_baselines),)),
@@ -532,7 +532,7 @@ EXPERIMENTS = [
                (Section(CONVERGENCE_SECTIONS[0], (CONVERGENCE_JSON,), render_convergence_table),
                 Section(CONVERGENCE_SECTIONS[1], (CONVERGENCE_JSON,), render_convergence_answers),
                 Section("recovery-convergence-verdict", (CONVERGENCE_JSON, ROBUST_W20_JSON),
-                        prose.render_convergence_verdict))),
+                        page_prose.render_convergence_verdict))),
     Experiment("speed", "issue 22: the step profile, the fast preset's time to the target, equal quality for less, "
                         "the paper DE with cut walks checked against Table II", SpeedParams, _speed,
                (Section("recovery-speed", ("docs/recovery_speed.json", TABLE2_JSON), render_speed),)),

@@ -11,7 +11,7 @@ from __future__ import annotations
 import statistics
 
 from app.core.host import machine_text
-from app.jobs.recovery.reproduce.prose import loss
+from app.jobs.recovery.reproduce.page_prose import loss
 from app.jobs.recovery.spec import RecoverySpec
 
 

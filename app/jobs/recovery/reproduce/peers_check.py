@@ -21,12 +21,12 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
-from app.jobs.recovery.reproduce import science
+from app.jobs.recovery.reproduce import science_files
 from app.jobs.reporting import md_table
 
 JSON = "docs/table2_peers.json"
 COMMAND = "gaitmend reproduce recovery-peers --write-docs"
-SCIENCE = science.BASE + ("app/jobs/recovery/reproduce/peers.py", "app/optim/scipy_de.py",
+SCIENCE = science_files.BASE + ("app/jobs/recovery/reproduce/peers.py", "app/optim/scipy_de.py",
                          "app/optim/cmaes.py")
 SCENARIOS = ((1, 6), (3, 4), (1,), (4,))  # Table II's four damages (experiments.SCENARIOS)
 NAMES = {"ours": "our DE", "random_search": "random search", "scipy_de": "scipy DE", "cmaes": "CMA-ES"}

@@ -21,12 +21,12 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
-from app.jobs.recovery.reproduce import science
+from app.jobs.recovery.reproduce import science_files
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_randomised.json"
 COMMAND = "gaitmend reproduce recovery-randomised --write-docs"
-SCIENCE = science.BASE + ("app/jobs/recovery/randomised.py", "app/optim/de.py")
+SCIENCE = science_files.BASE + ("app/jobs/recovery/randomised.py", "app/optim/de.py")
 KEEP = ("x_f_m", "y_f_m", "yaw_f_deg", "fell")
 # The held-out models every answer is judged on: the held-out stream of a seed no search of
 # this comparison uses (searches: seeds 0 .. seeds-1; their draws: cases.SEARCH_STREAM).

@@ -1,5 +1,5 @@
 """The `gaitmend reproduce recovery-speed` experiment: its options and the run that measures
-the parts (app/jobs/recovery/reproduce/speed.py) and writes docs/recovery_speed.md, and its
+the parts (app/jobs/recovery/reproduce/speed_measurements.py) and writes docs/recovery_speed.md, and its
 section."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 from app.core.host import machine
-from app.jobs.recovery.reproduce.speed import PARTS as SPEED_RUNS
+from app.jobs.recovery.reproduce.speed_measurements import PARTS as SPEED_RUNS
 from app.jobs.recovery.reproduce.table2_damages import SCENARIOS
 
 
@@ -44,7 +44,7 @@ class SpeedParams(BaseModel):
 
 
 def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
 
     damages = {"table2": SCENARIOS, "1-6": [(1, 6)], "3-4": [(3, 4)]}[p.damages]
     if "bench" in p.parts.split(","):
@@ -63,6 +63,6 @@ def _speed(p: SpeedParams, log: Callable[[str], None]) -> str:
 
 def render_speed(datas: list) -> str:
     """docs/recovery_speed.md's generated section (speed.render: from docs/recovery_speed.json and docs/table2.json)."""
-    from app.jobs.recovery.reproduce import speed
+    from app.jobs.recovery.reproduce import speed_measurements as speed
 
     return speed.render(datas)

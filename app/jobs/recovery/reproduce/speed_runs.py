@@ -104,7 +104,7 @@ def control_row(lost, seed: int, docs: Path) -> dict:
 def coarse_row(lost, seed: int, docs: Path) -> dict:
     """Coarse-to-fine's first half: the equal-quality configuration searched at twice the
     step (half the steps per walk), its answer then judged at the default step."""
-    from app.jobs.recovery.reproduce.answers import answers_metrics
+    from app.jobs.recovery.reproduce.documented_answers import answers_metrics
     from app.jobs.recovery.metrics import TARGET, fitness
 
     dt = RecoverySpec().sim.timestep_s

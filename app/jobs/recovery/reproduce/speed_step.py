@@ -137,7 +137,7 @@ def variants(reps: int = 15, docs: Path = Path("docs")) -> dict:
     """Each physics setting of VARIANTS on the default damaged model (legs 1 & 6): CPU time
     per step against the model as it is, and what it does to the documented answers
     (re-simulated at the default step: bit-identical, or the largest change)."""
-    from app.jobs.recovery.reproduce.answers import answers_metrics, documented_answers
+    from app.jobs.recovery.reproduce.documented_answers import answers_metrics, documented_answers
     from app.jobs.recovery.run import set_up, sim_model
 
     job = set_up(RecoverySpec(**ONLY_SEARCH))
@@ -184,7 +184,7 @@ def pairs_row(reps: int = 15, docs: Path = Path("docs")) -> dict:
     each against the one before: single-thread CPU time per step on each Table II damage (8
     random candidates, 1.5 s walks, all settings interleaved), and whether every documented
     answer re-simulated at the default step is the same bit for bit as before them."""
-    from app.jobs.recovery.reproduce.answers import answers_metrics, documented_answers
+    from app.jobs.recovery.reproduce.documented_answers import answers_metrics, documented_answers
     from app.jobs.recovery.run import set_up, sim_model
     from app.robots.catalog import get_robot
 
