@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from app.adapt.methods import Map
+from app.robots.damage import Damage
 
 
 class MapError(ValueError):
@@ -58,12 +59,18 @@ def _read(path: Path) -> dict:
 
 
 def damage_name(damage: dict) -> str:
-    """A map's name from its damage: "intact", "lost leg1, leg6; locked leg2.leg2_femur"."""
+    """A map's name from its damage: "intact", "lost leg1, leg6; locked leg2.leg2_femur" (the
+    names the committed evaluations record), any other type in the robot layer's words
+    (app/robots/damage.py ``Damage.WORDS``: "weak leg3_coxa at 20 % force"), so that no
+    damaged map is called intact."""
     parts = []
     if damage.get("lost_legs"):
         parts.append("lost " + ", ".join(damage["lost_legs"]))
     if damage.get("locked_joints"):
         parts.append("locked " + ", ".join(f"{j['leg']}.{j['joint']}" for j in damage["locked_joints"]))
+    d = Damage.model_validate({k: v for k, v in damage.items() if k in Damage.model_fields})
+    parts += [Damage.WORDS[f](x) for f in Damage.model_fields if f not in ("lost_legs", "locked_joints")
+              for x in getattr(d, f)]
     return "; ".join(parts) or "intact"
 
 

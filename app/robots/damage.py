@@ -19,8 +19,9 @@ vocabulary (``Damage``'s field), its check against the leg map and its edit of t
   that its servo must overcome; MuJoCo's ``frictionloss``).
 
 Adding a damage type: its entry model and a field on ``Damage`` (left out of a dump while
-unused: ``Damage.ALWAYS``), its name in ``JOINT_FIELDS`` if it names joints (checked
-against the map, once per joint), and its edit in ``apply_damage``; every kind whose spec
+unused: ``Damage.ALWAYS``) with its words (``Damage.WORDS``), its name in ``JOINT_FIELDS``
+if it names joints (checked against the map, once per joint), and its edit in
+``apply_damage``; every kind whose spec
 takes ``Damage`` (or a subclass) then offers it on every robot. ``stiff_joints`` was added
 so (issue 42): this module and its test, tests/robots/test_damage_vocabulary.py.
 
@@ -130,6 +131,15 @@ class Damage(_Entry):
     # byte-identical. A kind's subclass may narrow it to the fields its specs always had.
     ALWAYS: ClassVar[tuple[str, ...]] = ("lost_legs", "locked_joints", "weak_joints", "passive_joints",
                                          "shortened_legs")
+    # How each type reads in a sentence (``describe``: job lists, pages, videos), one entry a field.
+    WORDS: ClassVar[dict] = {
+        "lost_legs": lambda leg: f"lost {leg}",
+        "locked_joints": lambda j: f"locked {j.joint} at {j.angle_deg:g} deg",
+        "weak_joints": lambda j: f"weak {j.joint} at {100 * j.torque_scale:g} % force",
+        "passive_joints": lambda j: f"passive {j.joint}",
+        "shortened_legs": lambda l: f"shortened {l.leg} by {100 * l.length_m:g} cm",
+        "stiff_joints": lambda j: f"stiff {j.joint} (friction {j.friction:g})",
+    }
 
     @model_serializer(mode="wrap")
     def _used(self, handler):
@@ -163,6 +173,11 @@ class Damage(_Entry):
                                       f"{names[j.leg].joints}")
                 if j.leg in self.lost_legs:
                     raise LegMapError(f"{what}: leg {j.leg!r} is listed as lost")
+
+    def describe(self, intact: str = "none") -> str:
+        """Every damage in words, in the vocabulary's order ("lost leg3; locked leg2_femur at
+        10 deg"); ``intact`` when there is none."""
+        return "; ".join(self.WORDS[f](item) for f in type(self).model_fields for item in getattr(self, f)) or intact
 
     def locked(self) -> dict[str, float]:
         """Locked joint -> its held value (rad, m)."""

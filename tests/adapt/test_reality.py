@@ -243,3 +243,15 @@ def test_adapt_reads_a_labs_measurements_from_stdin(maps):
 def test_a_bad_measurement_from_a_pipe_exits_2_naming_its_field(maps, line, field):
     res = CliRunner().invoke(cli, ["adapt", str(maps[0])], input=line + "\n")
     assert res.exit_code == 2 and field in res.output, res.output
+
+
+def test_a_map_for_any_damage_type_is_named_by_it_never_intact():
+    """Maps are named by their damage: lost and locked as the committed evaluations record
+    them, every other type in the robot layer's words (a weak joint's map was "intact")."""
+    from app.adapt.maps import damage_name
+
+    assert damage_name({}) == "intact"
+    assert damage_name({"lost_legs": ["leg1", "leg6"], "locked_joints": [
+        {"leg": "leg2", "joint": "leg2_femur", "angle_deg": 10.0}]}) == "lost leg1, leg6; locked leg2.leg2_femur"
+    assert damage_name({"lost_legs": [], "locked_joints": [], "weak_joints": [
+        {"leg": "leg3", "joint": "leg3_coxa", "torque_scale": 0.2}]}) == "weak leg3_coxa at 20 % force"

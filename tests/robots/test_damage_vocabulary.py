@@ -193,3 +193,26 @@ def test_an_unused_later_type_leaves_no_trace_in_a_dump():
     assert Damage.model_validate(d.model_dump(mode="json")) == d
     stiff = {"stiff_joints": [{"leg": "leg1", "joint": "leg1_coxa", "friction": 2.0}]}
     assert Damage.model_validate(stiff).model_dump(mode="json")["stiff_joints"] == stiff["stiff_joints"]
+
+
+def test_every_damage_type_has_its_words_and_every_kind_says_them():
+    """``Damage.describe`` words every type (a type added without its words fails here), and
+    the kinds that take the vocabulary show it whole: a weak, passive, stiff or shortened
+    damage is never reported as "none"."""
+    from app.jobs.registry import get_kind
+    from app.robots.damage import ShortenedLegDamage, StiffJointDamage, WeakJointDamage
+
+    assert set(Damage.WORDS) == set(Damage.model_fields)
+    d = Damage(lost_legs=["leg1"], locked_joints=[LockedJointDamage(leg="leg2", joint="leg2_femur", angle_deg=-40.0)],
+               weak_joints=[WeakJointDamage(leg="leg3", joint="leg3_coxa", torque_scale=0.2)],
+               passive_joints=[{"leg": "leg4", "joint": "leg4_tibia"}],
+               shortened_legs=[ShortenedLegDamage(leg="leg5", length_m=0.02)],
+               stiff_joints=[StiffJointDamage(leg="leg6", joint="leg6_femur", friction=0.5)])
+    words = ("lost leg1; locked leg2_femur at -40 deg; weak leg3_coxa at 20 % force; passive leg4_tibia; "
+             "shortened leg5 by 2 cm; stiff leg6_femur (friction 0.5)")
+    assert d.describe() == words and Damage().describe() == "none"
+    kind = get_kind("repertoire")
+    assert kind.damage_text(kind.Spec.parse({"kind": "repertoire", "damage": d.model_dump()})) == words
+    only_weak = {"kind": "repertoire", "damage": {"weak_joints": [{"leg": "leg3", "joint": "leg3_coxa",
+                                                                   "torque_scale": 0.2}]}}
+    assert kind.damage_text(kind.Spec.parse(only_weak)) == "weak leg3_coxa at 20 % force"

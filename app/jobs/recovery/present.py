@@ -45,16 +45,16 @@ def history_axis(spec: dict) -> dict:
 
 
 def damage_text(spec) -> str:
+    """An uploaded robot's damage as the robot layer words it (app/robots/damage.py); the
+    built-in hexapod's in the paper's spelling, legs and joints by number ("lost 1,6; locked
+    2.femur")."""
     named = getattr(spec, "robot_damage", None)  # an uploaded robot's, by its leg map's names
-    damage = (named or spec.damage).model_dump()
-    parts = []
-    if damage.get("lost_legs"):
-        parts.append("lost " + ",".join(str(x) for x in damage["lost_legs"]))
-    for key, word in (("locked_joints", "locked"), ("weak_joints", "weak"), ("passive_joints", "passive")):
-        for j in damage.get(key) or []:
-            parts.append(f"{word} {j['leg']}.{j['joint']}")
-    for leg in damage.get("shortened_legs") or []:
-        parts.append(f"shortened {leg['leg']} by {leg['length_m'] * 100:g} cm")
+    if named is not None:
+        return named.describe()
+    d = spec.damage
+    parts = ["lost " + ",".join(str(x) for x in d.lost_legs)] if d.lost_legs else []
+    parts += [f"{word} {j.leg}.{j.joint}" for word, js in (("locked", d.locked_joints), ("weak", d.weak_joints))
+              for j in js]
     return "; ".join(parts) or "none"
 
 

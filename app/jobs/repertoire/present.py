@@ -47,9 +47,7 @@ def history_axis(spec: dict) -> dict:
 
 
 def damage_text(spec) -> str:
-    d = spec.damage
-    parts = [f"lost {l}" for l in d.lost_legs] + [f"locked {j.joint} at {j.angle_deg:g} deg" for j in d.locked_joints]
-    return "; ".join(parts) or "none (intact)"
+    return spec.damage.describe(intact="none (intact)")
 
 
 def _random(s: dict):
