@@ -39,11 +39,28 @@ SCHEMA = 1
 ROOT = Path(__file__).resolve().parents[2]  # the repository (app/..)
 
 
+# Science files moved without a byte changed, {the path ledgers recorded: where it is now}
+# (issue 42: each built-in robot's module became its folder's __init__.py). A moved file is
+# hashed under its recorded path and read where it is now, so a move alone changes no code
+# version; a ledger that names the old path still finds the file.
+MOVED: dict[str, str] = {
+    f"app/robots/{r}.py": f"app/robots/{r}/__init__.py" for r in ("hexapod", "heavy_hexapod", "quadruped", "modular",
+                                                                  "silo6")}
+_RECORDED = {now: then for then, now in MOVED.items()}
+
+
+def recorded_name(rel: str) -> str:
+    """The path a science file is hashed under: the one ledgers recorded before it moved."""
+    return _RECORDED.get(rel, rel)
+
+
 def science_files(paths: Iterable[str], root: Path = ROOT) -> list[str]:
-    """The files (relative to ``root``, sorted) that ``paths`` name: a file as is, a folder as
-    every ``*.py`` under it."""
+    """The files (relative to ``root``, sorted by the path they are hashed under) that
+    ``paths`` name: a file as is (a moved one where it is now, ``MOVED``), a folder as every
+    ``*.py`` under it."""
     out: set[str] = set()
     for p in paths:
+        p = MOVED.get(p, p)
         full = root / p
         if full.is_dir():
             out.update(str(f.relative_to(root)) for f in full.rglob("*.py"))
@@ -51,7 +68,7 @@ def science_files(paths: Iterable[str], root: Path = ROOT) -> list[str]:
             out.add(str(Path(p)))
         else:
             raise FileNotFoundError(f"science file {p!r} does not exist under {root}")
-    return sorted(out)
+    return sorted(out, key=recorded_name)
 
 
 def code_version(paths: Iterable[str], root: Path = ROOT) -> str:
@@ -59,13 +76,14 @@ def code_version(paths: Iterable[str], root: Path = ROOT) -> str:
     the code that decides a run's numbers gives another version."""
     h = hashlib.sha256()
     for rel in science_files(paths, root):
-        h.update(rel.encode() + b"\0" + (root / rel).read_bytes() + b"\0")
+        h.update(recorded_name(rel).encode() + b"\0" + (root / rel).read_bytes() + b"\0")
     return h.hexdigest()[:12]
 
 
 def file_hashes(paths: Iterable[str], root: Path = ROOT) -> dict[str, str]:
     """{science file: 12 hex digits of the sha256 of its bytes}, for the files ``paths`` name."""
-    return {rel: hashlib.sha256((root / rel).read_bytes()).hexdigest()[:12] for rel in science_files(paths, root)}
+    return {recorded_name(rel): hashlib.sha256((root / rel).read_bytes()).hexdigest()[:12]
+            for rel in science_files(paths, root)}
 
 
 def _existing_files(paths: Iterable[str], root: Path) -> tuple[list[str], list[str]]:
@@ -87,18 +105,15 @@ def staleness(data: dict[str, Any], root: Path = ROOT) -> dict[str, Any] | None:
     if not recorded or not science:
         return None
     files, gone = _existing_files(science, root)
-    h = hashlib.sha256()
-    for rel in files:
-        h.update(rel.encode() + b"\0" + (root / rel).read_bytes() + b"\0")
-    now = h.hexdigest()[:12]
+    now = code_version(files, root) if files else hashlib.sha256().hexdigest()[:12]
     if now == recorded and not gone:
         return None
     then = data.get("science_files")
     changed = None
     if isinstance(then, dict):
         cur = file_hashes(files, root) if files else {}
-        changed = [f"{f} (removed)" if f not in cur else f"{f} (new)" if f not in then else f
-                   for f in sorted(set(then) | set(cur)) if then.get(f) != cur.get(f)]
+        changed = [f"{f} (removed)" if f not in cur else f"{MOVED.get(f, f)} (new)" if f not in then else MOVED.get(f, f)
+                   for f in sorted(set(then) | set(cur)) if then.get(f) != cur.get(f)]  # a moved file where it is now
     return {"recorded": recorded, "now": now, "changed": changed}
 
 

@@ -26,7 +26,7 @@ takes ``Damage`` (or a subclass) then offers it on every robot. ``stiff_joints``
 so (issue 42): this module and its test, tests/robots/test_damage_vocabulary.py.
 
 Legs are named by their map: the built-in hexapod's are ``leg1``..``leg6`` with joints
-``leg<n>_coxa``/``_femur``/``_tibia`` (app/robots/hexapod.py ``leg_map``). The paper's
+``leg<n>_coxa``/``_femur``/``_tibia`` (app/robots/hexapod/__init__.py ``leg_map``). The paper's
 leg numbers are a spelling of those names, translated where a spec takes them (the
 recovery spec's ``Damage.named``); ``DamageSpec`` below is that spelling for code that
 still builds a damaged hexapod by number.

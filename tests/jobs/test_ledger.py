@@ -163,3 +163,30 @@ def test_the_root_is_the_repository(tmp_path):
                          check=True).stdout.split()
     assert out == [str(repo), expected]
     assert ledger.ROOT == repo
+
+
+def test_a_science_file_moved_unchanged_keeps_every_code_version(tmp_path, monkeypatch):
+    """A move (ledger.MOVED: a robot's module that became its folder's __init__.py) hashes
+    the file under the path ledgers recorded, in that path's order: the version is the one
+    before the move, a ledger naming the old path is current and finds the file, and once
+    the bytes change the page names the file where it is now."""
+    from app.jobs import ledger
+
+    (tmp_path / "app/robots").mkdir(parents=True)
+    old, new = tmp_path / "app/robots/bot.py", tmp_path / "app/robots/abot/__init__.py"
+    old.write_text("K = 1\n")
+    (tmp_path / "app/robots/b.py").write_text("Z = 2\n")  # after the new path, before the old one
+    science = ["app/robots/bot.py", "app/robots/b.py"]
+    before = ledger.code_version(science, tmp_path)
+    hashes = ledger.file_hashes(science, tmp_path)
+    new.parent.mkdir()
+    old.rename(new)
+    monkeypatch.setattr(ledger, "MOVED", {"app/robots/bot.py": "app/robots/abot/__init__.py"})
+    monkeypatch.setattr(ledger, "_RECORDED", {"app/robots/abot/__init__.py": "app/robots/bot.py"})
+    moved = ["app/robots/abot/__init__.py", "app/robots/b.py"]
+    assert ledger.code_version(moved, tmp_path) == before == ledger.code_version(science, tmp_path)
+    assert ledger.file_hashes(moved, tmp_path) == hashes
+    data = {"code_version": before, "science": science, "science_files": hashes}
+    assert ledger.staleness(data, tmp_path) is None
+    new.write_text("K = 2\n")
+    assert ledger.staleness(data, tmp_path)["changed"] == ["app/robots/abot/__init__.py"]

@@ -95,7 +95,7 @@ def _trot(params: TrotParams, log: Callable[[str], None]) -> str:
 # -- issue 28: the GA over seeds, with a period range that does not bind ------------------------
 
 SCIENCE = ("app/jobs/energy/run.py", "app/jobs/energy/problem.py", "app/jobs/energy/spec.py", "app/jobs/energy/dynamics",
-           "app/robots/quadruped.py", "app/optim/ga.py", "app/optim/random_search.py")
+           "app/robots/quadruped/__init__.py", "app/optim/ga.py", "app/optim/random_search.py")
 SEEDS_JSON, TABLE1_JSON, KNOTS_JSON = "docs/energy_seeds.json", "docs/energy_table1.json", "docs/energy_knots.json"
 SEEDS_COMMAND = "gaitmend reproduce energy-seeds --write-docs"
 TABLE1_COMMAND = "gaitmend reproduce energy-table1 --write-docs"

@@ -14,7 +14,7 @@ from app.jobs.freegait.terrain import make_minefield, make_terrain
 
 
 KEVS = (0.0, 0.02, 0.04, 0.06, 0.08, 0.1)
-SCIENCE = ("app/jobs/freegait/planner", "app/jobs/freegait/terrain.py", "app/robots/silo6.py")
+SCIENCE = ("app/jobs/freegait/planner", "app/jobs/freegait/terrain.py", "app/robots/silo6/__init__.py")
 KEV_JSON, ZONES_JSON, CRAB_JSON = "docs/freegait_kev.json", "docs/freegait_zones.json", "docs/freegait_crab.json"
 CIRCLING_JSON, SPINNING_JSON = "docs/freegait_circling.json", "docs/freegait_spinning.json"
 SWEEP_JSON, NOISE_JSON = "docs/freegait_sweep.json", "docs/freegait_noise.json"

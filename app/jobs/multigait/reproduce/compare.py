@@ -37,7 +37,7 @@ from app.robots.modular import get_shape
 # the code that decides a run's numbers (``one`` below calls into these; ``code_version``
 # hashes them into each appended run, so a ledger filled over sessions says which code ran)
 SCIENCE = ("app/jobs/multigait/evidence.py", "app/jobs/multigait/cpg.py", "app/jobs/multigait/planner",
-           "app/robots/modular.py", "app/optim/pso.py", "app/optim/random_search.py")
+           "app/robots/modular/__init__.py", "app/optim/pso.py", "app/optim/random_search.py")
 
 
 def make(arm: str, lower, upper, particles: int, seed: int):

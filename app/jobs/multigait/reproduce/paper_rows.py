@@ -44,7 +44,7 @@ ROW_NAMES = ("E", "E1", "E2", "C", "C1", "C2")
 ROWS_JSON, CELLS_JSON = "docs/multigait_rows.json", "docs/multigait_cells.json"
 ROWS_COMMAND, CELLS_COMMAND = "gaitmend reproduce multigait-rows --write-docs", "gaitmend reproduce multigait-cells --write-docs"
 SCIENCE = ("app/jobs/multigait/run.py", "app/jobs/multigait/phases.py", "app/jobs/multigait/evidence.py",
-           "app/jobs/multigait/cpg.py", "app/jobs/multigait/spec.py", "app/jobs/multigait/planner", "app/robots/modular.py",
+           "app/jobs/multigait/cpg.py", "app/jobs/multigait/spec.py", "app/jobs/multigait/planner", "app/robots/modular/__init__.py",
            "app/optim/pso.py")
 CELLS = (1.0, 1.25, 1.5, 2.0)
 MAP_CELLS_1MU = 48 * 27

@@ -5,5 +5,5 @@ module is in none of the lists, so editing it changes no ledger's version."""
 BASE = ("app/jobs/recovery/evaluate.py", "app/jobs/recovery/closedloop.py", "app/jobs/recovery/gait_controller.py",
         "app/jobs/recovery/cases.py", "app/jobs/recovery/robust.py", "app/jobs/recovery/metrics.py",
         "app/jobs/recovery/trajectory.py", "app/jobs/recovery/sequences.py", "app/jobs/recovery/spec.py",
-        "app/jobs/recovery/run.py", "app/jobs/loop.py", "app/robots/hexapod.py", "app/robots/ik.py",
+        "app/jobs/recovery/run.py", "app/jobs/loop.py", "app/robots/hexapod/__init__.py", "app/robots/ik.py",
         "app/sim/perturb.py", "app/sim/batch.py")

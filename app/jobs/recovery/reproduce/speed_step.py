@@ -308,4 +308,4 @@ STEP_TEXT = {"explicit contact pairs": "explicit contact pairs: the robot-floor 
              "explicit contact pairs, no island discovery (now)": "no constraint-island discovery (the robot is one "
                                                                   "island on a static floor)",
              "one fall-contact sensor": "the fall test's contacts from one sensor (every contact less the feet's, "
-                                        "app/robots/hexapod.py) instead of one sensor per watched body"}
+                                        "app/robots/hexapod/__init__.py) instead of one sensor per watched body"}

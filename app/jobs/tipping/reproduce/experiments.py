@@ -44,7 +44,7 @@ PAPER_FOOT_Y = 1.908  # |y| of the paper's footholds in four of six cases (1.894
 CASES_JSON = "docs/tipping_cases.json"
 CASES_SCIENCE = ("app/jobs/tipping/scenario.py", "app/jobs/tipping/controller.py", "app/jobs/tipping/hexapod_sim.py",
                  "app/jobs/tipping/stability", "app/jobs/tipping/evidence.py",
-                 "app/robots/heavy_hexapod.py", "app/robots/pantograph.py")
+                 "app/robots/heavy_hexapod/__init__.py", "app/robots/pantograph.py")
 CASES_COMMAND = "gaitmend reproduce tipping --write-docs"
 
 

@@ -32,7 +32,7 @@ from app.jobs.tipping.spec import TippingSpec
 
 SCIENCE = ("app/jobs/tipping/scenario.py", "app/jobs/tipping/controller.py", "app/jobs/tipping/hexapod_sim.py",
            "app/jobs/tipping/stability", "app/jobs/tipping/evidence.py",
-           "app/jobs/tipping/spec.py", "app/jobs/tipping/run.py", "app/robots/heavy_hexapod.py",
+           "app/jobs/tipping/spec.py", "app/jobs/tipping/run.py", "app/robots/heavy_hexapod/__init__.py",
            "app/robots/pantograph.py")
 
 SWEEP_JOB = {"kind": "tipping", "sweep": {"enabled": True, "directions": 12},
