@@ -151,7 +151,7 @@ def test_what_cannot_walk_or_does_not_fit_is_refused_naming_it(quadruped):
     assert spec_error(_spec({"locked_joints": [{"leg": "front_left", "joint": "knee_front_left"}]}), legs) is None
     with pytest.raises(LegMapError, match="shares its body"):  # yaw and pitch share the hip body
         UserRobot(RID, quadruped, Damage(locked_joints=[LockedJointDamage(leg="front_left", joint="yaw_front_left")]))
-    for bad, field in (({"kind": "recovery", "robot_damage": {}}, "robot_damage"),
+    for bad, field in (({"kind": "recovery", "robot_damage": {"lost_legs": ["front_left"]}}, "robot_damage"),
                        ({"kind": "recovery", "robot": RID, "damage": {"lost_legs": [1]}}, "damage"),
                        ({"kind": "recovery", "robot": RID, "gait": {"stance_height_m": 0.12}}, "gait.stance_height_m"),
                        ({"kind": "recovery", "robot": "not-a-robot"}, "robot")):

@@ -40,9 +40,9 @@ def functional_legs(spec: RecoverySpec) -> list[int]:
 
 
 def damage_spec(spec: RecoverySpec) -> Damage:
-    """The built-in robot's damage in the robot layer's vocabulary (the paper's leg numbers
-    translated to the leg map's names by the spec)."""
-    return spec.damage.named()
+    """The built-in robot's damage in the robot layer's vocabulary: ``robot_damage`` as
+    given by name, else the paper's leg numbers translated to the leg map's names."""
+    return spec.robot_damage if spec.robot_damage is not None else spec.damage.named()
 
 
 def search_bounds(spec: RecoverySpec, robot: RobotEntry) -> tuple[np.ndarray, np.ndarray]:

@@ -276,7 +276,9 @@ class RecoverySpec(SpecBase):
     # legs 1 and 6 lost). `"damage": {}` is the intact robot.
     damage: Damage = Field(default_factory=lambda: Damage(lost_legs=[1, 6]))
     robot_damage: RobotDamage | None = Field(None, description=(
-        "an uploaded robot's damage, by its leg map's leg and joint names (`damage` is the built-in robots')"))
+        "the damage by the robot's leg map's leg and joint names, every type of the robot layer's vocabulary: an "
+        "uploaded robot's damage, or a built-in robot's instead of `damage` (jethexa: legs leg1..leg6, joints "
+        "leg<n>_coxa, _femur, _tibia)"))
     search: Search = Field(default_factory=Search)
     stop: RecoveryStop = Field(default_factory=RecoveryStop)
     objective: Objective = Field(default_factory=Objective)
@@ -317,13 +319,37 @@ class RecoverySpec(SpecBase):
             raise ValueError("control.mode: an uploaded robot walks open loop (the closed-loop correction is the "
                              "built-in robots')")
         if not uploaded and self.robot_damage is not None:
-            raise ValueError("robot_damage: only for an uploaded robot; a built-in robot's damage is `damage`")
+            self._built_in_named_damage()
         if uploaded and self.damage != Damage():
             raise ValueError("damage: an uploaded robot's damage is `robot_damage`, by its leg map's names")
         if uploaded and self.gait.stance_height_m != Gait().stance_height_m:  # a stored spec holds the default
             raise ValueError("gait.stance_height_m: an uploaded robot walks at its own stance height (its leg map's "
                              "stance); leave it at its default")
         return self
+
+    def _built_in_named_damage(self) -> None:
+        """A built-in robot damaged by its leg map's names (the one vocabulary, every type):
+        checked against its map, and its lost legs given to ``damage`` in the paper's numbers
+        (which the gait planner and the search space read). ``damage`` set as well must say
+        the same lost legs and nothing else: the damage is given once."""
+        from app.robots.legmap import LegMapError
+
+        legs = ROBOTS[self.robot].leg_map()
+        try:
+            self.robot_damage.check(legs)
+        except LegMapError as e:
+            raise ValueError(f"robot_damage: {e}") from None
+        number = {leg_name(n): n for n in ROBOTS[self.robot].legs}
+        lost = sorted(number[l] for l in self.robot_damage.lost_legs)
+        try:
+            check_feasible([l for l in ROBOTS[self.robot].legs if l not in lost])
+        except InfeasibleMorphology as e:
+            raise ValueError(f"robot_damage.lost_legs: {e}") from None
+        derived = Damage(lost_legs=lost)
+        if "damage" in self.model_fields_set and self.damage != derived:
+            raise ValueError("damage: give a built-in robot's damage once, by number in `damage` or by name in "
+                             f"`robot_damage` (with robot_damage, damage may only repeat its lost legs: {lost})")
+        self.damage = derived
 
     @model_validator(mode="after")
     def _randomised_alone(self):

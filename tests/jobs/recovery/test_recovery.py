@@ -248,3 +248,43 @@ def test_bad_evidence_specs_name_the_field(patch, field):
     with pytest.raises(SpecError) as e:
         parse_spec(SMALL | patch)
     assert [x["field"] for x in e.value.errors][0] == field
+
+
+def test_the_built_in_hexapod_takes_damage_by_name_and_numbers_are_its_spelling(small_run, tmp_path):
+    """One vocabulary (app/robots/damage.py) for the built-in robot too: legs lost by name give
+    the very numbers legs lost by number give (the numbers are the paper's spelling), and the
+    types the paper's spelling lacks (passive, stiff joints, shortened legs) reach the model."""
+    import mujoco
+
+    from app.jobs.recovery.run import damage_spec, sim_model
+
+    spec, res = small_run
+    named = parse_spec({k: v for k, v in SMALL.items() if k != "damage"}
+                       | {"robot_damage": {"lost_legs": ["leg6", "leg1"]}})
+    assert named.damage.lost_legs == [1, 6] and sorted(damage_spec(named).lost_legs) == damage_spec(spec).lost_legs
+    again = run(named, Ctx(tmp_path))
+    moved = {"damage", "timing"}  # the summary says the damage as given; every number is the same
+    assert {k: v for k, v in again.summary.items() if k not in moved} == {
+        k: v for k, v in res.summary.items() if k not in moved}
+    assert parse_spec(named.model_dump(mode="json")) == named  # a stored spec reads back
+
+    more = parse_spec({"kind": "recovery", "robot_damage": {
+        "lost_legs": ["leg1", "leg6"], "passive_joints": [{"leg": "leg3", "joint": "leg3_tibia"}],
+        "stiff_joints": [{"leg": "leg2", "joint": "leg2_femur", "friction": 0.3}]}})
+    _, model = sim_model(more, JETHEXA)
+    actuated = {model.joint(int(model.actuator_trnid[i, 0])).name for i in range(model.nu)}
+    assert "leg3_tibia" not in actuated and "leg2_femur" in actuated and len(actuated) == 11
+    assert model.joint("leg2_femur").frictionloss[0] == 0.3 and model.joint("leg4_femur").frictionloss[0] == 0.0
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "leg3_tibia") >= 0  # passive: still there
+
+
+@pytest.mark.parametrize("damage, field", [
+    ({"robot_damage": {"lost_legs": ["leg9"]}}, "robot_damage"),
+    ({"robot_damage": {"passive_joints": [{"leg": "leg2", "joint": "leg3_femur"}]}}, "robot_damage"),
+    ({"robot_damage": {"lost_legs": ["leg1", "leg3"]}}, "robot_damage.lost_legs"),
+    ({"damage": {"lost_legs": [2, 5]}, "robot_damage": {"lost_legs": ["leg1", "leg6"]}}, "damage"),
+])
+def test_a_built_in_robots_damage_by_name_is_checked_against_its_map(damage, field):
+    with pytest.raises(SpecError) as e:
+        parse_spec({"kind": "recovery"} | damage)
+    assert f"{field}:" in str(e.value)
