@@ -51,10 +51,10 @@ class RecoveryKind(PackageKind):
         return FILES.get(path) or super().describe_file(path)
 
     def robot_info(self, robot):
-        from app.jobs.recovery.trajectory import BUILT_IN
+        from app.jobs.recovery.trajectory import search_box
 
         info = ROBOTS[robot].describe()  # the robot's own; the search box is this kind's
-        info["parameters"] = BUILT_IN[robot].describe() | info["parameters"]
+        info["parameters"] = search_box(ROBOTS[robot]).describe() | info["parameters"]
         return info
 
     def user_robot_error(self, spec, legs):

@@ -99,10 +99,10 @@ class SearchBox:
                 "step_length_bounds_m": list(self.step_length), "step_height_bounds_m": list(self.step_height)}
 
 
-# The built-in robots' boxes, by catalog name (app/robots/catalog.py): the paper's, with y0
-# paired front (1, 2), middle (3, 4), rear (5, 6); each centred on the robot's nominal
-# stance (tests/jobs/recovery/test_recovery.py checks it). An uploaded robot's box scales
-# with its stance height (app/jobs/recovery/userrobot.py).
+# The paper's box for its robot, by catalog name (app/robots/catalog.py), with y0 paired
+# front (1, 2), middle (3, 4), rear (5, 6), centred on the robot's nominal stance
+# (tests/jobs/recovery/test_recovery.py checks it). Any other robot, built-in or uploaded,
+# gets ``stance_box``.
 BUILT_IN: dict[str, SearchBox] = {
     "jethexa": SearchBox(
         y0={1: (-0.01, 0.05), 2: (-0.01, 0.05), 3: (-0.03, 0.03), 4: (-0.03, 0.03), 5: (-0.05, 0.01),
@@ -111,9 +111,21 @@ BUILT_IN: dict[str, SearchBox] = {
 }
 
 
+def stance_box(x0: float, y0: dict[int, float], stance_height: float) -> SearchBox:
+    """A box scaled by the robot's stance height H around its nominal stance: y0 +- 0.3 H,
+    x0 +- 0.2 H, steps 0.2-0.5 H long and high."""
+    H = stance_height
+    return SearchBox(y0={n: (y - 0.3 * H, y + 0.3 * H) for n, y in y0.items()}, x0=(x0 - 0.2 * H, x0 + 0.2 * H),
+                     step_length=(0.2 * H, 0.5 * H), step_height=(0.2 * H, 0.5 * H))
+
+
 def search_box(robot) -> SearchBox:
-    """The box of a built-in robot (a ``RobotEntry``) or of an uploaded one (its ``box``)."""
-    return BUILT_IN[robot.name] if isinstance(robot, RobotEntry) else robot.box
+    """The box of a built-in robot (a ``RobotEntry``: the paper's where it has one, else its
+    stance's) or of an uploaded one (its ``box``, from its stance too)."""
+    if not isinstance(robot, RobotEntry):
+        return robot.box
+    return BUILT_IN.get(robot.name) or stance_box(robot.nominal_x0(), {l: robot.nominal_y0(l) for l in robot.legs},
+                                                  robot.stance_height)
 
 
 def bounds_of(b, robot, legs: list[int], relaxed: set[int]) -> tuple[np.ndarray, np.ndarray]:

@@ -36,7 +36,7 @@ import mujoco
 import numpy as np
 
 from app.jobs.recovery.sequences import GaitSequence, InfeasibleMorphology, plan_general
-from app.jobs.recovery.trajectory import SearchBox, bounds_of, tip_positions
+from app.jobs.recovery.trajectory import bounds_of, stance_box, tip_positions
 from app.robots.legmap import LegMap, LegMapError, Robot
 from app.robots.numik import LegIK
 from app.robots.damage import Damage
@@ -167,9 +167,7 @@ class UserRobot:
         H = self.nominal.stance_height
         self.stance_height = H
         self.nominal_step_length, self.nominal_step_height = 0.4 * H, 0.3 * H
-        self.box = SearchBox(y0={n: (y - 0.3 * H, y + 0.3 * H) for n, y in self.nominal.y0.items()},
-                             x0=(self.nominal.x0 - 0.2 * H, self.nominal.x0 + 0.2 * H),
-                             step_length=(0.2 * H, 0.5 * H), step_height=(0.2 * H, 0.5 * H))
+        self.box = stance_box(self.nominal.x0, self.nominal.y0, H)
         self.ik: LegIK | None = None
         self.ik_stats = {"calls": 0, "wall_s": 0.0, "targets": 0, "max_error_m": 0.0, "beyond_1mm": 0}
 
