@@ -29,6 +29,18 @@ _TABLE: dict[str, tuple[Callable[[], type[Optimizer]], tuple[str, ...]]] = {
 }
 OPTIMIZERS = tuple(_TABLE)
 SETTINGS = frozenset(p for _, params in _TABLE.values() for p in params)
+MINIMISERS = frozenset({"ga"})  # each class's ``maximises`` (tests/optim/test_interface.py checks it)
+MAXIMISERS = tuple(n for n in OPTIMIZERS if n not in MINIMISERS)
+
+
+def check_name(name: str, maximise: bool = True) -> str:
+    """``name`` if it is a registered optimiser that looks the way a kind's search looks
+    (maximises, or minimises); else a ValueError that lists the ones that fit."""
+    fits = [n for n in OPTIMIZERS if (n not in MINIMISERS) == maximise]
+    if name not in fits:
+        why = "unknown" if name not in _TABLE else ("it minimises" if maximise else "it maximises")
+        raise ValueError(f"optimizer {name!r}: {why}; allowed: {', '.join(fits)}")
+    return name
 
 
 def make_optimizer(name: str, lower, upper, population: int, seed, **settings: Any) -> Optimizer:

@@ -63,3 +63,16 @@ def test_every_optimizer_resumes_from_json(name):
 def test_a_setting_no_optimizer_has_is_refused():
     with pytest.raises(TypeError, match="crosover"):
         make_optimizer("ga", np.zeros(2), np.ones(2), population=6, seed=0, crosover=0.8)
+
+
+@pytest.mark.parametrize("name", OPTIMIZERS)
+def test_the_registry_knows_which_way_each_optimizer_looks(name):
+    """MINIMISERS (which a kind's spec checks names against without loading every class)
+    agrees with each class's own ``maximises``."""
+    from app.optim.registry import MINIMISERS, check_name
+
+    opt = make_optimizer(name, np.zeros(2), np.ones(2), population=6, seed=0)
+    assert (name in MINIMISERS) == (not opt.maximises)
+    assert check_name(name, maximise=opt.maximises) == name
+    with pytest.raises(ValueError, match="allowed"):
+        check_name(name, maximise=not opt.maximises)

@@ -11,6 +11,7 @@ from pydantic import Field, field_validator, model_validator
 from app.jobs.recovery.sequences import InfeasibleMorphology, check_feasible
 from app.jobs.base import SpecBase, StrictModel
 from app.jobs.loop import StopRules
+from app.optim.registry import MAXIMISERS, check_name
 from app.robots.catalog import ROBOTS
 from app.robots.damage import Damage as MapDamage
 from app.robots.damage import LockedJointDamage, WeakJointDamage, damaged_once
@@ -101,7 +102,9 @@ class ShortWalks(StrictModel):
 
 
 class Search(StrictModel):
-    optimizer: Literal["de", "cmaes"] = "de"
+    optimizer: str = Field("de", max_length=32, json_schema_extra={"enum": list(MAXIMISERS)}, description=(
+        "any registered optimiser that maximises (app/optim/registry.py): de (the paper's), cmaes, pso, random; "
+        "cr and f are DE's, the others keep their own defaults"))
     population: int = Field(30, ge=4, le=1000)
     generations: int = Field(60, ge=1, le=10000)
     cr: float = Field(0.6, ge=0.0, le=1.0)
@@ -113,6 +116,11 @@ class Search(StrictModel):
     short_walks: ShortWalks | None = Field(None, description=(
         "CMA-ES only: the first generations walk for less time and only steer the search; the answer is the best of "
         "the full-walk generations (docs/recovery_speed.md)"))
+
+    @field_validator("optimizer")
+    @classmethod
+    def _registered(cls, v: str) -> str:
+        return check_name(v, maximise=True)  # F is maximised
 
 
 class RecoveryStop(StopRules):

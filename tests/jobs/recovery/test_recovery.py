@@ -302,3 +302,18 @@ def test_a_built_in_robots_damage_by_name_is_checked_against_its_map(damage, fie
     with pytest.raises(SpecError) as e:
         parse_spec({"kind": "recovery"} | damage)
     assert f"{field}:" in str(e.value)
+
+
+def test_any_registered_optimizer_that_maximises_runs_the_search(small_run, tmp_path):
+    """The optimiser is a name the registry checks (app/optim/registry.py): PSO runs the
+    recovery search through the same loop (another answer than DE's from the same seed);
+    the GA (it minimises) and unknown names are refused naming search.optimizer."""
+    spec = parse_spec(SMALL | {"search": SMALL["search"] | {"optimizer": "pso"}})
+    res = run(spec, Ctx(tmp_path))
+    assert res.summary["search"]["generations_run"] == SMALL["search"]["generations"] + 1
+    assert np.isfinite(res.summary["best"]["fitness"]) and len(res.summary["best"]["params"]) == 10
+    assert res.summary["best"]["params"] != small_run[1].summary["best"]["params"]
+    for bad, why in (("ga", "minimises"), ("nelder_mead", "unknown")):
+        with pytest.raises(SpecError) as e:
+            parse_spec(SMALL | {"search": SMALL["search"] | {"optimizer": bad}})
+        assert "search.optimizer" in str(e.value) and why in str(e.value)
