@@ -21,13 +21,13 @@ vocabulary (``Damage``'s field), its check against the leg map and its edit of t
 Adding a damage type: its entry model and a field on ``Damage`` (left out of a dump while
 unused: ``Damage.ALWAYS``) with its words (``Damage.WORDS``), its name in ``JOINT_FIELDS``
 if it names joints (checked against the map, once per joint), and its edit in
-``apply_damage``; every kind whose spec
-takes ``Damage`` (or a subclass) then offers it on every robot. ``stiff_joints`` was added
-so (issue 42): this module and its test, tests/robots/test_damage_vocabulary.py.
+``apply_damage``; every kind whose spec takes ``Damage`` (or a subclass) then offers it on
+every robot (recovery through ``robot_damage``, the built-in hexapod's too). ``stiff_joints``
+was added so (issue 42): this module and its test, tests/robots/test_damage_vocabulary.py.
 
 Legs are named by their map: the built-in hexapod's are ``leg1``..``leg6`` with joints
-``leg<n>_coxa``/``_femur``/``_tibia`` (app/robots/hexapod/__init__.py ``leg_map``). The paper's
-leg numbers are a spelling of those names, translated where a spec takes them (the
+``leg<n>_coxa``/``_femur``/``_tibia`` (app/robots/hexapod/__init__.py ``leg_map``). The
+paper's leg numbers are a spelling of those names, translated where a spec takes them (the
 recovery spec's ``Damage.named``); ``DamageSpec`` below is that spelling for code that
 still builds a damaged hexapod by number.
 """

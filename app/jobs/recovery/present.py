@@ -45,10 +45,10 @@ def history_axis(spec: dict) -> dict:
 
 
 def damage_text(spec) -> str:
-    """An uploaded robot's damage as the robot layer words it (app/robots/damage.py); the
-    built-in hexapod's in the paper's spelling, legs and joints by number ("lost 1,6; locked
-    2.femur")."""
-    named = getattr(spec, "robot_damage", None)  # an uploaded robot's, by its leg map's names
+    """A damage given by name (``robot_damage``: an uploaded robot's, or a built-in's) as the
+    robot layer words it (app/robots/damage.py); one given by number in the paper's spelling
+    ("lost 1,6; locked 2.femur")."""
+    named = getattr(spec, "robot_damage", None)
     if named is not None:
         return named.describe()
     d = spec.damage
