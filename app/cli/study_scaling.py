@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from urllib.parse import urlsplit
 
+from app.core.polling import wait_done
 from app.results.scaling import COMMAND, JSON
 
 ENTRY = "from app.cli import main; main()"
@@ -83,14 +84,9 @@ def served(study: dict, workers: int, log, out: Path | None = None) -> dict:
         r = client.post("/api/studies", json=study)
         if r.status_code != 201:
             raise SystemExit(f"submit failed: {r.status_code} {r.text}")
-        sid, last = r.json()["id"], None
-        while (st := client.get(f"/api/studies/{sid}").json())["status"] in ("queued", "running"):
-            line = f"{st['progress']['done']}/{st['progress']['points']} done"
-            if line != last:
-                log(f"served: {line} ({time.monotonic() - t0:.0f} s)")
-                last = line
-            time.sleep(1.0)
-        wall = time.monotonic() - t0
+        sid = r.json()["id"]
+        st, wall = wait_done(lambda: client.get(f"/api/studies/{sid}").json(),
+                             lambda st: f"served: {st['progress']['done']}/{st['progress']['points']} done", log, 1.0, t0)
         if out is not None:  # the served study's bundle and plots, as a user would fetch them
             (out / "served_bundle.zip").write_bytes(client.get(f"/api/studies/{sid}/bundle").content)
             (out / "served_views.json").write_text(json.dumps(client.get(f"/api/studies/{sid}/views").json()))

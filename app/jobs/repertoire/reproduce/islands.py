@@ -31,6 +31,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, Field
 
+from app.core.polling import wait_done
 from app.jobs.base import Experiment
 from app.jobs.reporting import Section
 
@@ -121,14 +122,10 @@ def served_study(c, study: dict, workers: int, log: Callable[[str], None]) -> di
     r = c.post("/api/studies", json=study)
     if r.status_code != 201:
         raise RuntimeError(f"the study was refused: {r.status_code} {r.text}")
-    sid, last = r.json()["id"], None
-    while (st := c.get(f"/api/studies/{sid}").json())["status"] in ("queued", "running"):
-        line = f"{st['progress']['done']}/{st['progress']['points']} islands done"
-        if line != last:
-            log(f"  {workers} worker(s): {line} ({time.monotonic() - t0:.0f} s)")
-            last = line
-        time.sleep(0.5)
-    wall = time.monotonic() - t0
+    sid = r.json()["id"]
+    st, wall = wait_done(lambda: c.get(f"/api/studies/{sid}").json(),
+                         lambda st: f"  {workers} worker(s): {st['progress']['done']}/{st['progress']['points']} islands "
+                                    "done", log, 0.5, t0)
     if st["status"] != "succeeded":
         raise RuntimeError(f"the study ended {st['status']}")
     with zipfile.ZipFile(io.BytesIO(c.get(f"/api/studies/{sid}/bundle").content)) as z:
