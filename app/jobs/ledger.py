@@ -105,7 +105,7 @@ def staleness(data: dict[str, Any], root: Path = ROOT) -> dict[str, Any] | None:
     if not recorded or not science:
         return None
     files, gone = _existing_files(science, root)
-    now = code_version(files, root) if files else hashlib.sha256().hexdigest()[:12]
+    now = code_version(files, root)
     if now == recorded and not gone:
         return None
     then = data.get("science_files")

@@ -341,13 +341,14 @@ class RecoverySpec(SpecBase):
         (which the gait planner and the search space read). ``damage`` set as well must say
         the same lost legs and nothing else: the damage is given once."""
         from app.robots.legmap import LegMapError
+        from app.robots.walkable import leg_numbers
 
         legs = ROBOTS[self.robot].leg_map()
         try:
             self.robot_damage.check(legs)
         except LegMapError as e:
             raise ValueError(f"robot_damage: {e}") from None
-        number = {leg_name(n): n for n in ROBOTS[self.robot].legs}
+        number = leg_numbers(legs)  # the map's own numbering (front to back, left first), as for uploaded robots
         lost = sorted(number[l] for l in self.robot_damage.lost_legs)
         try:
             check_feasible([l for l in ROBOTS[self.robot].legs if l not in lost])
