@@ -25,10 +25,11 @@ independent and deterministic, tests/adapt/test_evaluation.py checks it against 
 **Arms.** ``ite``: ITE as published on its one map (app/adapt/methods.py ``ITE``);
 ``gaitmend``: ``GAITMEND`` over all the maps; ablations, each one part of ``GAITMEND``
 switched off; ``random``: 20 elites of ITE's map drawn uniformly without replacement.
-Each arm runs until its own stop rule or 20 trials. The recovery kind's DE searched on the
-believed damage is not an arm here: the recovery kind has no way, through the kind contract,
-to play its answer on another damage in a perturbed world (only the repertoire kind has
-``Kind.play``), so the JSON records that arm as not run, with the reason.
+Each arm runs until its own stop rule or 20 trials. ``de_believed``: the recovery kind's DE
+(``DE_SPEC``) searched in simulation on the damage the lab believes (``believed_damage``: the
+true one with its last joint fault left out), its answer played once on the reality through
+the recovery kind's ``Kind.play``; it runs after a reality's other arms (``run_de_believed``)
+and is kept when the other arms are re-run.
 """
 
 from __future__ import annotations
@@ -148,10 +149,18 @@ ARMS: dict[str, tuple[str, M.Settings, str, bool]] = {
                            "all", False),
 }
 RANDOM = "random"
-DE_BELIEVED = {"run": False, "reason": (
-    "not run: the recovery kind's DE answer would have to be played once on the true damage in the perturbed world, "
-    "and through the kind contract only the repertoire kind can play its gaits elsewhere (Kind.play); the recovery "
-    "kind has no such member (app/jobs/recovery is not this evaluation's to change)")}
+DE_ARM = "de_believed"
+# the recovery job a lab that believed a damage would submit (the fast preset: it stops once the answer meets the
+# recovery target, confirmed at half the step); the controls, the named cases and the held-out models are off: they
+# judge an answer, they do not change it
+DE_SPEC = {"kind": "recovery", "preset": "fast", "controls": {"random_search": False},
+           "robustness": {"cases": [], "held_out": 0}}
+# the tests' size (``--quick``): the recovery kind's smallest search over 1 s walks
+DE_QUICK = DE_SPEC | {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 1.0}}
+DE_BELIEVED = {"run": True, "spec": DE_SPEC, "words": (
+    "the recovery kind's DE (fast preset) searched in simulation on the damage the lab believes (the true one with "
+    "its last joint fault left out), its answer tried once on the reality over the recovery walk (10 s)")}
+JOINT_FAULTS = ("locked_joints", "weak_joints", "passive_joints", "stiff_joints", "shortened_legs")
 
 
 # -- maps -------------------------------------------------------------------------------------------
@@ -314,6 +323,64 @@ def draw_world(rng: np.random.Generator) -> dict:
              "terrain_seed": int(rng.integers(0, 2**31 - 1))}
 
 
+# -- the recovery kind's DE on the believed damage ------------------------------------------------
+
+def believed_damage(damage: dict) -> dict:
+    """What a lab believes of ``damage``: every lost leg (a missing leg is seen) and every joint
+    fault but the last one listed (in ``JOINT_FAULTS``' order: locked, weak, passive, stiff
+    joints, shortened legs); a damage of lost legs alone is believed as it is."""
+    out = {k: list(v) for k, v in damage.items() if v}
+    for key in reversed(JOINT_FAULTS):
+        if out.get(key):
+            out[key] = out[key][:-1]
+            if not out[key]:
+                del out[key]
+            break
+    return out
+
+
+def run_de_believed(drawn: dict, seed: int, profile: Profile | None = None, quick: bool = False) -> dict:
+    """The arm ``DE_ARM`` on one reality: a recovery job (``DE_SPEC``, search seed ``seed``) on
+    the believed damage in the nominal world, its answer played once (the recovery kind's
+    ``Kind.play``) on the true damage in the reality's world. A damage the recovery kind
+    refuses (e.g. an uploaded robot left with three legs) is recorded with the refusal and
+    counts as not recovered: the lab gets no gait. ``quick``: ``DE_QUICK``, the tests' size."""
+    profile = profile or profile_of(ROBOT)
+    t0 = time.perf_counter()
+    kind = get_kind("recovery")
+    true = drawn["reality"]["damage"]
+    believed = believed_damage(true)
+    fixed = DE_QUICK if quick else DE_SPEC
+    base = fixed | {"robot": profile.robot, "search": fixed.get("search", {}) | {"seed": int(seed)}}
+    ctx = MemoryContext(robots=profile.robots if profile.stored is not None else None)
+    stored = profile.stored
+    out = {"trials": 1, "method_stopped": True, "believed_damage": believed}
+    try:
+        spec = parse_spec(base | {"robot_damage": believed})
+        if profile.stored is not None:
+            why = kind.user_robot_error(spec, profile.stored.legs.to_json())
+            if why:
+                raise SpecError([{"field": "robot_damage", "message": why}])
+        job = kind.run(spec, ctx).summary
+    except SpecError as e:
+        return out | {"recovered_at": None, "stop": f"refused: {e}", "final_speed_m_s": 0.0, "final_fell": False,
+                      "final_lateral_m": 0.0, "final_yaw_deg": 0.0, "tried": "none (refused)",
+                      "seconds": time.perf_counter() - t0}
+    names = job["bounds"]["names"]
+    x = [job["best"]["params"][n] for n in names]
+    reality = Reality.parse(drawn["reality"], profile.robots if profile.stored is not None else None)
+    m = kind.play(parse_spec(base | {"robot_damage": true}), [x], names, reality.perturbation.perturbation(),
+                  stored)
+    got = Measured(m["forward_m"][0], m["lateral_m"][0], m["yaw_deg"][0], m["fell"][0], m["duration_s"][0])
+    ok = recovered(got.forward_m, got.fell, got.duration_s, reality.robot, reality.stored)
+    return out | {"recovered_at": 1 if ok else None,
+                  "stop": f"one answer (the search stopped on {job['search']['stop_reason']} after "
+                          f"{job['search']['generations_run']} generations)", "final_speed_m_s": _speed(got), "final_fell": got.fell,
+                  "final_lateral_m": got.lateral_m, "final_yaw_deg": got.yaw_deg, "tried": "the DE answer",
+                  "believed_forward_m": job["best"]["metrics"]["y_f_m"], "believed_target_met": job["best"]["target_met"],
+                  "evaluations": job["timing"]["evaluations"], "seconds": time.perf_counter() - t0}
+
+
 # -- one reality ------------------------------------------------------------------------------------
 
 def oracle_tables(reality: Reality, reps: list[Repertoire]) -> dict[str, list[Measured]]:
@@ -448,15 +515,19 @@ def setup(p: Params, maps: list[dict]) -> dict:
             "arms": {k: {"words": w, "settings": dataclasses.asdict(s), "maps": which, "target_stated": stated}
                      for k, (w, s, which, stated) in ARMS.items()}
             | {RANDOM: {"words": f"{MAX_TRIALS} elites of ITE's map drawn uniformly without replacement"}},
-            "de_believed": DE_BELIEVED, "design_seen": profile.design_seen, "types": list(profile.types),
+            "de_believed": de_setup(p.quick), "design_seen": profile.design_seen, "types": list(profile.types),
             "prior_damages": profile.prior_damages,
             "reality_lost_legs": list(profile.reality_lost)}
 
 
 def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
-    from app.adapt.reproduce.report import render
-
     profile = profile_of(p.robot)
+    if p.de_only:
+        data = json.loads(p.json_out.read_text()) if p.json_out.exists() else None
+        if data is None or data["setup"]["quick"] != p.quick or data["setup"]["seed"] != p.seed:
+            raise SystemExit(f"--de-only runs the DE arm on the realities of {p.json_out}: it holds none of this "
+                             "setup (seed, quick)")
+        return _de_pass(p, profile, data, log)
     reps, maps = build_maps(p, log)
     scenarios = scenario_maps(p, reps, log)
     worlds = scenario_maps(p, reps, log, worlds=True)
@@ -471,7 +542,7 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
     if data is None:
         data = {"schema": SCHEMA, "experiment": "adapt" if profile.name == ROBOT else f"adapt-{profile.name}",
                 "command": COMMAND if profile.name == ROBOT else ANT_COMMAND, "setup": want, "realities": []}
-    if data["setup"] != want:  # arms changed: re-run them on the realities whose table is kept
+    if _arms_setup(data["setup"]) != _arms_setup(want):  # arms changed: re-run them where the table is kept
         data["setup"] = want
         for i, r in enumerate(data["realities"]):
             cache = _table_path(p, profile, r["id"])
@@ -479,10 +550,14 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
                 k = int(r["id"].rsplit("-", 1)[1])
                 row = evaluate_reality({x: r[x] for x in ("id", "type", "reality")}, reps, p.seed * 100_003 + k, cache,
                                        scenarios, worlds, worlds_2, profile)
+                de = {DE_ARM: r["arms"][DE_ARM]} if DE_ARM in r["arms"] else {}
                 data["realities"][i] = r | {k: row[k] for k in ("arms", "oracle", "target_m_s")}
+                data["realities"][i]["arms"] |= de
                 log(f"reality {r['id']}: arms re-run on its kept table")
-        data["realities"] = [r for r in data["realities"] if set(r["arms"]) == set(want["arms"]) | {RANDOM}]
-        write_json_atomic(p.json_out, data)
+        data["realities"] = [r for r in data["realities"]
+                             if set(r["arms"]) - {DE_ARM} == set(want["arms"]) | {RANDOM}]
+    data["setup"] = want | {"de_believed": data["setup"].get("de_believed")}  # the DE pass checks its own entry
+    write_json_atomic(p.json_out, data)
     have = {r["id"] for r in data["realities"]}
     for k in range(p.realities):
         drawn = draw_reality(p.seed, k, profile)
@@ -499,4 +574,40 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
         write_json_atomic(p.json_out, data)
         log(f"reality {drawn['id']}: {row['seconds']['total']:.0f} s, "
             + ", ".join(f"{a} {v['recovered_at']}" for a, v in row["arms"].items()))
+    return _de_pass(p, profile, data, log)
+
+
+def _de_pass(p: Params, profile: Profile, data: dict, log: Callable[[str], None]) -> str:
+    """The DE arm on every reality of ``data`` that lacks it (in the file's order), each
+    written as it finishes; the page's section rendered from the file."""
+    from app.adapt.reproduce.report import render
+
+    want = de_setup(p.quick)
+    if data["setup"].get("de_believed") != want:  # another DE arm: run it again on every reality
+        for r in data["realities"]:
+            r["arms"].pop(DE_ARM, None)
+        data["setup"]["de_believed"] = want
+        write_json_atomic(p.json_out, data)
+    for r in data["realities"]:  # the DE arm, after the rest: a reality's row is written first, then its DE
+        if DE_ARM in r["arms"]:
+            continue
+        if p.stop_at and time.time() > p.stop_at:
+            log(f"stopping before the DE arm on reality {r['id']}: --stop-at passed")
+            break
+        k = int(r["id"].rsplit("-", 1)[1])
+        r["arms"][DE_ARM] = run_de_believed(r, p.seed * 100_003 + k, profile, p.quick)
+        write_json_atomic(p.json_out, data)
+        v = r["arms"][DE_ARM]
+        log(f"reality {r['id']}: DE on the believed damage {v['seconds']:.0f} s, recovered {v['recovered_at']}, "
+            f"{v['final_speed_m_s'] * 100:.1f} cm/s ({v['stop']})")
     return render(data)
+
+
+def de_setup(quick: bool) -> dict:
+    """The setup's entry of the DE arm: its words and the recovery spec's fixed fields."""
+    return json.loads(json.dumps(DE_BELIEVED | {"spec": DE_QUICK if quick else DE_SPEC}))
+
+
+def _arms_setup(setup: dict) -> dict:
+    """The setup but for the DE arm's entry: what the arms read from the maps' tables."""
+    return {k: v for k, v in setup.items() if k != "de_believed"}

@@ -21,6 +21,8 @@ class Params(BaseModel):
     json_out: Path = Field(JSON, description="the evaluation's JSON (appended reality by reality)")
     maps_dir: Path = Field(Path("reproduced/adapt_maps"), description="where the built maps are cached")
     quick: bool = Field(False, description="tiny maps and trials (the tests' size), not the published budget")
+    de_only: bool = Field(False, description=(
+        "run only the recovery kind's DE arm on the realities the file holds (needs no maps)"))
     stop_at: float = Field(0.0, ge=0.0, description="unix time after which no new reality is started (0: none)")
 
 

@@ -13,6 +13,7 @@ difference, its interval, Wilcoxon signed-rank), recovered or not with McNemar's
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -29,11 +30,12 @@ ANT_COMMAND = "gaitmend reproduce adapt-ant --write-docs"
 ANT_NAME = "adapt-evaluation-ant"
 NOT_RECOVERED = 21  # trials to recover of a reality not recovered within 20, in the paired test
 ORDER = ("gaitmend", "gaitmend_scenarios", "expected", "gaitmend_worlds", "gaitmend_worlds_2", "expected_worlds", "ite",
-         "random",
+         "random", "de_believed",
          "ite_target", "no_priors", "no_straight", "no_falls", "no_repeat_off",
          "no_target", "no_target_no_guard")
 PAIRS = (("gaitmend", "ite"), ("gaitmend_scenarios", "ite"), ("gaitmend", "random"), ("ite", "random"),
-         ("gaitmend", "ite_target"), ("gaitmend", "no_priors"), ("gaitmend_scenarios", "gaitmend"))
+         ("gaitmend", "ite_target"), ("gaitmend", "no_priors"), ("gaitmend_scenarios", "gaitmend"),
+         ("gaitmend", "de_believed"))
 
 
 def _trials(rows: list[dict], arm: str) -> np.ndarray:
@@ -58,7 +60,7 @@ def summary(data: dict, rows: list[dict] | None = None, pairs=PAIRS) -> dict[str
     """Per arm and per pair of arms, over ``rows`` (default every reality of the file)."""
     rows = data["realities"] if rows is None else rows
     n = len(rows)
-    arms = [a for a in ORDER if rows and a in rows[0]["arms"]]
+    arms = [a for a in ORDER if rows and all(a in r["arms"] for r in rows)]
     out: dict[str, Any] = {"n": n, "arms": {}, "pairs": {}}
     for a in arms:
         t = _trials(rows, a)
@@ -105,10 +107,10 @@ def _budget_text(setup: dict) -> str:
 
 
 HELD_OUT_ARMS = ("gaitmend_scenarios", "expected", "gaitmend_worlds", "gaitmend_worlds_2", "expected_worlds",
-                 "gaitmend", "ite", "random")
+                 "gaitmend", "ite", "random", "de_believed")
 HELD_OUT_PAIRS = (("gaitmend_scenarios", "ite"), ("gaitmend_worlds", "ite"), ("gaitmend_worlds_2", "ite"),
                   ("gaitmend_worlds", "random"),
-                  ("gaitmend_worlds", "gaitmend"))
+                  ("gaitmend_worlds", "gaitmend"), ("gaitmend_worlds", "de_believed"))
 
 
 def _tables(st: dict, s: dict, n: int, arms=None) -> list[str]:
@@ -117,7 +119,8 @@ def _tables(st: dict, s: dict, n: int, arms=None) -> list[str]:
     for a, v in s["arms"].items():
         if arms is not None and a not in arms:
             continue
-        table.append([f"`{a}`", st["arms"].get(a, {}).get("words", ""),
+        words = st["de_believed"]["words"] if a == "de_believed" else st["arms"].get(a, {}).get("words", "")
+        table.append([f"`{a}`", words,
                       f"{v['recovered']}/{n} = {v['share']:.2f} [{v['wilson'][0]:.2f}, {v['wilson'][1]:.2f}]",
                       f"{_q(v['median'])} [{_q(v['q1'])}, {_q(v['q3'])}]", f"{v['trials_run_median']:g}",
                       str(v["stopped_unrecovered"]), f"{v['gap_median'] * 100:.1f}"])
@@ -199,8 +202,30 @@ def render(data: dict | None, json_path: str = JSON, command: str = COMMAND) -> 
         lines.append(f"The issue's goals for `{ours}` on {where}: " + "; ".join(
             f"{w}: **{'met' if ok else 'not met'}**" for w, ok in goals) + ".\n")
     lines.append("")
-    lines.append(f"The recovery kind's DE searched on the believed damage: {st['de_believed']['reason']}.")
+    lines.append(_de_text(st, rows))
     return "\n".join(lines) + "\n"
+
+
+def _de_text(st: dict, rows: list[dict]) -> str:
+    """What the page says of the DE arm: how it was run, how far it has got, its refusals."""
+    de = st["de_believed"]
+    if not de.get("run"):
+        return f"The recovery kind's DE searched on the believed damage: {de['reason']}."
+    done = [r["arms"]["de_believed"] for r in rows if "de_believed" in r["arms"]]
+    text = (f"`de_believed`: {de['words']}; the recovery spec's fixed fields {json.dumps(de['spec'])}, the search's "
+            f"seed the reality's. It ran on {len(done)} of the {len(rows)} realities")
+    if len(done) < len(rows):
+        text += " (the tables leave it out until it has run on every one)"
+    refused = [d for d in done if d["stop"].startswith("refused")]
+    if refused:
+        text += (f"; the recovery kind refused {len(refused)} believed damages (no gait for the lab: counted as not "
+                 f"recovered), e.g. {refused[0]['stop'].removeprefix('refused: ')}")
+    ran = [d for d in done if not d["stop"].startswith("refused")]
+    if ran:
+        met = sum(1 for d in ran if d.get("believed_target_met"))
+        text += (f"; its answer met the recovery target on the believed damage's nominal model on {met} of "
+                 f"{len(ran)}")
+    return text + "."
 
 
 def sections() -> list[Section]:

@@ -85,6 +85,7 @@ class RecoveryKind(PackageKind):
 
     # -- members whose modules are slow to import: imported when first called ---------
     run = Deferred(".run", "run")
+    play = Deferred(".play", "play")  # an answer on another damage and world (app/adapt's DE arm)
     experiments = Deferred(".reproduce.experiments", "EXPERIMENTS", value=True)
     bench = Deferred(".reproduce.bench", "BENCH", value=True)
 
