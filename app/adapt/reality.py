@@ -117,6 +117,11 @@ class Measured:
     def yaw_rad(self) -> float:
         return math.radians(self.yaw_deg)
 
+    @property
+    def speed_m_s(self) -> float:
+        """The trial's figure against the evaluation's oracle: its forward speed, 0 when it fell."""
+        return 0.0 if self.fell else self.forward_m / self.duration_s
+
 
 def _spec(reality: Reality, rep: Repertoire):
     return KIND.Spec.parse({"kind": KIND.name, "robot": reality.robot, "damage": reality.damage.model_dump(),

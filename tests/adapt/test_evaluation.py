@@ -13,6 +13,7 @@ import pytest
 from app.adapt import methods as M
 from app.adapt.maps import HOLD, in_space_of
 from app.adapt.reality import Reality, play, play_many
+from app.adapt.reproduce import de_arm as D
 from app.adapt.reproduce import evaluation as E
 from app.adapt.reproduce.params import Params
 from app.adapt.reproduce.report import render, summary
@@ -63,15 +64,15 @@ def test_a_gait_measures_the_same_alone_as_in_the_oracles_batch(run):
 def test_the_evaluation_appends_each_reality_and_continues_where_the_file_ends(run):
     p, _, data, text, _ = run
     assert [r["id"] for r in data["realities"]] == ["0-0", "0-1", "0-2"]
-    arms = set(E.ARMS) | {E.RANDOM, E.DE_ARM}
+    arms = set(E.ARMS) | {E.RANDOM, D.DE_ARM}
     for r in data["realities"]:
         assert set(r["arms"]) == arms
         for name, a in r["arms"].items():
             assert a["trials"] <= E.MAX_TRIALS and (a["recovered_at"] is None or a["recovered_at"] <= a["trials"])
-            if name != E.DE_ARM:  # nothing of the maps beats the oracle (the DE answer is not the maps')
+            if name != D.DE_ARM:  # nothing of the maps beats the oracle (the DE answer is not the maps')
                 assert r["oracle"]["best_speed_m_s"] >= a["final_speed_m_s"] - 1e-12
-        assert r["arms"][E.DE_ARM]["trials"] == 1
-    assert data["setup"]["map_budget"] == E.QUICK_BUDGET and data["setup"]["de_believed"]["spec"] == E.DE_QUICK
+        assert r["arms"][D.DE_ARM]["trials"] == 1
+    assert data["setup"]["map_budget"] == E.QUICK_BUDGET and data["setup"]["de_believed"]["spec"] == D.DE_QUICK
     logs: list[str] = []
     again = E.reproduce(p, logs.append)  # nothing new to run
     assert json.loads(p.json_out.read_text())["realities"] == data["realities"]
@@ -117,30 +118,31 @@ def test_the_scenario_priors_are_the_pooled_elites_re_simulated_before_any_damag
 
 def test_a_lab_believes_every_lost_leg_and_all_but_the_last_joint_fault():
     lost = {"lost_legs": ["leg2"]}
-    assert E.believed_damage(lost) == lost
+    assert D.believed_damage(lost) == lost
     two = {"locked_joints": [{"leg": "leg1", "joint": "leg1_coxa", "angle_deg": 5.0},
                              {"leg": "leg2", "joint": "leg2_tibia", "angle_deg": -5.0}]}
-    assert E.believed_damage(two) == {"locked_joints": two["locked_joints"][:1]}
+    assert D.believed_damage(two) == {"locked_joints": two["locked_joints"][:1]}
     both = lost | {"locked_joints": two["locked_joints"][:1], "weak_joints": [
         {"leg": "leg4", "joint": "leg4_femur", "torque_scale": 0.3}]}
-    assert E.believed_damage(both) == lost | {"locked_joints": two["locked_joints"][:1]}  # the weak joint, last listed
-    assert E.believed_damage(lost | {"locked_joints": two["locked_joints"][:1]}) == lost
+    assert D.believed_damage(both) == lost | {"locked_joints": two["locked_joints"][:1]}  # the weak joint, last listed
+    assert D.believed_damage(lost | {"locked_joints": two["locked_joints"][:1]}) == lost
 
 
 def test_the_de_arm_is_the_recovery_answer_of_the_believed_damage_tried_on_the_reality(run):
     p, _, data, _, _ = run
     r = next(x for x in data["realities"] if x["type"] == "lost_leg_and_locked_joint")
-    de = r["arms"][E.DE_ARM]
+    de = r["arms"][D.DE_ARM]
     assert de["believed_damage"] == {"lost_legs": r["reality"]["damage"]["lost_legs"]}
     k = int(r["id"].rsplit("-", 1)[1])
-    again = E.run_de_believed({x: r[x] for x in ("id", "type", "reality")}, p.seed * 100_003 + k, quick=True)
+    again = D.run_de_believed({x: r[x] for x in ("id", "type", "reality")}, p.seed * 100_003 + k,
+                              E.profile_of(E.ROBOT), quick=True)
     assert {a: v for a, v in again.items() if a != "seconds"} == {a: v for a, v in de.items() if a != "seconds"}
     # played on the believed damage in the nominal world, the answer walks as its job scored it; on the reality not
     from app.jobs.base import MemoryContext
     from app.jobs.registry import get_kind, parse_spec
 
     seed = p.seed * 100_003 + k
-    spec = parse_spec(E.DE_QUICK | {"robot_damage": de["believed_damage"], "search": E.DE_QUICK["search"] | {"seed": seed}})
+    spec = parse_spec(D.DE_QUICK | {"robot_damage": de["believed_damage"], "search": D.DE_QUICK["search"] | {"seed": seed}})
     job = get_kind("recovery").run(spec, MemoryContext()).summary
     assert job["best"]["metrics"]["y_f_m"] == de["believed_forward_m"]
     assert de["final_speed_m_s"] * spec.sim.duration_s != de["believed_forward_m"]  # the reality changes the walk

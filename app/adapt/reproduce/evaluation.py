@@ -51,6 +51,7 @@ from app.adapt import methods as M
 from app.adapt.maps import Repertoire, in_space_of, read_repertoire
 from app.adapt.reality import Measured, Reality, play_many, pooled, rescore, scenario_priors
 from app.adapt.recovered import recovered, target_speed
+from app.adapt.reproduce.de_arm import DE_ARM, de_pass, de_setup
 from app.adapt.reproduce.params import ANT_COMMAND, COMMAND, JSON, Params
 from app.adapt.simulate import run as run_loop
 from app.core.host import machine
@@ -149,19 +150,6 @@ ARMS: dict[str, tuple[str, M.Settings, str, bool]] = {
                            "all", False),
 }
 RANDOM = "random"
-DE_ARM = "de_believed"
-# the recovery job a lab that believed a damage would submit (the fast preset: it stops once the answer meets the
-# recovery target, confirmed at half the step); the controls, the named cases and the held-out models are off: they
-# judge an answer, they do not change it
-DE_SPEC = {"kind": "recovery", "preset": "fast", "controls": {"random_search": False},
-           "robustness": {"cases": [], "held_out": 0}}
-# the tests' size (``--quick``): the recovery kind's smallest search over 1 s walks
-DE_QUICK = DE_SPEC | {"search": {"population": 6, "generations": 2}, "sim": {"duration_s": 1.0}}
-DE_BELIEVED = {"run": True, "spec": DE_SPEC, "words": (
-    "the recovery kind's DE (fast preset) searched in simulation on the damage the lab believes (the true one with "
-    "its last joint fault left out), its answer tried once on the reality over the recovery walk (10 s)")}
-JOINT_FAULTS = ("locked_joints", "weak_joints", "passive_joints", "stiff_joints", "shortened_legs")
-
 
 # -- maps -------------------------------------------------------------------------------------------
 
@@ -323,74 +311,11 @@ def draw_world(rng: np.random.Generator) -> dict:
              "terrain_seed": int(rng.integers(0, 2**31 - 1))}
 
 
-# -- the recovery kind's DE on the believed damage ------------------------------------------------
-
-def believed_damage(damage: dict) -> dict:
-    """What a lab believes of ``damage``: every lost leg (a missing leg is seen) and every joint
-    fault but the last one listed (in ``JOINT_FAULTS``' order: locked, weak, passive, stiff
-    joints, shortened legs); a damage of lost legs alone is believed as it is."""
-    out = {k: list(v) for k, v in damage.items() if v}
-    for key in reversed(JOINT_FAULTS):
-        if out.get(key):
-            out[key] = out[key][:-1]
-            if not out[key]:
-                del out[key]
-            break
-    return out
-
-
-def run_de_believed(drawn: dict, seed: int, profile: Profile | None = None, quick: bool = False) -> dict:
-    """The arm ``DE_ARM`` on one reality: a recovery job (``DE_SPEC``, search seed ``seed``) on
-    the believed damage in the nominal world, its answer played once (the recovery kind's
-    ``Kind.play``) on the true damage in the reality's world. A damage the recovery kind
-    refuses (e.g. an uploaded robot left with three legs) is recorded with the refusal and
-    counts as not recovered: the lab gets no gait. ``quick``: ``DE_QUICK``, the tests' size."""
-    profile = profile or profile_of(ROBOT)
-    t0 = time.perf_counter()
-    kind = get_kind("recovery")
-    true = drawn["reality"]["damage"]
-    believed = believed_damage(true)
-    fixed = DE_QUICK if quick else DE_SPEC
-    base = fixed | {"robot": profile.robot, "search": fixed.get("search", {}) | {"seed": int(seed)}}
-    ctx = MemoryContext(robots=profile.robots if profile.stored is not None else None)
-    stored = profile.stored
-    out = {"trials": 1, "method_stopped": True, "believed_damage": believed}
-    try:
-        spec = parse_spec(base | {"robot_damage": believed})
-        if profile.stored is not None:
-            why = kind.user_robot_error(spec, profile.stored.legs.to_json())
-            if why:
-                raise SpecError([{"field": "robot_damage", "message": why}])
-        job = kind.run(spec, ctx).summary
-    except SpecError as e:
-        return out | {"recovered_at": None, "stop": f"refused: {e}", "final_speed_m_s": 0.0, "final_fell": False,
-                      "final_lateral_m": 0.0, "final_yaw_deg": 0.0, "tried": "none (refused)",
-                      "seconds": time.perf_counter() - t0}
-    names = job["bounds"]["names"]
-    x = [job["best"]["params"][n] for n in names]
-    reality = Reality.parse(drawn["reality"], profile.robots if profile.stored is not None else None)
-    m = kind.play(parse_spec(base | {"robot_damage": true}), [x], names, reality.perturbation.perturbation(),
-                  stored)
-    got = Measured(m["forward_m"][0], m["lateral_m"][0], m["yaw_deg"][0], m["fell"][0], m["duration_s"][0])
-    ok = recovered(got.forward_m, got.fell, got.duration_s, reality.robot, reality.stored)
-    return out | {"recovered_at": 1 if ok else None,
-                  "stop": f"one answer (the search stopped on {job['search']['stop_reason']} after "
-                          f"{job['search']['generations_run']} generations)", "final_speed_m_s": _speed(got), "final_fell": got.fell,
-                  "final_lateral_m": got.lateral_m, "final_yaw_deg": got.yaw_deg, "tried": "the DE answer",
-                  "believed_forward_m": job["best"]["metrics"]["y_f_m"], "believed_target_met": job["best"]["target_met"],
-                  "evaluations": job["timing"]["evaluations"], "seconds": time.perf_counter() - t0}
-
-
 # -- one reality ------------------------------------------------------------------------------------
 
 def oracle_tables(reality: Reality, reps: list[Repertoire]) -> dict[str, list[Measured]]:
     """Every elite of every map played on the reality: one batched call per map."""
     return {r.map.name: play_many(reality, r, range(len(r.map.forward_m))) for r in reps}
-
-
-def _speed(m: Measured) -> float:
-    """A gait's figure against the oracle: its forward speed, 0 when it fell (m/s)."""
-    return 0.0 if m.fell else m.forward_m / m.duration_s
 
 
 def tried_text(tried: list[tuple[str, int]]) -> str:
@@ -404,7 +329,7 @@ def run_arm(reps: list[Repertoire], tables: dict[str, list[Measured]], s: M.Sett
     d = out.decision
     final = tables[out.rows[d.best_trial].proposal.map][out.rows[d.best_trial].proposal.elite]
     return {"recovered_at": out.recovered_at, "trials": len(out.rows), "stop": d.reason, "method_stopped": d.stop,
-            "final_speed_m_s": _speed(final), "final_fell": final.fell,
+            "final_speed_m_s": final.speed_m_s, "final_fell": final.fell,
             "final_lateral_m": final.lateral_m, "final_yaw_deg": final.yaw_deg,
             "tried": tried_text([(r.proposal.map, r.proposal.elite) for r in out.rows])}
 
@@ -414,9 +339,9 @@ def run_random(rep: Repertoire, table: list[Measured], robot: str, seed: int, st
     pick = np.random.default_rng(seed).permutation(n)[:MAX_TRIALS]
     ms = [table[i] for i in pick]
     at = next((k + 1 for k, m in enumerate(ms) if recovered(m.forward_m, m.fell, m.duration_s, robot, stored)), None)
-    best = max(ms, key=_speed)
+    best = max(ms, key=lambda m: m.speed_m_s)
     return {"recovered_at": at, "trials": len(ms), "stop": f"{len(ms)} random elites of {rep.map.name}",
-            "method_stopped": True, "final_speed_m_s": _speed(best), "final_fell": best.fell,
+            "method_stopped": True, "final_speed_m_s": best.speed_m_s, "final_fell": best.fell,
             "final_lateral_m": best.lateral_m, "final_yaw_deg": best.yaw_deg,
             "tried": tried_text([(rep.map.name, int(i)) for i in pick])}
 
@@ -450,7 +375,7 @@ def evaluate_reality(drawn: dict, reps: list[Repertoire], seed: int, cache: Path
     target = target_speed(reality.robot, reality.stored)
     per_map = {}
     for name, ms in list(tables.items()):
-        speeds = [_speed(m) for m in ms]
+        speeds = [m.speed_m_s for m in ms]
         per_map[name] = {"best_speed_m_s": max(speeds), "recovering_elites": int(sum(s >= target for s in speeds)),
                          "elites": len(ms)}
     arms = {}
@@ -475,7 +400,7 @@ def evaluate_reality(drawn: dict, reps: list[Repertoire], seed: int, cache: Path
     arms[RANDOM] = run_random(reps[0], tables[reps[0].map.name], reality.robot, seed, reality.stored)
     from scipy.stats import spearmanr
 
-    ite_speeds = [_speed(m) for m in tables[reps[0].map.name]]
+    ite_speeds = [m.speed_m_s for m in tables[reps[0].map.name]]
     rho = spearmanr(reps[0].map.forward_m, ite_speeds)[0] if len(set(ite_speeds)) > 1 else float("nan")
     oracle = {"best_speed_m_s": max(v["best_speed_m_s"] for v in per_map.values()),
               "ite_map_best_speed_m_s": per_map[reps[0].map.name]["best_speed_m_s"],
@@ -527,7 +452,7 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
         if data is None or data["setup"]["quick"] != p.quick or data["setup"]["seed"] != p.seed:
             raise SystemExit(f"--de-only runs the DE arm on the realities of {p.json_out}: it holds none of this "
                              "setup (seed, quick)")
-        return _de_pass(p, profile, data, log)
+        return de_pass(p, profile, data, log)
     reps, maps = build_maps(p, log)
     scenarios = scenario_maps(p, reps, log)
     worlds = scenario_maps(p, reps, log, worlds=True)
@@ -574,38 +499,7 @@ def reproduce(p: Params, log: Callable[[str], None] = print) -> str:
         write_json_atomic(p.json_out, data)
         log(f"reality {drawn['id']}: {row['seconds']['total']:.0f} s, "
             + ", ".join(f"{a} {v['recovered_at']}" for a, v in row["arms"].items()))
-    return _de_pass(p, profile, data, log)
-
-
-def _de_pass(p: Params, profile: Profile, data: dict, log: Callable[[str], None]) -> str:
-    """The DE arm on every reality of ``data`` that lacks it (in the file's order), each
-    written as it finishes; the page's section rendered from the file."""
-    from app.adapt.reproduce.report import render
-
-    want = de_setup(p.quick)
-    if data["setup"].get("de_believed") != want:  # another DE arm: run it again on every reality
-        for r in data["realities"]:
-            r["arms"].pop(DE_ARM, None)
-        data["setup"]["de_believed"] = want
-        write_json_atomic(p.json_out, data)
-    for r in data["realities"]:  # the DE arm, after the rest: a reality's row is written first, then its DE
-        if DE_ARM in r["arms"]:
-            continue
-        if p.stop_at and time.time() > p.stop_at:
-            log(f"stopping before the DE arm on reality {r['id']}: --stop-at passed")
-            break
-        k = int(r["id"].rsplit("-", 1)[1])
-        r["arms"][DE_ARM] = run_de_believed(r, p.seed * 100_003 + k, profile, p.quick)
-        write_json_atomic(p.json_out, data)
-        v = r["arms"][DE_ARM]
-        log(f"reality {r['id']}: DE on the believed damage {v['seconds']:.0f} s, recovered {v['recovered_at']}, "
-            f"{v['final_speed_m_s'] * 100:.1f} cm/s ({v['stop']})")
-    return render(data)
-
-
-def de_setup(quick: bool) -> dict:
-    """The setup's entry of the DE arm: its words and the recovery spec's fixed fields."""
-    return json.loads(json.dumps(DE_BELIEVED | {"spec": DE_QUICK if quick else DE_SPEC}))
+    return de_pass(p, profile, data, log)
 
 
 def _arms_setup(setup: dict) -> dict:
