@@ -229,12 +229,14 @@ def decision_json(d: M.Decision) -> dict:
             "best_measured_m_s": d.best_measured, "max_predicted_m_s": d.max_predicted}
 
 
-def target_m_s(reps: Sequence[Repertoire]) -> float | None:
-    """The recovery target of the maps' robot (app/adapt/recovered.py), None where it has none."""
+def target_m_s(reps: Sequence[Repertoire], stored: Any = None) -> float | None:
+    """The recovery target of the maps' robot (app/adapt/recovered.py): a built-in robot's, or
+    that of the uploaded robot ``stored`` (its model measured); None where it has none (an
+    uploaded robot whose model is not at hand)."""
     from app.adapt.recovered import target_speed
 
     try:
-        return float(target_speed(reps[0].robot))
+        return float(target_speed(reps[0].robot, stored))
     except (KeyError, AttributeError, ValueError):
         return None
 

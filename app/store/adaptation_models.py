@@ -26,6 +26,10 @@ class AdaptationRow(Base):
     status: Mapped[str] = mapped_column(String(16), default="open")  # open | finished
     stop_reason: Mapped[str | None] = mapped_column(Text)
     trials: Mapped[int] = mapped_column(Integer, default=0)  # rows in adaptation_trials
+    # the recovery target (m/s) of the maps' robot, fixed when the session is created (an uploaded robot's is
+    # measured on its stored model then); null: a session created before the column, whose built-in robot's target
+    # is looked up as before (app/adapt/session.py target_m_s)
+    target_m_s: Mapped[float | None] = mapped_column(Float, nullable=True)
     created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
     updated_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
 

@@ -46,8 +46,8 @@ def summaries():
             "disp_lost": build({"descriptor": DISP, "damage": {"lost_legs": ["leg1"]}})}
 
 
-def _job(s, owner, summary, kind="repertoire", status="succeeded"):
-    job = repo.create_job(s, owner=owner, kind=kind, robot="jethexa", spec=dict(SPEC), evaluations_budget=1,
+def _job(s, owner, summary, kind="repertoire", status="succeeded", robot="jethexa"):
+    job = repo.create_job(s, owner=owner, kind=kind, robot=robot, spec=dict(SPEC, robot=robot), evaluations_budget=1,
                           max_attempts=3)
     job.status, job.summary, job.finished_at = status, summary, utcnow()
     return job.id
@@ -268,3 +268,32 @@ def test_the_same_trial_posted_twice_at_once_is_stored_once(db, summaries):
         t.join(120)
     assert sorted(out) == ["stored", "trial"]
     assert _counts(db) == (1, 1)
+
+
+def test_a_session_over_an_uploaded_robots_map_judges_trials_by_that_robots_target(db):
+    """The target is fixed when the session is created, measured on the stored model (the
+    Gymnasium ant, prepared as an upload is): a trial at that speed recovers, one just below
+    does not; without the robot at hand the target stays null and so does `recovered`."""
+    from app.adapt.recovered import target_speed
+    from app.robots.upload.samples import sample_robot
+
+    rid, ant = sample_robot("gym_ant")
+    summary = json.loads(dumps(get_kind("repertoire").run(parse_spec(SPEC | {"robot": rid}),
+                                                          MemoryContext(robots=lambda _: ant)).summary))
+    want = target_speed(rid, ant)
+    assert want > target_speed("jethexa")  # the ant's legs are longer than the hexapod's
+    with session_scope(db) as s:
+        jid = _job(s, "alice", summary, robot=rid)
+        sids = [repo.create_adaptation(s, S.SessionSpec.parse({"repertoires": [jid]}), owner="alice",
+                                       owner_filter="alice", robots=lambda _: ant).id for _ in range(2)]
+        blind = repo.create_adaptation(s, S.SessionSpec.parse({"repertoires": [jid]}), owner="alice",
+                                       owner_filter="alice").id
+    for sid, speed in zip(sids, (want * 1.01, want * 0.99)):  # one trial each: the first may stop a session
+        with session_scope(db) as s:
+            repo.post_trial(s, sid, S.TrialIn.parse({"trial": 1, "forward_m": speed, "lateral_m": 0.0, "yaw_deg": 0.0,
+                                                     "fell": False, "duration_s": 1.0}), owner="alice")
+    with session_scope(db, readonly=True) as s:
+        out = [repo.adaptation_json(s, repo.get_adaptation(s, sid)) for sid in sids]
+        assert [o["target_m_s"] for o in out] == [pytest.approx(want, rel=1e-12)] * 2
+        assert [o["trials"][0]["recovered"] for o in out] == [True, False]
+        assert repo.adaptation_json(s, repo.get_adaptation(s, blind))["target_m_s"] is None

@@ -8,6 +8,7 @@ from __future__ import annotations
 import io
 import json
 import zipfile
+from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
@@ -146,3 +147,30 @@ def test_a_session_whose_map_was_deleted_says_so(served):
         assert (r.status_code, _field(r)) == (410, ["repertoires.0"]), r.text
         assert "deleted" in r.json()["detail"]
     assert _counts(settings) == (1, 0)
+
+
+def test_a_session_over_an_uploaded_robots_map_gets_that_robots_target(served):
+    """POST /api/adaptations over a map of a robot alice uploaded: the route hands the store
+    the robot's loader, and the session's target is that robot's, measured on its model."""
+    from app.adapt.recovered import target_speed
+    from app.store import robots as robot_store
+
+    gym = pytest.importorskip("gymnasium", reason="the test extra brings gymnasium")
+    client, _, _, settings = served
+    c = client("alice")
+    path = Path(gym.__file__).parent / "envs" / "mujoco" / "assets" / "ant.xml"
+    r = c.post("/api/robots", files={"model": ("ant.xml", path.read_bytes(), "application/xml")}, data={"name": "ant"})
+    assert r.status_code == 201, r.text
+    rid = r.json()["id"]
+    with session_scope(settings.db_url) as s:
+        ant = robot_store.load_robot(s, settings.data_dir, rid)
+        summary = json.loads(dumps(get_kind("repertoire").run(parse_spec(SPEC | {"robot": rid}),
+                                                              MemoryContext(robots=lambda _: ant)).summary))
+        job = repo.create_job(s, owner="alice", kind="repertoire", robot=rid, spec=SPEC | {"robot": rid},
+                              evaluations_budget=1, max_attempts=3)
+        job.status, job.summary, job.finished_at = "succeeded", summary, utcnow()
+        jid = job.id
+    r = c.post("/api/adaptations", json={"repertoires": [jid]})
+    assert r.status_code == 201, r.text
+    assert r.json()["target_m_s"] == pytest.approx(target_speed(rid, ant), rel=1e-12)
+    assert r.json()["target_m_s"] > target_speed("jethexa")

@@ -56,9 +56,13 @@ async def create(request: Request, response: Response, who: Principal = Depends(
     from app.adapt.session import SessionSpec
 
     spec = await _body(request, SessionSpec.parse)
+    data_dir = settings_of(request).data_dir
 
     def fn(s):
-        row = repo.create_adaptation(s, spec, owner=who.name, owner_filter=who.owner_filter)
+        from app.store import robots as robot_store
+
+        row = repo.create_adaptation(s, spec, owner=who.name, owner_filter=who.owner_filter,
+                                     robots=lambda rid: robot_store.load_robot(s, data_dir, rid, who.owner_filter))
         return repo.adaptation_json(s, row)
 
     out = await _run(db, fn, write=True)

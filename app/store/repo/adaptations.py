@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import re
 import uuid
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from sqlalchemy import Text, cast, select
 from sqlalchemy.orm import Session
@@ -76,12 +77,30 @@ def _maps(s: Session, row_or_ids, owner: str | None = None, creating: bool = Fal
         raise Refused(422, "repertoires", msg) from None
 
 
-def create_adaptation(s: Session, spec: S.SessionSpec, *, owner: str, owner_filter: str | None) -> AdaptationRow:
+def _target(row: AdaptationRow, reps) -> float | None:
+    """The session's recovery target: fixed at its creation, else (a session created before
+    the column) the built-in robot's."""
+    return row.target_m_s if row.target_m_s is not None else _session().target_m_s(reps)
+
+
+def create_adaptation(s: Session, spec: S.SessionSpec, *, owner: str, owner_filter: str | None,
+                      robots: Callable[[str], Any] | None = None) -> AdaptationRow:
     """A new session over ``spec.repertoires`` (each a finished repertoire job the caller may
-    see, the maps over one behaviour space); Refused naming the repertoire at fault."""
-    _maps(s, list(spec.repertoires), owner_filter, creating=True)
+    see, the maps over one behaviour space); Refused naming the repertoire at fault. The
+    recovery target is fixed here: a built-in robot's, or, where the first map's job ran on an
+    uploaded robot, that robot's measured on its stored model (``robots``: its loader, id ->
+    app/robots/legmap.py ``Robot``; a robot no longer stored leaves the target null)."""
+    reps, _ = _maps(s, list(spec.repertoires), owner_filter, creating=True)
+    stored = None
+    robot_id = s.scalar(select(Job.robot).where(Job.id == spec.repertoires[0]))
+    if robots is not None and robot_id and robot_id != reps[0].robot:  # the map names an uploaded robot by name
+        try:
+            stored = robots(robot_id)
+        except NotFound:
+            stored = None
+    target = _session().target_m_s(reps, stored) if stored is not None or robot_id == reps[0].robot else None
     row = AdaptationRow(id=uuid.uuid4().hex, owner=owner, spec=spec.model_dump(mode="json"), status="open",
-                        stop_reason=None, trials=0)
+                        stop_reason=None, trials=0, target_m_s=target)
     s.add(row)
     s.flush()
     return row
@@ -170,7 +189,7 @@ def adaptation_json(s: Session, row: AdaptationRow, detail: bool = True) -> dict
     reps, _ = _maps(s, row)
     rows = trial_rows(s, row)
     st = S.step(reps, spec, _stored(rows))
-    target = S.target_m_s(reps)
+    target = _target(row, reps)
     out |= {"spec": row.spec, "trial_s": S.trial_s(reps, spec), "target_m_s": target,
             "maps": [{"name": r.map.name, "job": r.source, "elites": len(r.cells), "robot": r.robot,
                       "damage": r.damage} for r in reps],
@@ -199,8 +218,7 @@ def trials_json(s: Session, adaptation_id: str, owner: str | None = None) -> lis
     row = get_adaptation(s, adaptation_id, owner)
     spec = S.SessionSpec.model_validate(row.spec)
     reps, _ = _maps(s, row)
-    target = S.target_m_s(reps)
-    return [trial_json(r, spec, target) for r in trial_rows(s, row)]
+    return [trial_json(r, spec, _target(row, reps)) for r in trial_rows(s, row)]
 
 
 def proposal_bundle(s: Session, adaptation_id: str, index: int, owner: str | None = None) -> dict[str, bytes]:
