@@ -35,6 +35,7 @@ from app.adapt.methods import Map
 from app.jobs.base import SpecError, StrictModel
 from app.jobs.registry import get_kind
 from app.sim.perturb import Perturbation
+from app.sim.servos import ServoPerturbation
 
 KIND = get_kind("repertoire")  # the kind whose gaits a reality plays
 Damage = KIND.Spec.model_fields["damage"].annotation  # the kind's damage model, reused as is
@@ -42,7 +43,8 @@ Offset = Annotated[float, Field(ge=-0.2, le=0.2)]
 
 
 class World(StrictModel):
-    """app/sim/perturb.py ``Perturbation``'s fields a reality may set (the rest nominal)."""
+    """app/sim/perturb.py ``Perturbation``'s fields a reality may set (the rest nominal), and
+    the servos' strength and gains (app/sim/servos.py ``ServoPerturbation``)."""
 
     friction_scale: float = Field(1.0, ge=0.2, le=3.0, description="sliding friction of every geom, x")
     mass_scale: float = Field(1.0, ge=0.5, le=2.0, description="mass and inertia of every body, x (same motors)")
@@ -52,9 +54,11 @@ class World(StrictModel):
     terrain_amplitude_m: float = Field(0.0, ge=0.0, le=0.02, description=(
         "rough floor: heights uniform in [-a, a] (m) on perturb.py's 50 cm grid; 0: the flat plane"))
     terrain_seed: int = Field(0, ge=0, le=2**31 - 1, description="the rough floor's draw")
+    motor_strength: float = Field(1.0, ge=0.2, le=1.5, description="every servo's torque limit, x")
+    servo_gain_scale: float = Field(1.0, ge=0.2, le=3.0, description="every servo's gains (kp, kd, ki), x")
 
     def perturbation(self) -> Perturbation:
-        return Perturbation("reality", "the simulated reality", **self.model_dump())
+        return ServoPerturbation("reality", "the simulated reality", **self.model_dump())
 
 
 ROBOT_ID = r"^[0-9a-f]{32}$"  # an uploaded robot's id (the repertoire spec's)

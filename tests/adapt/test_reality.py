@@ -60,6 +60,8 @@ def _reality(tmp_path, data, name="reality.json"):
     ({"perturbation": {"terrain_amplitude_m": -0.01}}, "perturbation.terrain_amplitude_m"),
     ({"perturbation": {"payload_offset_m": [0, 0, 1.0]}}, "perturbation.payload_offset_m.2"),
     ({"perturbation": {"gravity": 1}}, "perturbation.gravity"),
+    ({"perturbation": {"motor_strength": 0.1}}, "perturbation.motor_strength"),
+    ({"perturbation": {"servo_gain_scale": float("inf")}}, "perturbation.servo_gain_scale"),
     ({"damage": {"lost_legs": ["leg9"]}}, "damage.lost_legs"),
     ({"damage": {"lost_legs": ["leg1", "leg1"]}}, "damage"),
     ({"damage": {"weak_joints": [{"leg": "leg2", "joint": "leg2_femur", "torque_scale": 1.5}]}},
@@ -132,6 +134,11 @@ def test_a_trial_is_deterministic_and_a_lost_leg_changes_it(maps):
                    {"stiff_joints": [{"leg": "leg2", "joint": "leg2_femur", "friction": 5.0}]}):
         hurt = play(Reality.parse({"damage": damage}), rep, i)
         assert abs(hurt.forward_m - a.forward_m) + abs(hurt.lateral_m - a.lateral_m) > 1e-4, damage
+    # the servos' strength and gains, the project's two servo draws (app/sim/servos.py): each changes the walk
+    for world in ({"motor_strength": 0.3}, {"servo_gain_scale": 0.3}):
+        weak = play(Reality.parse({"perturbation": world}), rep, i)
+        assert abs(weak.forward_m - a.forward_m) + abs(weak.lateral_m - a.lateral_m) > 1e-4, world
+    assert play(Reality.parse({"perturbation": {"motor_strength": 1.0, "servo_gain_scale": 1.0}}), rep, i) == a
 
 
 def test_the_recovery_definition():

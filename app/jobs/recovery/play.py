@@ -16,7 +16,8 @@ import numpy as np
 
 from app.jobs.recovery.evaluate import GaitEvaluator
 from app.robots.catalog import ROBOTS
-from app.sim.perturb import NOMINAL, perturbed_model
+from app.sim.perturb import NOMINAL
+from app.sim.servos import world_model
 
 
 def play(spec, gaits, joints: list[str], perturbation=None, stored=None) -> dict[str, list]:
@@ -37,7 +38,7 @@ def play(spec, gaits, joints: list[str], perturbation=None, stored=None) -> dict
         x = np.atleast_2d(np.asarray(gaits, dtype=float))
         if x.shape[1] != len(job.names):
             raise ValueError(f"gaits have {x.shape[1]} parameters; this damage's search has {len(job.names)}")
-        world = perturbed_model(job.mspec, perturbation or NOMINAL, job.model)
+        world = world_model(job.mspec, perturbation or NOMINAL, job.model)
         ev = GaitEvaluator(job.robot, world, job.seq, job.ev.cfg)
         try:
             m = {k: v[:, 0] for k, v in ev.evaluate_all(x).metrics.items()}  # (P, 1 variant)

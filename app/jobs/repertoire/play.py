@@ -15,7 +15,8 @@ import numpy as np
 from app.jobs.repertoire.body import build
 from app.jobs.repertoire.controller import PARAMS_PER_JOINT, Layout
 from app.jobs.repertoire.evaluate import Evaluator
-from app.sim.perturb import NOMINAL, perturbed_model
+from app.sim.perturb import NOMINAL
+from app.sim.servos import world_model
 
 
 def on_servos(gaits: np.ndarray, joints: list[str], servos: list[str]) -> np.ndarray:
@@ -35,7 +36,7 @@ def on_servos(gaits: np.ndarray, joints: list[str], servos: list[str]) -> np.nda
 def play(spec, gaits, joints: list[str], perturbation=None, stored=None) -> dict[str, list]:
     body = build(spec, stored)
     p = perturbation or NOMINAL
-    world = dataclasses.replace(body, model=perturbed_model(body.mspec, p, body.model))
+    world = dataclasses.replace(body, model=world_model(body.mspec, p, body.model))
     c = spec.controller
     layout = Layout(body.lo, body.hi, body.stance, c.amplitude, c.offset, c.period_s, c.ramp_s, body.joints)
     ev = Evaluator(world, layout, spec.sim.duration_s, spec.sim.settle_s)
