@@ -220,3 +220,22 @@ def test_a_run_names_its_host_by_cpu_family_and_model_where_the_machine_says():
     assert machine_text({"cpu": "AMD EPYC", "cpu_family": 26, "cpu_model": 2, "cores": 2}) == \
         "AMD EPYC, family 26 model 2, 2 cores"
     assert machine_text({"cpu": "AMD EPYC", "cores": 2}) == "AMD EPYC, 2 cores"  # runs recorded before
+
+
+def test_the_adapt_section_shows_the_latest_run_with_both_verdicts():
+    def row(warm, cold, date):
+        r = _run("adapt", {}, date=date)
+        r["figures"] = {"adapt_proposal": {"elites": 10000, "trials": 20, "warm_s": warm, "warm_median_s": warm + 0.01,
+                                           "cold_s": cold, "target_s": 1.0, "met": warm <= 1.0, "met_cold": cold <= 1.0,
+                                           "repeats": 3}}
+        return r
+
+    data = {"schema": 1, "experiment": "bench", "command": benchmarks.COMMAND,
+            "runs": [row(2.5, 3.0, "2026-12-01 10:00 UTC"), row(0.2, 1.4, "2026-12-03 14:00 UTC")]}
+    text = benchmarks.render_adapt(data)
+    assert "over a map of 10,000 elites" in text and "took 0.20 s (best of 3; median 0.21 s)" in text
+    assert "warm met, after a restart **not met**" in text and "2026-12-03 14:00 UTC" in text
+    assert "gaitmend reproduce bench --kinds adapt --write-docs" in benchmarks.render_adapt(None)
+    with pytest.raises(ValueError):
+        BenchParams(kinds="adapts")
+    assert BenchParams(kinds="adapt").kinds == "adapt"

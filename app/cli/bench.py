@@ -48,6 +48,7 @@ def run_bench(quick: bool = False, log: Callable[[str], None] = print, kinds: li
 # -- gaitmend reproduce bench -------------------------------------------------------------------
 
 STUDIES = benchmarks.STUDIES  # --kinds' name for `gaitmend bench --studies`, beside the kinds
+ADAPT = benchmarks.ADAPT  # --kinds' name for `gaitmend bench --adapt` (an adaptation session is no kind)
 
 
 class BenchParams(BaseModel):
@@ -57,7 +58,8 @@ class BenchParams(BaseModel):
                                        "run is appended beside the old); empty: every kind with a bench the file "
                                        f"does not hold yet. '{STUDIES}': a study's dispatch overhead per point "
                                        "(`gaitmend bench --studies --json`) on the deployment the GAITMEND_* "
-                                       "variables name, only when named")
+                                       f"variables name, only when named; '{ADAPT}': an adaptation session's "
+                                       "proposal time (`gaitmend bench --adapt --json`), only when named")
     study_points: int = Field(POINTS, ge=1, le=10000, description=f"the points of --kinds {STUDIES}' study ({POINTS}: the "
                                                         "published size; fewer only for a smoke test)")
     json_out: Path = Field(Path(benchmarks.JSON), description="the file each kind's run is appended to")
@@ -65,10 +67,10 @@ class BenchParams(BaseModel):
     @field_validator("kinds")
     @classmethod
     def _known(cls, v: str) -> str:
-        unknown = [k for k in _names(v) if k != STUDIES and (k not in KINDS or not KINDS[k].bench())]
+        unknown = [k for k in _names(v) if k not in (STUDIES, ADAPT) and (k not in KINDS or not KINDS[k].bench())]
         if unknown:
             raise ValueError(f"no kind with a bench named {', '.join(unknown)} (kinds: {', '.join(KINDS)}; "
-                             f"or {STUDIES}: a study's dispatch overhead)")
+                             f"or {STUDIES}: a study's dispatch overhead; or {ADAPT}: an adaptation's proposal time)")
         return v
 
     @field_validator("study_points")
@@ -136,6 +138,13 @@ def append_measured(path: Path, experiment: str, command: str, todo: list, measu
     return data
 
 
+def measure_adapt(log: Callable[[str], None]) -> dict:
+    """`gaitmend bench --adapt --json` (the published size), in this process."""
+    from app.cli.adapt_bench import adapt_bench
+
+    return _timed(ADAPT, lambda: {"figures": adapt_bench(False, log)})
+
+
 def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print, bench: Callable[..., dict] = run_bench,
                     studies: Callable[..., dict] = study_bench) -> str:
     """Each kind asked for (or each not yet in the file), one at a time, appended as it ends;
@@ -144,22 +153,27 @@ def reproduce_bench(p: BenchParams, log: Callable[[str], None] = print, bench: C
     todo = _names(p.kinds) or [k for k, kind in KINDS.items() if kind.bench() and k not in have]
 
     def measure(k: str) -> dict:
+        if k == ADAPT:
+            return measure_adapt(log)
         return measure_studies(p.study_points, log, studies) if k == STUDIES else measure_kind(k, log, bench)
 
     def label(k: str) -> str:
+        if k == ADAPT:
+            return f"{k}: gaitmend bench --adapt --json"
         return (f"{k}: gaitmend bench --studies --json ({p.study_points} points)" if k == STUDIES
                 else f"{k}: gaitmend bench --kind {k} --json")
 
     data = append_measured(p.json_out, "bench", benchmarks.COMMAND, todo, measure, label, log)
     if not todo:
         log(f"every kind is in {p.json_out} already (--kinds K re-measures one)")
-    shown = [benchmarks.render_all(data)] if set(todo) != {STUDIES} else []
-    return "\n".join(shown + ([benchmarks.render_studies(data)] if STUDIES in todo else []))
+    shown = [benchmarks.render_all(data)] if set(todo) - {STUDIES, ADAPT} or not todo else []
+    return "\n".join(shown + ([benchmarks.render_studies(data)] if STUDIES in todo else [])
+                     + ([benchmarks.render_adapt(data)] if ADAPT in todo else []))
 
 
 EXPERIMENT = Experiment("bench", "every kind's `gaitmend bench --kind K --json`, one kind at a time, each appended "
                                  "with the machine, its load before and after, the commit and the date (kinds "
                                  "already in --json-out are skipped unless --kinds names them); --kinds studies: "
                                  "`gaitmend bench --studies --json` on the deployment the GAITMEND_* variables "
-                                 "name, recorded with it",
+                                 "name, recorded with it; --kinds adapt: `gaitmend bench --adapt --json`",
                         BenchParams, reproduce_bench, benchmarks.sections())

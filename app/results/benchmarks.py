@@ -29,6 +29,8 @@ JSON = "docs/benchmarks.json"
 COMMAND = "gaitmend reproduce bench --write-docs"
 STUDIES = "studies"  # the kind of `gaitmend bench --studies` rows (no kind of the registry)
 STUDIES_COMMAND = f"gaitmend reproduce bench --kinds {STUDIES} --write-docs"
+ADAPT = "adapt"  # the kind of `gaitmend bench --adapt` rows (an adaptation session is no job kind)
+ADAPT_COMMAND = f"gaitmend reproduce bench --kinds {ADAPT} --write-docs"
 SKIP = ("targets",)  # the verdicts, shown beside their figures
 PER = re.compile(r"_(ms|s)_per_([a-z]+)$")  # a time per something else
 UNITS = (("_per_s", "/s"), ("_ms", "ms"), ("_s", "s"), ("_cm", "cm"), ("_deg", "deg"), ("_m", "m"))
@@ -180,10 +182,30 @@ def render_studies(data: dict | None) -> str:
               f"run{'' if earlier == 1 else 's'} kept in [benchmarks.json](benchmarks.json), not shown.\n")
 
 
+def render_adapt(data: dict | None) -> str:
+    """docs/adapt.md's speed: the latest `gaitmend bench --adapt` run's figures (the post of the
+    last trial to a session over a large map, warm and after a restart), where and when."""
+    runs = runs_of(data, ADAPT)
+    if not runs:
+        return missing(JSON, ADAPT_COMMAND)
+    run = runs[-1]
+    f = run["figures"]["adapt_proposal"]
+    return (f"Posting trial {f['trials']} to a session over a map of {f['elites']:,} elites, through the API on "
+            f"SQLite, took {f['warm_s']:.2f} s (best of {f['repeats']}; median {f['warm_median_s']:.2f} s) while the "
+            f"server held the map, and {f['cold_s']:.2f} s as the first post after a restart, which reads the job's "
+            f"stored result again. Target <= {f['target_s']:g} s for each of the {f['repeats']} posts: warm "
+            f"{met_text(f['met'])}, after a restart {met_text(f['met_cold'])}. Measured by `{ADAPT_COMMAND}` (`gaitmend bench --adapt --json`) on "
+            f"{machine_text(run['machine'])}, nice {run['nice']}, 1-minute load average {load_text(run)}, "
+            f"{commit_text(run)}, finished {run['date']}. The map is synthetic (random elites in the kind's result "
+            "format): the cost depends on the map's size, not on its gaits.\n")
+
+
 def sections() -> tuple[Section, ...]:
     """``bench`` (every kind at a glance, docs/benchmarks.md), ``bench-<kind>`` per kind with
-    a bench (its page's machine-dependent section) and ``study-dispatch`` (docs/studies.md)."""
+    a bench (its page's machine-dependent section), ``study-dispatch`` (docs/studies.md) and
+    ``bench-adapt`` (docs/adapt.md)."""
     per_kind = tuple(Section(f"bench-{k}", (JSON,), lambda d, k=k: render_kind(k, d[0]))
                      for k, kind in KINDS.items() if kind.bench())
     return (Section("bench", (JSON,), lambda d: render_all(d[0])), *per_kind,
-            Section("study-dispatch", (JSON,), lambda d: render_studies(d[0])))
+            Section("study-dispatch", (JSON,), lambda d: render_studies(d[0])),
+            Section("bench-adapt", (JSON,), lambda d: render_adapt(d[0])))
