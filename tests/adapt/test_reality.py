@@ -100,6 +100,10 @@ def test_a_result_reads_as_a_map(maps, tmp_path):
     with zipfile.ZipFile(z, "w") as f:
         f.writestr("result.json", maps[0].read_text())
     assert read_repertoire(z).cells == rep.cells
+    # a result whose JSON holds a NaN (Python's json writes it; orjson refuses it) reads the same
+    nan = tmp_path / "nan.json"
+    nan.write_text(json.dumps(json.loads(maps[0].read_text()) | {"note": float("nan")}))
+    assert read_repertoire(nan).cells == rep.cells
     two = read_repertoires([maps[2], maps[2], maps[1]])
     assert [r.map.name for r in two] == ["intact", "intact (2)", "lost leg1"]
     assert two[1].map.descriptors.shape[1] == 2 and two[2].descriptor == ["forward_m", "lateral_m"]
