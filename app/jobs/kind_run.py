@@ -80,7 +80,8 @@ class RunsJob(abc.ABC):
         (app/robots/legmap.py ``Robot``) when ``spec.robot`` is one. ``gaits`` (P, n) are parameters
         over the servos named ``joints`` (the order of the map that holds them; a servo the
         damaged robot no longer has is dropped), or, for a kind whose gaits are not per
-        servo, over its own parameters of that name (recovery: ``bounds.names``). Returns per gait the measured ``forward_m``,
+        servo, over its own parameters of that name (recovery: ``bounds.names``). Returns
+        per gait the measured ``forward_m``,
         ``lateral_m``, ``yaw_deg``, ``fell`` and ``duration_s`` (lists). The adaptation's
         simulated reality (app/adapt/reality.py) calls it; a kind without a gait to play
         raises NotImplementedError (the default)."""

@@ -194,7 +194,8 @@ def render_adapt(data: dict | None) -> str:
             f"SQLite, took {f['warm_s']:.2f} s (best of {f['repeats']}; median {f['warm_median_s']:.2f} s) while the "
             f"server held the map, and {f['cold_s']:.2f} s as the first post after a restart, which reads the job's "
             f"stored result again. Target <= {f['target_s']:g} s for each of the {f['repeats']} posts: warm "
-            f"{met_text(f['met'])}, after a restart {met_text(f['met_cold'])}. Measured by `{ADAPT_COMMAND}` (`gaitmend bench --adapt --json`) on "
+            f"{met_text(f['met'])}, after a restart {met_text(f['met_cold'])}. Measured by `{ADAPT_COMMAND}` "
+            f"(`gaitmend bench --adapt --json`) on "
             f"{machine_text(run['machine'])}, nice {run['nice']}, 1-minute load average {load_text(run)}, "
             f"{commit_text(run)}, finished {run['date']}. The map is synthetic (random elites in the kind's result "
             "format): the cost depends on the map's size, not on its gaits.\n")

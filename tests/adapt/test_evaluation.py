@@ -142,7 +142,8 @@ def test_the_de_arm_is_the_recovery_answer_of_the_believed_damage_tried_on_the_r
     from app.jobs.registry import get_kind, parse_spec
 
     seed = p.seed * 100_003 + k
-    spec = parse_spec(D.DE_QUICK | {"robot_damage": de["believed_damage"], "search": D.DE_QUICK["search"] | {"seed": seed}})
+    spec = parse_spec(D.DE_QUICK | {"robot_damage": de["believed_damage"],
+                                    "search": D.DE_QUICK["search"] | {"seed": seed}})
     job = get_kind("recovery").run(spec, MemoryContext()).summary
     assert job["best"]["metrics"]["y_f_m"] == de["believed_forward_m"]
     assert de["final_speed_m_s"] * spec.sim.duration_s != de["believed_forward_m"]  # the reality changes the walk

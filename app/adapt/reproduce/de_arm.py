@@ -80,12 +80,13 @@ def run_de_believed(drawn: dict, seed: int, profile: Any, quick: bool = False) -
                   stored)
     got = Measured(m["forward_m"][0], m["lateral_m"][0], m["yaw_deg"][0], m["fell"][0], m["duration_s"][0])
     ok = recovered(got.forward_m, got.fell, got.duration_s, reality.robot, reality.stored)
-    return out | {"recovered_at": 1 if ok else None,
-                  "stop": f"one answer (the search stopped on {job['search']['stop_reason']} after "
-                          f"{job['search']['generations_run']} generations)", "final_speed_m_s": got.speed_m_s, "final_fell": got.fell,
-                  "final_lateral_m": got.lateral_m, "final_yaw_deg": got.yaw_deg, "tried": "the DE answer",
-                  "believed_forward_m": job["best"]["metrics"]["y_f_m"], "believed_target_met": job["best"]["target_met"],
-                  "evaluations": job["timing"]["evaluations"], "seconds": time.perf_counter() - t0}
+    stop = (f"one answer (the search stopped on {job['search']['stop_reason']} after "
+            f"{job['search']['generations_run']} generations)")
+    return out | {"recovered_at": 1 if ok else None, "stop": stop, "final_speed_m_s": got.speed_m_s,
+                  "final_fell": got.fell, "final_lateral_m": got.lateral_m, "final_yaw_deg": got.yaw_deg,
+                  "tried": "the DE answer", "believed_forward_m": job["best"]["metrics"]["y_f_m"],
+                  "believed_target_met": job["best"]["target_met"], "evaluations": job["timing"]["evaluations"],
+                  "seconds": time.perf_counter() - t0}
 
 
 def de_pass(p: Any, profile: Any, data: dict, log: Callable[[str], None]) -> str:
