@@ -58,5 +58,6 @@ def walking_cases(robot_mass_kg: float, names: Sequence[str] = CASE_NAMES) -> li
 # streams of the job's seed; named here for the recovery modules and reproductions that read them.
 RANDOM_RANGES, RANGE_TEXT = perturb.RANDOM_RANGES, perturb.RANGE_TEXT
 HELD_OUT_STREAM, SEARCH_STREAM = perturb.HELD_OUT_STREAM, perturb.SEARCH_STREAM
+CHOICE_STREAM = 0x43484F53  # "CHOS": the robust choice's models (spec.Choice), drawn from the same ranges
 draw_models, random_world, random_model, random_models = (perturb.draw_models, perturb.random_world,
                                                           perturb.random_model, perturb.random_models)

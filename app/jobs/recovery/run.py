@@ -19,7 +19,7 @@ import numpy as np
 from app.jobs.base import JobResult, RunContext
 from app.jobs.evidence import ControlRow, PhaseContext, Phases, Robustness, control_seed
 from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
-from app.jobs.recovery.cases import walking_cases
+from app.jobs.recovery.cases import CHOICE_STREAM, walking_cases
 from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
 from app.jobs.recovery.metrics import basis_text, fitness, objective_terms, target_for, target_met
@@ -31,7 +31,7 @@ from app.jobs.recovery.trajectory import bounds_of, param_names, search_box
 from app.optim.registry import make_optimizer
 from app.robots.catalog import ROBOTS, RobotEntry, get_robot
 from app.robots.damage import Damage
-from app.sim.perturb import Perturbation, edit_model
+from app.sim.perturb import Perturbation, draw_models, edit_model, random_models
 
 # -- problem setup -------------------------------------------------------------------------
 
@@ -218,6 +218,8 @@ class _Job:
     held_out: dict | None = None  # the answer on the held-out random models
     open_loop: dict | None = None  # closed loop: the answer again without the correction
     robust: dict | None = None
+    population: tuple | None = None  # choice robust: DE's final population and its F
+    choice: dict | None = None  # choice robust: what was chosen and why
     traces: dict = dataclasses.field(default_factory=dict)
     evaluations: int = 0
     sim_steps: int = 0
@@ -257,7 +259,7 @@ def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
     s = spec.search
     per_search = spec.search_walks
     rnd = int(spec.controls.random_search)
-    sizes = {"search": per_search, "random_search": rnd * per_search, "final_scoring": 2,
+    sizes = {"search": per_search, "random_search": rnd * per_search, "choice": spec.choice_walks, "final_scoring": 2,
              "random_search_scoring": rnd, "robustness": len(spec.robustness.cases),
              "held_out": spec.robustness.held_out, "traces": 2}
     if spec.control.mode == "closed_loop":
@@ -306,6 +308,8 @@ def search(job: _Job, phases: Phases) -> None:
         goal = _Goal(job.score, job.ev, job.half_ev)
     job.searches["search"] = run_search(opt, evaluate, s.generations, phases.context("search"), stop, goal=goal,
                                         stop_at_goal=stop.at_target)
+    if job.spec.choice.mode == "robust":  # DE's final population (restored with it on a resume)
+        job.population = (np.array(opt.pop), np.array(opt.fit))
     if job.spec.controls.random_search:
         gens = job.searches["search"].generations_run - 1
         job.searches["random_search"] = random_control(job, gens, phases.context("random_search"))
@@ -348,6 +352,49 @@ def _search_info(job: _Job) -> dict:
 
 def _done(job: _Job, ph: PhaseContext) -> None:
     ph.progress(1, 1, _search_info(job))  # the next phase's _enter checks for a cancel
+
+
+def choose(job: _Job, phases: Phases) -> None:
+    """choice.mode robust (spec.Choice): the answer becomes the member of DE's final population
+    that meets the target on the nominal model and on the most of the choice's random models
+    (then the fewest falls, then the best F); the search's best F when none meets it. Every
+    later phase (controls, cases, held-out set, open loop, traces) judges the chosen gait."""
+    c = job.spec.choice
+    if c.mode != "robust":
+        return
+    ph = _enter(job, phases, "choice")
+    pop, fit = job.population
+    walk_s = job.spec.sim.duration_s
+    nominal = job.ev.evaluate_all(pop)
+    draws = draw_models(job.spec.seed, c.models, CHOICE_STREAM)
+    ev = MultiModelEvaluator(job.robot, random_models(job.mspec, draws, job.robot.geometry.total_mass), job.seq,
+                             job.ev.cfg)
+    try:
+        r = ev.evaluate_all(pop)
+    finally:
+        ev.close()
+    job.evaluations += len(fit) * (1 + c.models)
+    job.sim_steps += nominal.sim_steps + r.sim_steps
+    P = len(fit)
+    on_nominal = [target_met({k: v[p, 0] for k, v in nominal.metrics.items()}, walk_s) is True for p in range(P)]
+    kept = np.array([[target_met({k: v[p, m] for k, v in r.metrics.items()}, walk_s) is True
+                      for m in range(c.models)] for p in range(P)])
+    falls = np.asarray(r.metrics["fell"], dtype=bool)
+    best = int(np.argmax(fit))
+    ok = [p for p in range(P) if on_nominal[p]]
+    pick = min(ok, key=lambda p: (-int(kept[p].sum()), int(falls[p].sum()), -float(fit[p]), p)) if ok else best
+    out = job.searches["search"]
+    job.searches["search"] = dataclasses.replace(out, best_x=np.array(pop[pick]), best_fitness=float(fit[pick]))
+    job.choice = {"mode": "robust", "models": c.models, "stream": "cases.CHOICE_STREAM of the job's seed",
+                  "members": P, "meeting_target_nominally": len(ok), "chosen": pick, "best_fitness_member": best,
+                  "chosen_kept": int(kept[pick].sum()), "chosen_fell": int(falls[pick].sum()),
+                  "best_kept": int(kept[best].sum()), "best_fell": int(falls[best].sum()),
+                  "chosen_fitness": float(fit[pick]), "best_fitness": float(fit[best]),
+                  "best_fitness_params": _params(job.names, pop[best]),
+                  "reason": ("of the members meeting the target on the nominal model, the one keeping it on the most "
+                             "of the choice's models" if ok else "no member meets the target on the nominal model: "
+                             "the best F")}
+    _done(job, ph)
 
 
 def controls(job: _Job, phases: Phases) -> None:
@@ -505,6 +552,7 @@ def summary(job: _Job) -> dict:
         "robustness": _robustness_json(job),
         "control": _control_json(job),
         "robust": job.robust,
+        "choice": job.choice,
         "gait": job.seq.as_dict() | {"period_s": job.ev.n_period * job.ev.dt},
         "timestep_s": float(job.model.opt.timestep),
         "bounds": {"names": job.names, "lower": job.lower.tolist(), "upper": job.upper.tolist()},
@@ -532,6 +580,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         job.setup_s = time.perf_counter() - t0
         search(job, phases)
         post_start = time.perf_counter()
+        choose(job, phases)
         controls(job, phases)
         robustness(job, phases)
         held_out_and_open_loop(job, phases)

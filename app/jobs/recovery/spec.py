@@ -155,6 +155,21 @@ def _unique_cases(v: list[str]) -> list[str]:
     return v
 
 
+class Choice(StrictModel):
+    """Which of the search's gaits is the answer. ``best``: the best F on the nominal model
+    (the paper). ``robust``: every member of DE's final population that meets the recovery
+    target on the nominal model is walked on ``models`` random models drawn from the held-out
+    set's ranges with a stream of the job's seed of its own (cases.CHOICE_STREAM: never the
+    held-out set's, never a randomised search's), and the answer is the one that keeps the
+    target on the most of them (then the fewest falls, then the best F); when none meets the
+    target, the best F stays the answer."""
+
+    mode: Literal["best", "robust"] = Field("best", description=(
+        "best: the best F on the nominal model (the paper); robust: of DE's final population, the gait that meets "
+        "the target on the nominal model and on the most random models drawn for the choice"))
+    models: int = Field(20, ge=1, le=200, description="random models the robust choice walks each member on")
+
+
 class Robust(StrictModel):
     """Robust search: every candidate is scored on the nominal model and on each of
     ``models`` (standard perturbations by name) in the same batched rollout, and its
@@ -299,6 +314,7 @@ class RecoverySpec(SpecBase):
         "randomised robust search: K random models drawn per generation, fitness their mean or CVaR"))
     controls: Controls = Field(default_factory=Controls)
     robustness: Robustness = Field(default_factory=Robustness)
+    choice: Choice = Field(default_factory=Choice)
 
     @model_validator(mode="after")
     def _preset(self):
@@ -361,6 +377,17 @@ class RecoverySpec(SpecBase):
         self.damage = derived
 
     @model_validator(mode="after")
+    def _robust_choice(self):
+        if self.choice.mode != "robust":
+            return self
+        if self.search.optimizer != "de":
+            raise ValueError("choice.mode: robust chooses among DE's final population (search.optimizer de)")
+        if self.robot not in ROBOTS:
+            raise ValueError("choice.mode: robust walks the built-in robots' random models (a rough floor of their "
+                             "world); an uploaded robot's answer is the best F")
+        return self
+
+    @model_validator(mode="after")
     def _randomised_alone(self):
         if self.randomised is None:
             return self
@@ -403,7 +430,8 @@ class RecoverySpec(SpecBase):
         "plus one simulation per robustness case, one per held-out model and three re-scorings (best, baseline, "
         "random-search best); in closed loop, the answer once more without the correction on the nominal model, "
         "each case and each held-out model; with stop.at_target, at most two confirmation walks per generation "
-        "(at the default step and at half of it)")
+        "(at the default step and at half of it); with choice.mode robust, population x (1 + choice.models) walks "
+        "more")
 
     @property
     def seed(self) -> int:
@@ -428,7 +456,13 @@ class RecoverySpec(SpecBase):
         # closed loop: the answer again without the correction, on the nominal model, the cases and the held-out set
         again = 1 + len(self.robustness.cases) + self.robustness.held_out if self.control.mode == "closed_loop" else 0
         return (search * (2 if self.controls.random_search else 1) + len(self.robustness.cases) + 3 + confirm
-                + self.robustness.held_out + again)
+                + self.robustness.held_out + again + self.choice_walks)
+
+    @property
+    def choice_walks(self) -> int:
+        """Walks the robust choice adds: every member of the final population on the nominal
+        model and on each of the choice's models."""
+        return self.search.population * (1 + self.choice.models) if self.choice.mode == "robust" else 0
 
 
 Spec = RecoverySpec

@@ -19,8 +19,8 @@ from pathlib import Path
 from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
-from app.jobs.recovery.reproduce import (atlas_check, curves, jobtime, loop_check, peers_check, page_prose, randomised_check,
-                                         rejudge)
+from app.jobs.recovery.reproduce import (atlas_check, choice_check, curves, jobtime, loop_check, peers_check,
+                                         page_prose, randomised_check, rejudge)
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of
 from app.jobs.recovery.reproduce.documented_answers import documented_answers  # noqa: F401 (re-exported for the tests)
@@ -547,4 +547,8 @@ EXPERIMENTS = [
                              "budget on the four Table II damages, answers judged on the same held-out random models",
                randomised_check.RandomisedParams, randomised_check.run_randomised,
                (Section("recovery-randomised", (randomised_check.JSON,), randomised_check.render),)),
+    Experiment("choice", "issue 47: the robust choice against the same search's best F and a longer nominal search "
+                         "at equal walks, closed loop, on the four Table II damages, answers judged on the same "
+                         "held-out random models", choice_check.ChoiceParams, choice_check.run_choice,
+               (Section("recovery-choice", (choice_check.JSON,), choice_check.render),)),
 ]
