@@ -67,7 +67,7 @@ def run_de_believed(drawn: dict, seed: int, profile: Any, quick: bool = False) -
         if profile.stored is not None:
             why = kind.user_robot_error(spec, profile.stored.legs.to_json())
             if why:
-                raise SpecError([{"field": "robot_damage", "message": why}])
+                raise SpecError([{"field": "robot_damage", "message": why.removeprefix("robot_damage: ")}])
         job = kind.run(spec, ctx).summary
     except SpecError as e:
         return out | {"recovered_at": None, "stop": f"refused: {e}", "final_speed_m_s": 0.0, "final_fell": False,
