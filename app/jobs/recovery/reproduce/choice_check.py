@@ -26,6 +26,7 @@ from pydantic import BaseModel, Field
 from app.jobs.ledger import Ledger, current_runs, machine_time
 from app.jobs.recovery.reproduce import science_files
 from app.jobs.recovery.reproduce.randomised_check import HELD_OUT_SEED, KEEP, _rate
+from app.jobs.recovery.reproduce.table2_damages import run_seed_major
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_choice.json"
@@ -102,13 +103,8 @@ def run_job(p: ChoiceParams, lost: tuple[int, ...], seed: int, job: str) -> dict
 def run_choice(p: ChoiceParams, log: Callable[[str], None] = print) -> str:
     planned = len(SCENARIOS) * p.seeds * len(JOBS)
     led = Ledger(p.json_out, "recovery-choice", COMMAND, p.model_dump(mode="json"), SCIENCE, planned=planned)
-    for seed in range(p.seeds):  # seed by seed: a cut-short run still has every damage
-        for lost in SCENARIOS:
-            for job in JOBS:
-                name = f"legs {'-'.join(map(str, lost))} seed {seed} {job}"
-                log(f"{name}: searching")
-                led.run(name, job_spec(p, lost, seed, job) | {"held_out": p.held_out}, seed,
-                        lambda: run_job(p, lost, seed, job), log)
+    run_seed_major(led, SCENARIOS, p.seeds, JOBS, lambda lost, seed, job: job_spec(p, lost, seed, job)
+                   | {"held_out": p.held_out}, lambda lost, seed, job: run_job(p, lost, seed, job), log)
     return render([led.data])
 
 

@@ -22,6 +22,7 @@ from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
 from app.jobs.recovery.reproduce import science_files
+from app.jobs.recovery.reproduce.table2_damages import run_seed_major
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_randomised.json"
@@ -112,12 +113,8 @@ def run_arm(p: RandomisedParams, lost: tuple[int, ...], seed: int, arm: str) -> 
 def run_randomised(p: RandomisedParams, log: Callable[[str], None] = print) -> str:
     planned = len(SCENARIOS) * p.seeds * len(ARMS)
     led = Ledger(p.json_out, "recovery-randomised", COMMAND, p.model_dump(mode="json"), SCIENCE, planned=planned)
-    for seed in range(p.seeds):  # seed by seed: a cut-short run still has every damage
-        for lost in SCENARIOS:
-            for arm in ARMS:
-                name = f"legs {'-'.join(map(str, lost))} seed {seed} {arm}"
-                log(f"{name}: searching")
-                led.run(name, ledger_spec(p, lost, seed, arm), seed, lambda: run_arm(p, lost, seed, arm), log)
+    run_seed_major(led, SCENARIOS, p.seeds, ARMS, lambda lost, seed, arm: ledger_spec(p, lost, seed, arm),
+                   lambda lost, seed, arm: run_arm(p, lost, seed, arm), log)
     return render([led.data])
 
 
