@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 
 AXE = Path(__file__).parent / "vendor" / "axe.min.js"
@@ -171,6 +172,29 @@ def non_background(png: bytes) -> float:
     a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
     colors, counts = np.unique(a, axis=0, return_counts=True)
     return float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
+
+
+def canvas_drawn(page, frame: str, enough: float, rounds: int, every_ms: int) -> float:
+    """Scroll to the viser client in the iframe ``frame`` and wait until its canvas shows the
+    scene, not just the background: the share of non-background pixels in the middle of the
+    canvas, once above ``enough`` (or the last share seen after ``rounds`` looks)."""
+    page.locator(frame).scroll_into_view_if_needed()
+    canvas = page.frame_locator(frame).locator("canvas").first
+    expect(canvas).to_be_visible(timeout=60_000)
+    share = 0.0
+    for _ in range(rounds):
+        page.wait_for_timeout(every_ms)
+        try:  # the client lays its canvas out over a few frames in software GL (0 x 0 at first)
+            bb = canvas.bounding_box(timeout=5000)  # and may swap it while the recording loads
+        except PlaywrightTimeout:
+            continue
+        if not bb or bb["width"] < 50 or bb["height"] < 50:
+            continue
+        share = non_background(page.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
+                                                     "width": bb["width"] * 0.6, "height": bb["height"] * 0.7}))
+        if share > enough:
+            break
+    return share
 
 
 def colour_share(png: bytes, hex_colour: str) -> float:

@@ -5,12 +5,8 @@ multigait page's map with the tree and the plan. Then the compare page across ki
 
 from __future__ import annotations
 
-import io
-
-import numpy as np
 import pytest
-from PIL import Image
-from playwright.sync_api import TimeoutError as PlaywrightTimeout, expect
+from playwright.sync_api import expect
 
 import glance
 
@@ -39,27 +35,8 @@ def submit(page) -> str:
 
 
 def replay_drawn(jp, shots, name) -> float:
-    """Scroll to the 3D replay, wait until its canvas shows the scene (not just the
-    background), screenshot the card; returns the share of non-background pixels."""
-    jp.locator("#replay").scroll_into_view_if_needed()
-    canvas = jp.frame_locator("#replay").locator("canvas").first
-    expect(canvas).to_be_visible(timeout=60_000)
-    share = 0.0
-    for _ in range(40):
-        jp.wait_for_timeout(1000)
-        try:  # the client lays its canvas out over a few frames in software GL: 0 x 0 at first
-            bb = canvas.bounding_box(timeout=5000)
-        except PlaywrightTimeout:
-            continue
-        if not bb or bb["width"] < 50 or bb["height"] < 50:
-            continue
-        png = jp.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
-                                  "width": bb["width"] * 0.6, "height": bb["height"] * 0.7})
-        a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
-        colors, counts = np.unique(a, axis=0, return_counts=True)
-        share = float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
-        if share > 0.05:
-            break
+    """The 3D replay's share of drawn pixels, once it draws; the card's screenshot is kept."""
+    share = glance.canvas_drawn(jp, "#replay", enough=0.05, rounds=40, every_ms=1000)
     jp.locator("#replay-card").screenshot(path=shots / f"{name}-replay-1280.png")
     return share
 

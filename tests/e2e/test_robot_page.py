@@ -7,7 +7,6 @@ robot and its damage. axe: 0 critical / serious on the page at 1280 and 390 px."
 
 from __future__ import annotations
 
-import io
 import re
 import sys
 import zipfile
@@ -15,8 +14,6 @@ from pathlib import Path
 from urllib.parse import unquote
 
 import httpx
-import numpy as np
-from PIL import Image
 from playwright.sync_api import expect
 
 import glance
@@ -32,27 +29,6 @@ def _model(tmp_path) -> Path:
     path = tmp_path / "hexapod_other.xml"
     path.write_text(build(HEXAPOD_OTHER).to_xml())
     return path
-
-
-def _drawn(page, frame: str) -> float:
-    """Share of non-background pixels of the viser canvas in ``frame`` once it draws."""
-    page.locator(frame).scroll_into_view_if_needed()
-    canvas = page.frame_locator(frame).locator("canvas").first
-    expect(canvas).to_be_visible(timeout=30_000)
-    share = 0.0
-    for _ in range(20):
-        page.wait_for_timeout(700)
-        bb = canvas.bounding_box(timeout=5000)
-        if not bb or bb["width"] < 50 or bb["height"] < 50:
-            continue
-        png = page.screenshot(clip={"x": bb["x"] + bb["width"] * 0.2, "y": bb["y"] + bb["height"] * 0.15,
-                                    "width": bb["width"] * 0.6, "height": bb["height"] * 0.7})
-        a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int).reshape(-1, 3)
-        colors, counts = np.unique(a, axis=0, return_counts=True)
-        share = float((np.abs(a - colors[counts.argmax()]).sum(axis=1) > 30).mean())
-        if share > 0.02:
-            break
-    return share
 
 
 def _own_robots(server) -> list[dict]:
@@ -122,7 +98,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     recording = httpx.get(server.url + link, timeout=60)
     assert recording.status_code == 200 and len(recording.content) > 1000, recording.status_code
     assert httpx.get(server.url + link.replace("sig=", "sig=0"), timeout=10).status_code in (401, 404)
-    share = _drawn(page, "#robot-preview")
+    share = glance.canvas_drawn(page, "#robot-preview", enough=0.02, rounds=20, every_ms=700)
     page.locator("#preview-card").screenshot(path=str(shots / "robot-preview-1280.png"))
     assert share > 0.02, f"the preview shows {share:.1%} non-background pixels"
 
