@@ -233,3 +233,68 @@ def test_the_simulated_model_reads_no_file_so_the_bundle_draws_the_uploaded_mesh
     mujoco.mj_kinematics(m, d1)
     k0, k1 = (int(np.flatnonzero(x.geom_dataid == g)[0]) for x, g in ((intact, g0), (m, g1)))
     np.testing.assert_allclose(d1.geom_xpos[k1], d0.geom_xpos[k0], atol=1e-6)  # drawn where it was
+
+
+def test_an_uploaded_robot_is_judged_on_held_out_models_and_its_answer_can_be_chosen_robustly(quadruped):
+    """Issue 47, on every robot: the held-out random models (the stated ranges, a rough floor
+    of the uploaded robot's own world) judge an uploaded robot's answer, and the robust choice
+    picks among DE's final population on the choice's own draws."""
+    spec = RecoverySpec.parse({
+        "kind": "recovery", "robot": RID,
+        "robot_damage": {"locked_joints": [{"leg": "front_left", "joint": "knee_front_left", "angle_deg": 0.0}]},
+        "search": {"population": 8, "generations": 2, "seed": 2}, "sim": {"duration_s": 3.0},
+        "controls": {"random_search": False}, "robustness": {"cases": [], "held_out": 6},
+        "choice": {"mode": "robust", "models": 3}})
+    s = _run(spec, quadruped)
+    held = s["robustness"]["held_out"]
+    assert held["n"] == 6 and len(held["models"]) == 6
+    assert s["robustness"]["groups"]["held_out"] == {"met": held["met"], "total": 6}
+    walked = [m["metrics"]["y_f_m"] for m in held["models"]]
+    assert len(set(walked)) == 6 and max(walked) > 0.1, walked  # six different worlds, the gait walks on some
+    c = s["choice"]
+    assert c["mode"] == "robust" and c["members"] == 8 and c["models"] == 3
+    assert s["best"]["fitness"] == pytest.approx(c["chosen_fitness"])
+    assert c["chosen_kept"] >= c["best_kept"] or c["meeting_target_nominally"] == 0
+
+
+def test_the_identity_held_out_model_walks_an_uploaded_answer_as_its_plane():
+    """The held-out model with every draw at its identity differs from the nominal model only
+    in its floor (a flat height field for the plane): it walks an uploaded hexapod's answer
+    as the nominal model does, within the timestep check's tolerance."""
+    from app.jobs.recovery.reproduce.convergence import RULE, halving_deltas
+    from app.jobs.recovery.robust import MultiModelEvaluator
+    from app.jobs.recovery.run import _Job, scorer
+    from app.jobs.recovery import userrobot
+    from app.sim.perturb import random_models
+
+    robot = _hexapod()
+    spec = _spec({"lost_legs": [robot.legs.legs[0].name]}, duration_s=4.0)
+    x = np.array(list(_run(spec, robot)["best"]["params"].values()))
+    job = userrobot.set_up(spec, robot, _Job, scorer)
+    identity = {"friction_scale": 1.0, "mass_scale": 1.0, "payload_share": 0.0, "payload_x_m": 0.0,
+                "payload_y_m": 0.0, "motor_strength": 1.0, "servo_gain_scale": 1.0, "floor_amplitude_m": 0.0,
+                "floor_seed": 7}
+    models = [job.model, random_models(job.mspec, [identity], job.robot.geometry.total_mass)[0]]
+    assert models[1].geom_type[models[1].geom("floor").id] == mujoco.mjtGeom.mjGEOM_HFIELD
+    ev = MultiModelEvaluator(job.robot, models, job.seq, job.ev.cfg)
+    try:
+        r = ev.evaluate_all(x[None]).metrics
+    finally:
+        ev.close()
+        job.close()
+    assert r["y_f_m"][0, 0] > 0.3 and not r["fell"][0, 1]
+    d = halving_deltas({k: v[:, 0] for k, v in r.items()}, {k: v[:, 1] for k, v in r.items()})
+    assert d["forward_rel"][0] < RULE["forward_rel"], d
+    assert d["lateral_m"][0] < RULE["lateral_m"] and d["yaw_deg"][0] < RULE["yaw_deg"], d
+
+
+def test_an_uploaded_robot_searches_on_randomised_models():
+    """The randomised search (K random models a generation) runs on an uploaded robot."""
+    robot = _hexapod()
+    spec = RecoverySpec.parse({"kind": "recovery", "robot": RID, "robot_damage": {"lost_legs": [robot.legs.legs[0].name]},
+                               "search": {"population": 6, "generations": 2, "seed": 2}, "sim": {"duration_s": 2.0},
+                               "controls": {"random_search": False}, "robustness": {"cases": [], "held_out": 2},
+                               "randomised": {"models": 2}})
+    s = _run(spec, robot)
+    assert s["robust"]["randomised"]["models"] == 2 and len(s["robust"]["randomised"]["last_draw"]["best_fitness_per_model"]) == 2
+    assert s["robustness"]["held_out"]["n"] == 2

@@ -30,7 +30,7 @@ def play(spec, gaits, joints: list[str], perturbation=None, stored=None) -> dict
             raise ValueError(f"robot {spec.robot!r} is an uploaded robot: pass it as `stored`")
         from app.jobs.recovery import userrobot
 
-        job = userrobot.set_up(spec, stored, run._Job, run._Scorer)
+        job = userrobot.set_up(spec, stored, run._Job, run.scorer)
     try:
         if list(joints) and list(joints) != list(job.names):
             raise ValueError(f"the gaits' parameters {list(joints)} are not this damage's {job.names} "

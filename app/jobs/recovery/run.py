@@ -245,13 +245,19 @@ def set_up(spec: RecoverySpec) -> _Job:
     cfg = sim_config(spec)
     lower, upper = search_bounds(spec, robot)
     cases = walking_cases(robot.geometry.total_mass, spec.robustness.cases)
-    score = RandomisedScorer(spec, robot, mspec, seq, cfg) if spec.randomised else _Scorer(spec, robot, mspec, model,
-                                                                                             seq, cfg)
     return _Job(spec=spec, robot=robot, mspec=mspec, model=model, legs=legs, seq=seq, lower=lower, upper=upper,
-                names=param_names(legs), score=score,
+                names=param_names(legs), score=scorer(spec, robot, mspec, model, seq, cfg),
                 ev=GaitEvaluator(robot, model, seq, cfg), base_ev=GaitEvaluator(robot, model, nominal_tripod(legs), cfg),
                 cases=cases,
                 rob_ev=MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None)
+
+
+def scorer(spec: RecoverySpec, robot, mspec, model, seq, cfg) -> _Scorer | RandomisedScorer:
+    """The search's fitness: on the nominal model (or the robust search's fixed models), or
+    on each generation's draw of random models (``randomised``); any robot."""
+    if spec.randomised:
+        return RandomisedScorer(spec, robot, mspec, seq, cfg)
+    return _Scorer(spec, robot, mspec, model, seq, cfg)
 
 
 def phase_sizes(spec: RecoverySpec) -> dict[str, int]:
@@ -458,7 +464,7 @@ def held_out_and_open_loop(job: _Job, phases: Phases) -> None:
     from); in closed loop, the answer once more without the correction, on the nominal
     model, every case and the held-out set: the correction's share, same models and seeds."""
     s, best_x = job.spec, job.searches["search"].best_x
-    n = s.robustness.held_out if getattr(job.robot, "gait_layout", None) is None else 0  # built-in robots' floors
+    n = s.robustness.held_out
 
     def judge(m: dict) -> bool | None:
         return target_met(m, s.sim.duration_s)
@@ -574,7 +580,7 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     else:  # an uploaded robot, as the service or the CLI stored it
         from app.jobs.recovery import userrobot
 
-        job = userrobot.set_up(spec, ctx.load_robot(spec.robot), _Job, _Scorer)
+        job = userrobot.set_up(spec, ctx.load_robot(spec.robot), _Job, scorer)
     try:
         phases = Phases(ctx, phase_sizes(spec))
         job.setup_s = time.perf_counter() - t0

@@ -382,9 +382,6 @@ class RecoverySpec(SpecBase):
             return self
         if self.search.optimizer != "de":
             raise ValueError("choice.mode: robust chooses among DE's final population (search.optimizer de)")
-        if self.robot not in ROBOTS:
-            raise ValueError("choice.mode: robust walks the built-in robots' random models (a rough floor of their "
-                             "world); an uploaded robot's answer is the best F")
         return self
 
     @model_validator(mode="after")
@@ -397,8 +394,6 @@ class RecoverySpec(SpecBase):
             raise ValueError("randomised: DE only (its parents are scored again on every generation's draw)")
         if self.search.cut_walks:
             raise ValueError("randomised: search.cut_walks is for the nominal model only; set it false")
-        if self.robot not in ROBOTS:
-            raise ValueError("randomised: the random models are the built-in robots' (a rough floor of their world)")
         return self
 
     @model_validator(mode="after")

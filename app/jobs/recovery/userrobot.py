@@ -289,9 +289,9 @@ def plan(robot: UserRobot, model: mujoco.MjModel, legs: list[int], name: str) ->
                         name=name)
 
 
-def set_up(spec, stored: Robot, job_class, scorer_class):
-    """The recovery job's state for an uploaded robot: ``job_class`` and ``scorer_class``
-    are run.py's ``_Job`` and ``_Scorer`` (passed in: run.py imports this module)."""
+def set_up(spec, stored: Robot, job_class, scorer):
+    """The recovery job's state for an uploaded robot: ``job_class`` and ``scorer`` are
+    run.py's ``_Job`` and ``scorer`` (passed in: run.py imports this module)."""
     from app.jobs.recovery.cases import walking_cases
     from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
     from app.jobs.recovery.robust import MultiModelEvaluator, case_models
@@ -311,7 +311,7 @@ def set_up(spec, stored: Robot, job_class, scorer_class):
     lower, upper = search_bounds(spec, robot, legs, lost)
     cases = walking_cases(robot.geometry.total_mass, spec.robustness.cases)  # the trunk is "torso" (walkable.py)
     return job_class(spec=spec, robot=robot, mspec=mspec, model=model, legs=legs, seq=seq, lower=lower, upper=upper,
-                     names=param_names(legs), score=scorer_class(spec, robot, mspec, model, seq, cfg),
+                     names=param_names(legs), score=scorer(spec, robot, mspec, model, seq, cfg),
                      ev=GaitEvaluator(robot, model, seq, cfg), base_ev=GaitEvaluator(robot, model, base_seq, cfg),
                      cases=cases,
                      rob_ev=MultiModelEvaluator(robot, case_models(mspec, model, cases), seq, cfg) if cases else None)
