@@ -157,7 +157,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
         page.uncheck("#f-controls-random-search")
     page.locator("#f-robustness-cases").evaluate("e => { e.closest('details').open = true; }")
     page.fill("#f-robustness-cases", "[]")
-    page.fill("#f-robustness-held-out", "0")
+    page.fill("#f-robustness-held-out", "3")  # judged on held-out random models, as the built-in robot is
     page.click("#submit")
     done = page.locator("#form-ok")
     expect(done).to_be_visible(timeout=30_000)
@@ -171,6 +171,10 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     facts = page.locator("#facts")
     expect(facts).to_contain_text("hexapod_other")
     expect(facts).to_contain_text("lost front_left")
+    with server.client("alice") as c:
+        held = c.get(f"/api/jobs/{job_id}").json()["summary"]["robustness"]["held_out"]
+    assert held["n"] == 3 and len(held["models"]) == 3, held
+    expect(page.locator("#verdict-robustness .held-out")).to_contain_text(re.compile(r"\b3 held-out random models"))
     page.goto(f"{server.url}/")
     row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
     expect(row.locator('td[data-label="Robot"]')).to_have_text("hexapod_other", timeout=30_000)  # the list polls; a loaded CI machine took over 5 s
