@@ -298,3 +298,75 @@ def test_an_uploaded_robot_searches_on_randomised_models():
     s = _run(spec, robot)
     assert s["robust"]["randomised"]["models"] == 2 and len(s["robust"]["randomised"]["last_draw"]["best_fitness_per_model"]) == 2
     assert s["robustness"]["held_out"]["n"] == 2
+
+
+def _closed(damage: dict, **over) -> RecoverySpec:
+    s = {"kind": "recovery", "robot": RID, "robot_damage": damage, "search": {"population": 8, "generations": 2, "seed": 2},
+         "sim": {"duration_s": 4.0}, "controls": {"random_search": False}, "control": {"mode": "closed_loop"},
+         "robustness": {"cases": ["friction_0.7"], "held_out": 4}}
+    return RecoverySpec.parse(s | over)
+
+
+def test_an_uploaded_quadruped_with_a_locked_knee_walks_closed_loop_and_reports_it_both_ways(quadruped):
+    """Issue 47, on every robot: the closed-loop correction runs on an uploaded robot (its
+    numerical IK in the controller, its gait frame turned onto its leg map's forward); the
+    summary holds the answer without the correction on the same models, and the correction
+    takes the heading error out."""
+    s = _run(_closed({"locked_joints": [{"leg": "front_left", "joint": "knee_front_left", "angle_deg": 0.0}]}),
+             quadruped)
+    c = s["control"]
+    assert c["mode"] == "closed_loop" and c["law"]["odometry"] is True
+    H = s["uploaded_robot"]["stance_height_m"]  # the JetHexa's metres, scaled by the stance height
+    assert c["law"]["stride_limit_m"] == pytest.approx(0.015 * H / 0.10)
+    assert c["law"]["lateral_gain"] == pytest.approx(0.5)
+    off = c["open_loop"]
+    assert len(off["cases"]) == 1 and off["held_out"]["n"] == s["robustness"]["held_out"]["n"] == 4
+    closed, opened = s["best"]["metrics"], off["best"]["metrics"]
+    assert not closed["fell"] and closed["y_f_m"] > 0.3
+    assert abs(closed["yaw_f_deg"]) < abs(opened["yaw_f_deg"]) and abs(closed["yaw_f_deg"]) < 2.0, (closed, opened)
+
+
+def test_the_controller_alone_gives_an_uploaded_robots_simulated_setpoints():
+    """The controller (gait_controller.GaitController with the robot's numerical IK as
+    data, one robot at a time) gives, from the states the simulation reached, the set-points
+    the batched simulation sent to every candidate over the whole walk."""
+    import json
+
+    from app.jobs.recovery import userrobot
+    from app.jobs.recovery.gait_controller import GaitController, walk
+    from app.jobs.recovery.run import _Job, scorer
+    from app.robots.chain_ik import ChainIK
+
+    robot = _hexapod()
+    spec = _closed({"lost_legs": [robot.legs.legs[0].name]}, control={"mode": "closed_loop", "update": "phase"})
+    job = userrobot.set_up(spec, robot, _Job, scorer)
+    try:
+        ev, law = job.ev, job.ev.cfg.law
+        rng = np.random.default_rng(0)
+        x = rng.uniform(job.lower, job.upper, (3, len(job.lower)))
+        _, end, states, _ = ev.simulate(x, record=True)
+        sent = ev.recorded["ctrl"]
+        chain = json.loads(json.dumps(ev.controller_chain))  # as gait.json would carry it
+        legs = ChainIK.from_dict(chain["solver"]).cols  # each leg's joints among all of them
+        flat = [int(np.flatnonzero(ev.ctrl_cols == a)[0]) for a in range(ev.model.nu)]  # actuator -> joint
+        cols = [next((i, j - c.start) for i, c in enumerate(legs) if c.start <= j < c.stop) for j in flat]
+        n = len(ev.legs)
+        worst, steered = 0.0, 0.0
+        for b in range(3):
+            assert end[b] == ev.nstep  # the whole walk
+            ctl = GaitController(ev.period_tips(x[b:b + 1]), ev.stride_shape(), x[b:b + 1, 2 * n], ev.sides, (),
+                                 law.stride_bounds, law.update_steps(ev.n_period, ev.seq.sigma), law.as_dict(), 1,
+                                 cols, chain=chain, heading=ev.controller_heading)
+            root = states[b, :, ev._qpos_off:ev._qpos_off + 7]
+
+            def readings(j):  # the chassis at walk tick j: the state after the step before it
+                r = root[ev.n_settle + j - 1]
+                return r[None, 3:7], r[None, 0:3]
+
+            ours = walk(ctl, readings, ev.nstep - ev.n_settle)[0]
+            worst = max(worst, float(np.abs(ours - sent[b, ev.n_settle:]).max()))
+            steered = max(steered, float(np.abs(ctl.cmd).max()))
+        assert worst <= 1e-9, worst
+        assert steered > 1e-3  # the correction was at work (a stride difference or crab stride over 1 mm)
+    finally:
+        job.close()

@@ -49,11 +49,18 @@ class Law:
         return n_period if self.update == "period" else max(1, int(round(n_period / sigma)))
 
 
-def law_of(control, stride_bounds: tuple[float, float]) -> Law | None:
-    """The spec's ``control`` section as a Law (None: open loop, the paper)."""
+METRE_VALUED = ("yaw_gain", "yaw_integral_gain", "stride_limit_m", "lateral_limit_m")  # m per rad, m
+
+
+def law_of(control, stride_bounds: tuple[float, float], scale: float = 1.0) -> Law | None:
+    """The spec's ``control`` section as a Law (None: open loop, the paper). ``scale``
+    multiplies the metre-valued gains and limits (the spec's are the JetHexa's: an uploaded
+    robot's are scaled by its stance height over the JetHexa's, as its search bounds are);
+    the lateral gains are metres per metre and stay."""
     if control.mode != "closed_loop":
         return None
-    return Law(**{k: getattr(control, k) for k in GAINS + LIMITS}, update=control.update, odometry=control.odometry,
+    values = {k: getattr(control, k) * (scale if k in METRE_VALUED else 1.0) for k in GAINS + LIMITS}
+    return Law(**values, update=control.update, odometry=control.odometry,
                stride_bounds=(float(stride_bounds[0]), float(stride_bounds[1])))
 
 
@@ -64,14 +71,14 @@ class ChunkController:
     the correction from their state at ``start`` (``state``: (B, nstate), full physics)."""
 
     def __init__(self, ev, params: np.ndarray, law: Law, period: np.ndarray):
-        if getattr(ev.robot, "gait_layout", None) is not None:
-            raise ValueError("closed loop runs on the built-in hexapods (the shipped controller's closed-form leg IK)")
         n = len(ev.legs)
+        chain = getattr(ev, "controller_chain", None)  # an uploaded robot: its numerical IK (userrobot.py)
         self.ev, self.period = ev, period
         self.update_steps = law.update_steps(ev.n_period, ev.seq.sigma)
         self.ctl = GaitController(ev.period_tips(params), ev.stride_shape(), params[:, 2 * n], ev.sides,
-                                  ev.robot.geometry.link_lengths, law.stride_bounds, self.update_steps,
-                                  law.as_dict(), batch=params.shape[0])
+                                  () if chain else ev.robot.geometry.link_lengths, law.stride_bounds,
+                                  self.update_steps, law.as_dict(), batch=params.shape[0], chain=chain,
+                                  heading=getattr(ev, "controller_heading", None))
         self.mask = ev.ctrl_cols >= 0
         self.root = ev._qpos_off  # the free joint's qpos (x, y, z, qw, qx, qy, qz) in the state
 

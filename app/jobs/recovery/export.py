@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from app.jobs.recovery import gait_controller
-from app.robots import ik
+from app.robots import chain_ik, ik
 
 FILES = {
     "controller/README.md": "how to run the gait on the robot: the control loop, the files below, what was not modelled",
@@ -32,6 +32,8 @@ FILES = {
                                      "ran, numpy only (no gaitmend import)",
     "controller/ik.py": "the closed-form leg inverse kinematics gait_controller.py imports: gaitmend's own "
                         "app/robots/ik.py, the file the simulation ran, numpy only",
+    "controller/chain_ik.py": "the numerical leg inverse kinematics gait_controller.py imports for a robot of any "
+                              "leg layout: gaitmend's own app/robots/chain_ik.py, numpy only",
     "controller/gait.json": "the controller's data: one gait period of tip targets, the correction law (gains, limits, "
                             "update interval), the servo rate, the servos in order with zero offsets, ranges and gains",
     "controller/setpoints.json": "open-loop joint set-points (rad) per named servo at the servo rate: the settling pose "
@@ -200,6 +202,7 @@ def controller_files(ev, x: np.ndarray, stride_bounds, law, trace: dict) -> dict
                                                           joints=", ".join(names)),
         "controller/gait_controller.py": Path(gait_controller.__file__).read_text(),
         "controller/ik.py": Path(ik.__file__).read_text(),
+        "controller/chain_ik.py": Path(chain_ik.__file__).read_text(),
         "controller/gait.json": json.dumps(g),
         "controller/setpoints.json": json.dumps(setpoints),
         "controller/setpoints.csv": _csv(["tick", "time_s"] + names, table),

@@ -27,7 +27,11 @@ robot stood ``settle_steps`` ticks on the gait's first pose):
   radians, from the model's zero pose. The IK is the robot layer's (app/robots/ik.py, numpy
   only): the bundle ships that file as ``controller/ik.py`` beside this one, and this module
   imports it from there when it runs outside gaitmend, so the robot runs the IK the
-  simulation ran, from one source.
+  simulation ran, from one source;
+- or, for a robot of any leg layout (an uploaded robot: ``chain``), each tip from its hip
+  frame into the trunk's frame (the frame's origin, outward, forward and up axes) and
+  through the numerical leg IK (app/robots/chain_ik.py, numpy only, the chains as data):
+  every leg joint's qpos, legs in order, joints from the trunk out.
 
 Everything is batched over ``batch`` robots (the simulation runs a whole population at
 once); on a robot, ``batch`` is 1.
@@ -41,11 +45,13 @@ from pathlib import Path
 import numpy as np
 
 if __package__ and __package__.split(".")[0] == "app":  # inside gaitmend
+    from app.robots.chain_ik import ChainIK
     from app.robots.ik import leg_ik
-else:  # on the robot: the bundle's controller/ik.py, the same file
+else:  # on the robot: the bundle's controller/ik.py and chain_ik.py, the same files
+    from chain_ik import ChainIK  # type: ignore[no-redef]
     from ik import leg_ik  # type: ignore[no-redef]
 
-__all__ = ["GAINS", "LIMITS", "GaitController", "leg_ik", "walk", "yaw_of"]
+__all__ = ["GAINS", "LIMITS", "GaitController", "leg_ik", "trunk_targets", "walk", "yaw_of"]
 
 GAINS = ("yaw_gain", "yaw_integral_gain", "lateral_gain", "lateral_integral_gain")
 LIMITS = ("stride_limit_m", "lateral_limit_m")
@@ -67,10 +73,16 @@ class GaitController:
     ``base_tips`` (batch or 1, n_period, nlegs, 3) and ``step_length`` (batch or 1,) are
     the gait's; ``y_rel`` (n_period, nlegs) its stride shape; ``sides`` (nlegs,) -1/+1.
     ``law`` None is the open-loop gait (the correction stays 0). ``columns``: the (leg index,
-    joint index) of each servo in the order ``setpoints`` gives them (gait.json ``joints``)."""
+    joint index) of each servo in the order ``setpoints`` gives them (gait.json ``joints``).
+    ``chain`` (gait.json ``chain``): the numerical IK of a robot of any leg layout, in place
+    of the closed-form one of ``link_lengths``: ``frames`` (per leg: ``origin``, ``outward``,
+    ``up``; one ``forward``), ``solver`` (``ChainIK.as_dict``), ``tol`` and ``max_iter``.
+    ``heading`` (gait.json ``heading_quat``, w, x, y, z): the gait's frame (x right, y
+    forward, z up) in the chassis frame the IMU reports, where the two differ (an uploaded
+    robot whose forward is not its trunk's y axis); None: the same frame."""
 
     def __init__(self, base_tips, y_rel, step_length, sides, link_lengths, stride_bounds, update_steps: int,
-                 law: dict | None = None, batch: int = 1, columns=None):
+                 law: dict | None = None, batch: int = 1, columns=None, chain: dict | None = None, heading=None):
         base = np.asarray(base_tips, dtype=float)
         self.base_tips = np.broadcast_to(base if base.ndim == 4 else base[None], (batch,) + base.shape[-3:])
         self.y_rel = np.asarray(y_rel, dtype=float)
@@ -84,6 +96,17 @@ class GaitController:
             "odometry": bool(law.get("odometry", True))}
         self.batch = batch
         self.columns = None if columns is None else np.asarray(columns, dtype=int).reshape(-1, 2)
+        self.heading = None if heading is None else np.asarray(heading, dtype=float)
+        self.chain = None
+        if chain is not None:
+            f = chain["frames"]
+            self.chain = {"ik": ChainIK.from_dict(chain["solver"]), "tol": float(chain["tol"]),
+                          "max_iter": int(chain["max_iter"]), "origin": np.asarray(f["origin"], dtype=float),
+                          "outward": np.asarray(f["outward"], dtype=float),
+                          "forward": np.asarray(f["forward"], dtype=float), "up": np.asarray(f["up"], dtype=float)}
+            if self.columns is not None:  # (leg, joint) -> the column of the legs' joints, in order
+                starts = np.array([c.start for c in self.chain["ik"].cols])
+                self.flat = starts[self.columns[:, 0]] + self.columns[:, 1]
         z = np.zeros(batch)
         # per robot: heading and position at the walk's start; the integrals; the command
         # in force before the last update and the one the last update set ([stride, crab])
@@ -100,13 +123,13 @@ class GaitController:
     def from_dict(cls, g: dict, batch: int = 1) -> "GaitController":
         return cls(g["base_tips_m"], g["y_rel"], g["step_length_m"], g["sides"], g["link_lengths_m"],
                    g["stride_bounds_m"], g["update_steps"], g["law"], batch,
-                   [[j["leg_index"], j["joint_index"]] for j in g["joints"]])
+                   [[j["leg_index"], j["joint_index"]] for j in g["joints"]], g.get("chain"), g.get("heading_quat"))
 
     # -- the correction ----------------------------------------------------------------
     def start(self, quat, pos=None, rows=None) -> None:
         """The walk starts (tick 0): the heading and position to hold are the current ones."""
         rows = slice(None) if rows is None else rows
-        self.yaw0[rows] = yaw_of(quat)
+        self.yaw0[rows] = yaw_of(self._gait_frame(quat))
         if pos is not None:
             self.pos0[rows] = np.asarray(pos, dtype=float)[..., :2]
         self.sum_yaw[rows] = self.sum_lat[rows] = 0.0
@@ -121,7 +144,7 @@ class GaitController:
         if self.law is None:
             return self.cmd[rows]
         L = self.law
-        e = _wrap(yaw_of(quat) - self.yaw0[rows])
+        e = _wrap(yaw_of(self._gait_frame(quat)) - self.yaw0[rows])
         self.sum_yaw[rows] = _accumulate(self.sum_yaw[rows], e, L["yaw_integral_gain"], L["stride_limit_m"])
         d = np.clip(L["yaw_gain"] * e + L["yaw_integral_gain"] * self.sum_yaw[rows],
                     -L["stride_limit_m"], L["stride_limit_m"])
@@ -135,6 +158,16 @@ class GaitController:
                          -L["lateral_limit_m"], L["lateral_limit_m"])
         self.cmd[rows] = np.stack([d, c], axis=-1)
         return self.cmd[rows]
+
+    def _gait_frame(self, quat) -> np.ndarray:
+        """The gait frame's orientation (..., 4) from the chassis' (IMU) orientation."""
+        if self.heading is None:
+            return quat
+        q, h = np.asarray(quat, dtype=float), self.heading
+        w, x, y, z = np.moveaxis(q, -1, 0)
+        hw, hx, hy, hz = h
+        return np.stack([w * hw - x * hx - y * hy - z * hz, w * hx + x * hw + y * hz - z * hy,
+                         w * hy - x * hz + y * hw + z * hx, w * hz + x * hy - y * hx + z * hw], axis=-1)
 
     # -- set-points --------------------------------------------------------------------
     def commands(self, j0: int, j1: int, rows=None) -> np.ndarray:
@@ -164,7 +197,8 @@ class GaitController:
         return out
 
     def joint_angles(self, j0: int, j1: int, rows=None) -> np.ndarray:
-        """Coxa, femur, tibia set-points (robots, T, nlegs, 3) in radians at ticks [j0, j1)."""
+        """Coxa, femur, tibia set-points (robots, T, nlegs, 3) in radians at ticks [j0, j1);
+        with ``chain``, every leg joint's (robots, T, joints), legs in order."""
         return self.angles_of(self.tips(j0, j1, rows))
 
     def setpoints(self, j0: int, j1: int, rows=None) -> np.ndarray:
@@ -173,7 +207,10 @@ class GaitController:
         return self.named(self.joint_angles(j0, j1, rows))
 
     def named(self, q: np.ndarray) -> np.ndarray:
-        """(..., nlegs, 3) joint angles -> (..., servos) in the order of ``columns``."""
+        """(..., nlegs, 3) joint angles (with ``chain``: (..., joints)) -> (..., servos) in the
+        order of ``columns``."""
+        if self.chain is not None:
+            return q[..., self.flat]
         return q[..., self.columns[:, 0], self.columns[:, 1]]
 
     def settle_pose(self) -> np.ndarray:
@@ -182,9 +219,19 @@ class GaitController:
         return self.angles_of(self.base_tips[:, 0])
 
     def angles_of(self, tips: np.ndarray) -> np.ndarray:
+        if self.chain is not None:  # hip frames -> the trunk's, then the legs' numerical IK
+            c = self.chain
+            return c["ik"].solve(trunk_targets(tips, c), tol=c["tol"], max_iter=c["max_iter"]).q
         leg = np.array(tips)
         leg[..., 1] *= self.sides  # hip frame -> leg frame (left legs are turned 180 deg about z)
         return leg_ik(leg, self.link_lengths)
+
+
+def trunk_targets(tips: np.ndarray, frames) -> np.ndarray:
+    """Tips (..., nlegs, 3) in the legs' hip frames -> foot targets in the trunk's frame:
+    origin (nlegs, 3) + x outward (nlegs, 3) + y forward (3,) + z up (3,)."""
+    return (np.asarray(frames["origin"]) + tips[..., 0:1] * np.asarray(frames["outward"])
+            + tips[..., 1:2] * np.asarray(frames["forward"]) + tips[..., 2:3] * np.asarray(frames["up"]))
 
 
 def _accumulate(total: np.ndarray, e: np.ndarray, gain: float, limit: float) -> np.ndarray:

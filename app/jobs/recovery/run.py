@@ -477,7 +477,7 @@ def held_out_and_open_loop(job: _Job, phases: Phases) -> None:
     if job.ev.cfg.law is None:
         return
     ph = _enter(job, phases, "open_loop")
-    cfg = sim_config(s, open_loop=True)
+    cfg = dataclasses.replace(job.ev.cfg, law=None)  # the same walk without the correction, any robot
     ev = GaitEvaluator(job.robot, job.model, job.seq, cfg)
     best = _scored(ev, best_x, s.objective.weights, s.objective.units)
     ev.close()

@@ -234,7 +234,9 @@ class Control(StrictModel):
     once per gait period or phase, a stride difference between the left and right legs
     turns the robot back to its start heading and a sideways stride carries it back to its
     line. The search, the answer's scoring and the robustness re-runs all use the mode; the
-    summary reports the answer both ways."""
+    summary reports the answer both ways. The metre-valued gains and limits are for the
+    JetHexa's stance height (0.10 m): an uploaded robot's are scaled by its stance height over
+    that, as its search bounds are; the lateral gains (metres per metre) are not."""
 
     mode: Literal["open_loop", "closed_loop"] = "open_loop"
     update: Literal["period", "phase"] = Field("period", description=(
@@ -339,9 +341,6 @@ class RecoverySpec(SpecBase):
         uploaded = self.robot not in ROBOTS
         if uploaded and "damage" not in self.model_fields_set:
             self.damage = Damage()
-        if uploaded and getattr(getattr(self, "control", None), "mode", "open_loop") != "open_loop":
-            raise ValueError("control.mode: an uploaded robot walks open loop (the closed-loop correction is the "
-                             "built-in robots')")
         if not uploaded and self.robot_damage is not None:
             self._built_in_named_damage()
         if uploaded and self.damage != Damage():

@@ -35,6 +35,7 @@ import time
 import mujoco
 import numpy as np
 
+from app.jobs.recovery.gait_controller import trunk_targets
 from app.jobs.recovery.sequences import GaitSequence, InfeasibleMorphology, plan_general
 from app.jobs.recovery.trajectory import bounds_of, stance_box, tip_positions
 from app.robots.legmap import LegMap, LegMapError, Robot
@@ -42,7 +43,8 @@ from app.robots.numik import LegIK
 from app.robots.damage import Damage
 from app.robots.walkable import Walkable, heading_quat, leg_numbers, make_walkable
 
-JETHEXA_STANCE_M = 0.10  # the built-in robot's H, to which its bounds belong
+JETHEXA_STANCE_M = 0.10  # the built-in robot's H, to which its bounds (and the closed loop's metres) belong
+IK_TOL, IK_MAX_ITER = 1e-7, 30  # every joint set-point: the numerical IK's tolerance (m) and iterations
 
 
 @dataclasses.dataclass(frozen=True)
@@ -203,6 +205,25 @@ class UserRobot:
         ev.torso_height0 = -float(np.mean(feet_z)) + self.geometry.foot_radius + 0.002
         ev.min_height = 0.5 * ev.torso_height0
         ev.joint_targets = lambda params: self.joint_targets(ev, params)
+        ev.controller_chain = self.controller_chain(ev.legs)
+        ev.controller_heading = heading_quat(self.robot.legs).tolist()  # the gait's frame in the trunk's
+
+    def frames(self, legs: list[int]) -> dict:
+        """The hip frames of ``legs`` (numbers, in that order) in the trunk's frame, as
+        gait_controller.trunk_targets reads them."""
+        nom = self.nominal
+        return {"origin": np.array([nom.origin[n] for n in legs]), "outward": np.array([nom.outward[n] for n in legs]),
+                "forward": np.asarray(nom.forward), "up": np.asarray(nom.up)}
+
+    def controller_chain(self, legs: list[int]) -> dict:
+        """What the closed-loop controller (gait_controller.GaitController ``chain``) needs to
+        turn tips of ``legs`` into joint set-points as ``joint_targets`` does: their frames
+        and the damaged robot's numerical IK, its legs in that order (JSON-able)."""
+        order = [self.numbers[l.name] for l in self.walk.legs.legs]  # the IK's leg order
+        f = self.frames(legs)
+        return {"frames": {k: np.asarray(v).tolist() for k, v in f.items()},
+                "solver": self.ik.subset([order.index(n) for n in legs]).as_dict(), "tol": IK_TOL,
+                "max_iter": IK_MAX_ITER}
 
     def _damaged_ik(self, model: mujoco.MjModel) -> LegIK:
         ik = LegIK(model, self.walk.legs)
@@ -224,15 +245,10 @@ class UserRobot:
         t = np.arange(ev.n_period) * ev.dt
         tips = tip_positions(params, ev.legs, ev.seq, t, ev.n_period * ev.dt, ev.cfg.stance_height_m,
                              ev.cfg.step_depth_m)
-        nom = self.nominal
         order = [self.numbers[l.name] for l in self.walk.legs.legs]  # the IK's leg order
-        target = np.empty(tips.shape[:2] + (len(order), 3))
-        for i, n in enumerate(order):
-            k = ev.legs.index(n)
-            target[..., i, :] = (nom.origin[n] + tips[..., k, 0, None] * nom.outward[n]
-                                 + tips[..., k, 1, None] * nom.forward + tips[..., k, 2, None] * nom.up)
+        target = trunk_targets(tips[..., [ev.legs.index(n) for n in order], :], self.frames(order))
         t0 = time.perf_counter()
-        res = self.ik.solve(target, tol=1e-7, max_iter=30)
+        res = self.ik.solve(target, tol=IK_TOL, max_iter=IK_MAX_ITER)
         s = self.ik_stats
         s["calls"] += 1
         took = time.perf_counter() - t0
@@ -293,6 +309,7 @@ def set_up(spec, stored: Robot, job_class, scorer):
     """The recovery job's state for an uploaded robot: ``job_class`` and ``scorer`` are
     run.py's ``_Job`` and ``scorer`` (passed in: run.py imports this module)."""
     from app.jobs.recovery.cases import walking_cases
+    from app.jobs.recovery.closedloop import law_of
     from app.jobs.recovery.evaluate import GaitEvaluator, SimConfig
     from app.jobs.recovery.robust import MultiModelEvaluator, case_models
     from app.jobs.recovery.trajectory import param_names
@@ -306,9 +323,10 @@ def set_up(spec, stored: Robot, job_class, scorer):
     seq = plan(robot, model, legs, "general")
     base_seq = plan(robot, model, robot.all_legs, "intact_plan")
     base_seq = GaitSequence("intact_plan", base_seq.sigma, {l: p for l, p in base_seq.swing_phase.items() if l in legs})
-    cfg = SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
-                    stance_height_m=robot.stance_height, step_depth_m=spec.gait.step_depth_m)
     lower, upper = search_bounds(spec, robot, legs, lost)
+    law = law_of(spec.control, (lower[-2], upper[-2]), scale=robot.stance_height / JETHEXA_STANCE_M)
+    cfg = SimConfig(duration_s=spec.sim.duration_s, settle_s=spec.sim.settle_s, period_s=spec.gait.period_s,
+                    stance_height_m=robot.stance_height, step_depth_m=spec.gait.step_depth_m, law=law)
     cases = walking_cases(robot.geometry.total_mass, spec.robustness.cases)  # the trunk is "torso" (walkable.py)
     return job_class(spec=spec, robot=robot, mspec=mspec, model=model, legs=legs, seq=seq, lower=lower, upper=upper,
                      names=param_names(legs), score=scorer(spec, robot, mspec, model, seq, cfg),
