@@ -38,6 +38,9 @@ class Law:
     lateral_integral_gain: float
     stride_limit_m: float
     lateral_limit_m: float
+    balance_gain: float = 0.0
+    balance_integral_gain: float = 0.0
+    balance_limit_m: float = 0.0
     update: str = "period"
     odometry: bool = True
     stride_bounds: tuple[float, float] = (0.0, 1.0)
@@ -49,14 +52,14 @@ class Law:
         return n_period if self.update == "period" else max(1, int(round(n_period / sigma)))
 
 
-METRE_VALUED = ("yaw_gain", "yaw_integral_gain", "stride_limit_m", "lateral_limit_m")  # m per rad, m
+METRE_VALUED = ("yaw_gain", "yaw_integral_gain", "stride_limit_m", "lateral_limit_m", "balance_limit_m")  # m/rad, m
 
 
 def law_of(control, stride_bounds: tuple[float, float], scale: float = 1.0) -> Law | None:
     """The spec's ``control`` section as a Law (None: open loop, the paper). ``scale``
     multiplies the metre-valued gains and limits (the spec's are the JetHexa's: an uploaded
     robot's are scaled by its stance height over the JetHexa's, as its search bounds are);
-    the lateral gains are metres per metre and stay."""
+    the lateral and balance gains are metres per metre and stay."""
     if control.mode != "closed_loop":
         return None
     values = {k: getattr(control, k) * (scale if k in METRE_VALUED else 1.0) for k in GAINS + LIMITS}
@@ -78,7 +81,7 @@ class ChunkController:
         self.ctl = GaitController(ev.period_tips(params), ev.stride_shape(), params[:, 2 * n], ev.sides,
                                   () if chain else ev.robot.geometry.link_lengths, law.stride_bounds,
                                   self.update_steps, law.as_dict(), batch=params.shape[0], chain=chain,
-                                  heading=getattr(ev, "controller_heading", None))
+                                  heading=getattr(ev, "controller_heading", None), levers=ev.balance_levers())
         self.mask = ev.ctrl_cols >= 0
         self.root = ev._qpos_off  # the free joint's qpos (x, y, z, qw, qx, qy, qz) in the state
 

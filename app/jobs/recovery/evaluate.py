@@ -184,6 +184,12 @@ class GaitEvaluator:
         return tip_positions(params, self.legs, self.seq, t, self.n_period * self.dt,
                              self.cfg.stance_height_m, self.cfg.step_depth_m)
 
+    def balance_levers(self) -> np.ndarray:
+        """Each leg's foot at the nominal stance (nlegs, 2): (right, forward) in metres in the
+        trunk's frame, where the balance correction reads the trunk's tilt."""
+        feet = self.robot.nominal_feet_xy()
+        return np.array([feet[l] for l in self.legs], dtype=float)
+
     def stride_shape(self) -> np.ndarray:
         """Eq. 3's stride shape y_rel (n_period, nlegs) in [-1, 1] (closed loop scales it)."""
         t = np.arange(self.n_period) * self.dt

@@ -165,6 +165,7 @@ def gait_json(ev, x: np.ndarray, stride_bounds, law) -> dict:
             "link_lengths_m": [float(v) for v in ev.robot.geometry.link_lengths],
             "step_length_m": float(x[0, 2 * n]), "stride_bounds_m": [float(v) for v in stride_bounds],
             "law": None if law is None else law.as_dict(),
+            "balance_levers_m": ev.balance_levers().tolist(),
             "joints": servos(ev.model, ev.ctrl_cols),
             "base_tips_m": ev.period_tips(x)[0].tolist(), "y_rel": ev.stride_shape().tolist()}
 

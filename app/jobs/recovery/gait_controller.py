@@ -20,6 +20,13 @@ robot stood ``settle_steps`` ticks on the gait's first pose):
     c = -clip(lateral_gain s + lateral_integral_gain sum(s), +-lateral_limit_m): every foot
     moves c/2 -> -c/2 sideways over its support (as the stride moves it forward to back),
     which carries the body c per period back toward its line;
+  * balance (where its gains are not 0): the torso's tilt from the IMU, as the height of the
+    trunk over each foot relative to level, h_i = R_zx x_i + R_zy y_i (R the gait frame's
+    orientation, (x_i, y_i) the foot's nominal place about the feet's centroid, x right, y
+    forward) -> each tip's height offset dz_i = clip(balance_gain h_i + balance_integral_gain
+    sum(h_i), +-balance_limit_m): a leg under a low side of the trunk reaches further down
+    and lifts it, the one under a high side draws up (the offsets sum to 0: the trunk's mean
+    height stays);
   * the integrals stop growing where their term alone reaches the limit (anti-windup);
   * a new command is ramped in linearly over the next ``update_steps`` ticks, so the
     set-points never jump;
@@ -53,8 +60,10 @@ else:  # on the robot: the bundle's controller/ik.py and chain_ik.py, the same f
 
 __all__ = ["GAINS", "LIMITS", "GaitController", "leg_ik", "trunk_targets", "walk", "yaw_of"]
 
-GAINS = ("yaw_gain", "yaw_integral_gain", "lateral_gain", "lateral_integral_gain")
-LIMITS = ("stride_limit_m", "lateral_limit_m")
+GAINS = ("yaw_gain", "yaw_integral_gain", "lateral_gain", "lateral_integral_gain", "balance_gain",
+         "balance_integral_gain")
+LIMITS = ("stride_limit_m", "lateral_limit_m", "balance_limit_m")
+BALANCE = ("balance_gain", "balance_integral_gain", "balance_limit_m")  # absent from gait.json before balance: 0
 
 
 def yaw_of(quat: np.ndarray) -> np.ndarray:
@@ -79,10 +88,13 @@ class GaitController:
     ``up``; one ``forward``), ``solver`` (``ChainIK.as_dict``), ``tol`` and ``max_iter``.
     ``heading`` (gait.json ``heading_quat``, w, x, y, z): the gait's frame (x right, y
     forward, z up) in the chassis frame the IMU reports, where the two differ (an uploaded
-    robot whose forward is not its trunk's y axis); None: the same frame."""
+    robot whose forward is not its trunk's y axis); None: the same frame. ``levers``
+    (nlegs, 2; gait.json ``balance_levers_m``): each foot's nominal place (right, forward) in
+    metres, for the balance correction."""
 
     def __init__(self, base_tips, y_rel, step_length, sides, link_lengths, stride_bounds, update_steps: int,
-                 law: dict | None = None, batch: int = 1, columns=None, chain: dict | None = None, heading=None):
+                 law: dict | None = None, batch: int = 1, columns=None, chain: dict | None = None, heading=None,
+                 levers=None):
         base = np.asarray(base_tips, dtype=float)
         self.base_tips = np.broadcast_to(base if base.ndim == 4 else base[None], (batch,) + base.shape[-3:])
         self.y_rel = np.asarray(y_rel, dtype=float)
@@ -92,8 +104,15 @@ class GaitController:
         self.stride_bounds = (float(stride_bounds[0]), float(stride_bounds[1]))
         self.n_period = self.y_rel.shape[0]
         self.update_steps = int(update_steps)
-        self.law = None if law is None else {k: float(law[k]) for k in GAINS + LIMITS} | {
-            "odometry": bool(law.get("odometry", True))}
+        self.law = None if law is None else {k: float(law[k] if k not in BALANCE else law.get(k, 0.0))
+                                             for k in GAINS + LIMITS} | {"odometry": bool(law.get("odometry", True))}
+        self.balance = self.law is not None and (self.law["balance_gain"] > 0 or self.law["balance_integral_gain"] > 0)
+        nlegs = self.y_rel.shape[1]
+        if self.balance:
+            if levers is None:
+                raise ValueError("balance needs each foot's place (levers)")
+            lv = np.asarray(levers, dtype=float).reshape(nlegs, 2)
+            self.levers = lv - lv.mean(axis=0)  # about the feet's centroid: the offsets sum to 0
         self.batch = batch
         self.columns = None if columns is None else np.asarray(columns, dtype=int).reshape(-1, 2)
         self.heading = None if heading is None else np.asarray(heading, dtype=float)
@@ -112,7 +131,9 @@ class GaitController:
         # in force before the last update and the one the last update set ([stride, crab])
         self.yaw0, self.pos0 = z.copy(), np.zeros((batch, 2))
         self.sum_yaw, self.sum_lat = z.copy(), z.copy()
-        self.cmd_prev, self.cmd = np.zeros((batch, 2)), np.zeros((batch, 2))
+        width = 2 + (nlegs if self.balance else 0)  # [stride, crab] and, with balance, each tip's height offset
+        self.sum_tilt = np.zeros((batch, nlegs))
+        self.cmd_prev, self.cmd = np.zeros((batch, width)), np.zeros((batch, width))
 
     @classmethod
     def from_json(cls, path, batch: int = 1) -> "GaitController":
@@ -123,7 +144,8 @@ class GaitController:
     def from_dict(cls, g: dict, batch: int = 1) -> "GaitController":
         return cls(g["base_tips_m"], g["y_rel"], g["step_length_m"], g["sides"], g["link_lengths_m"],
                    g["stride_bounds_m"], g["update_steps"], g["law"], batch,
-                   [[j["leg_index"], j["joint_index"]] for j in g["joints"]], g.get("chain"), g.get("heading_quat"))
+                   [[j["leg_index"], j["joint_index"]] for j in g["joints"]], g.get("chain"), g.get("heading_quat"),
+                   g.get("balance_levers_m"))
 
     # -- the correction ----------------------------------------------------------------
     def start(self, quat, pos=None, rows=None) -> None:
@@ -133,12 +155,14 @@ class GaitController:
         if pos is not None:
             self.pos0[rows] = np.asarray(pos, dtype=float)[..., :2]
         self.sum_yaw[rows] = self.sum_lat[rows] = 0.0
+        self.sum_tilt[rows] = 0.0
         self.cmd_prev[rows] = self.cmd[rows] = 0.0
 
     def update(self, quat, pos=None, rows=None) -> np.ndarray:
-        """A new command ([stride difference m, crab stride m] per robot) from the latest
-        IMU orientation (w, x, y, z) and, with odometry, position (x, y[, z]) in the frame
-        the walk started in; it is ramped in over the next ``update_steps`` ticks."""
+        """A new command ([stride difference m, crab stride m] per robot, then with balance
+        each tip's height offset m) from the latest IMU orientation (w, x, y, z) and, with
+        odometry, position (x, y[, z]) in the frame the walk started in; it is ramped in
+        over the next ``update_steps`` ticks."""
         rows = np.arange(self.batch) if rows is None else np.asarray(rows)
         self.cmd_prev[rows] = self.cmd[rows]
         if self.law is None:
@@ -156,7 +180,17 @@ class GaitController:
             self.sum_lat[rows] = _accumulate(self.sum_lat[rows], s, L["lateral_integral_gain"], L["lateral_limit_m"])
             c = -np.clip(L["lateral_gain"] * s + L["lateral_integral_gain"] * self.sum_lat[rows],
                          -L["lateral_limit_m"], L["lateral_limit_m"])
-        self.cmd[rows] = np.stack([d, c], axis=-1)
+        if not self.balance:
+            self.cmd[rows] = np.stack([d, c], axis=-1)
+            return self.cmd[rows]
+        g = self._gait_frame(quat)
+        w, x, y, z = np.moveaxis(np.asarray(g, dtype=float), -1, 0)
+        r_zx, r_zy = 2 * (x * z - w * y), 2 * (y * z + w * x)  # the world height of the gait frame's x, y axes
+        h = r_zx[..., None] * self.levers[:, 0] + r_zy[..., None] * self.levers[:, 1]  # (robots, nlegs)
+        self.sum_tilt[rows] = _accumulate(self.sum_tilt[rows], h, L["balance_integral_gain"], L["balance_limit_m"])
+        dz = np.clip(L["balance_gain"] * h + L["balance_integral_gain"] * self.sum_tilt[rows],
+                     -L["balance_limit_m"], L["balance_limit_m"])
+        self.cmd[rows] = np.concatenate([np.stack([d, c], axis=-1), dz], axis=-1)
         return self.cmd[rows]
 
     def _gait_frame(self, quat) -> np.ndarray:
@@ -194,6 +228,8 @@ class GaitController:
         out = np.array(base)
         out[..., 1] += 0.5 * (stride - L) * y_rel
         out[..., 0] += self.sides * 0.5 * cmd[..., 1:2] * y_rel
+        if self.balance:
+            out[..., 2] += cmd[..., 2:]
         return out
 
     def joint_angles(self, j0: int, j1: int, rows=None) -> np.ndarray:

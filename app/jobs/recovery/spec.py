@@ -255,6 +255,12 @@ class Control(StrictModel):
     stride_limit_m: float = Field(0.015, ge=0.0, le=0.03, description=(
         "largest stride difference (m); each leg's stride also stays inside the step-length bounds"))
     lateral_limit_m: float = Field(0.015, ge=0.0, le=0.03, description="largest sideways stride (m) per period")
+    balance_gain: float = Field(0.0, ge=0.0, le=1.0, description=(
+        "balance: each tip's height offset per metre the trunk over that foot is below level (from the IMU's roll "
+        "and pitch; 0: off)"))
+    balance_integral_gain: float = Field(0.0, ge=0.0, le=1.0, description=(
+        "balance: each tip's height offset per metre below level summed over the updates"))
+    balance_limit_m: float = Field(0.015, ge=0.0, le=0.03, description="largest tip height offset (m) of the balance")
 
 
 class Bounds(StrictModel):

@@ -180,6 +180,10 @@ class UserRobot:
     def nominal_x0(self) -> float:
         return self.nominal.x0
 
+    def nominal_feet_xy(self) -> dict[int, tuple[float, float]]:
+        """Foot positions (right, forward) in the trunk's frame at the stance."""
+        return self.nominal.feet_xy
+
     def model(self) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
         return self.walk.spec, self.walk.spec.compile()
 

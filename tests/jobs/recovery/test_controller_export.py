@@ -19,9 +19,13 @@ SPEC = {"kind": "recovery", "damage": {"lost_legs": [1, 6]}, "search": {"populat
         "controls": {"random_search": False}, "robustness": {"cases": ["friction_0.7"], "held_out": 0}}
 
 
-@pytest.fixture(scope="module", params=["open_loop", "closed_loop"])
+CONTROLS = {"open_loop": {"mode": "open_loop"}, "closed_loop": {"mode": "closed_loop", "update": "phase"},
+            "balance": {"mode": "closed_loop", "update": "phase", "balance_gain": 1.0, "balance_integral_gain": 0.3}}
+
+
+@pytest.fixture(scope="module", params=list(CONTROLS))
 def bundle(request, tmp_path_factory):
-    spec = parse_spec(SPEC | {"control": {"mode": request.param, "update": "phase"}})
+    spec = parse_spec(SPEC | {"control": CONTROLS[request.param]})
     res = run(spec, MemoryContext())
     tmp = tmp_path_factory.mktemp(request.param)
     path = write_bundle(tmp / "b.zip", "job", spec, res)
@@ -62,6 +66,15 @@ def test_the_controller_alone_gives_the_simulated_setpoints_over_the_whole_walk(
     walk = np.loadtxt(ctl / "simulated_walk.csv", delimiter=",", skiprows=1)
     np.testing.assert_array_equal(walk[:, 2:2 + len(g["joints"])], res.traces["best"]["ctrl"])
     assert (g["law"] is None) == (spec.control.mode == "open_loop")
+    if spec.control.balance_gain > 0:  # the balance was at work in the walk replayed: tip heights moved
+        from app.jobs.recovery.gait_controller import GaitController, walk as replay
+
+        assert g["law"]["balance_gain"] == 1.0 and len(g["balance_levers_m"]) == 4
+        c = GaitController.from_dict(g)
+        state = walk[:, 2 + len(g["joints"]):]
+        replay(c, lambda j: (state[None, g["settle_steps"] + j - 1, 3:7], state[None, g["settle_steps"] + j - 1, 0:3]),
+               g["walk_steps"])
+        assert c.cmd.shape == (1, 2 + 4) and np.abs(c.cmd[0, 2:]).max() > 1e-4
 
 
 def test_the_module_shipped_is_the_module_that_ran(bundle):
@@ -74,6 +87,9 @@ def test_the_module_shipped_is_the_module_that_ran(bundle):
     from app.robots import ik
 
     assert (folder / "controller" / "ik.py").read_text() == Path(ik.__file__).read_text()
+    from app.robots import chain_ik
+
+    assert (folder / "controller" / "chain_ik.py").read_text() == Path(chain_ik.__file__).read_text()
 
 
 def test_open_loop_setpoints_are_the_period_the_simulation_repeated(bundle):

@@ -15,11 +15,15 @@ def test_the_page_renders_every_answer_both_ways_with_the_issues_bar():
     text = loop_check.render([data])
     for lost in ("legs 1 & 6", "legs 3 & 4", "leg 1 ", "leg 4 "):
         assert f"| {lost.strip()} | open loop |" in text and f"| {lost.strip()} | closed loop |" in text
+        assert f"| {lost.strip()} | closed loop + balance |" in text
     assert "Issue 24's bar" in text and text.count(" met") >= 4
     runs = data["runs"]
     assert len(runs) == 4 and all(len(r["result"]["closed_loop"]["held_out"]) >= 20 for r in runs)
-    # the same held-out models both ways
-    assert all(len(r["result"]["open_loop"]["held_out"]) == len(r["result"]["closed_loop"]["held_out"]) for r in runs)
+    # the same held-out models every way
+    assert all(len(r["result"]["open_loop"]["held_out"]) == len(r["result"]["closed_loop"]["held_out"])
+               == len(r["result"]["balance"]["held_out"]) for r in runs)
+    assert all(r["result"]["balance_law"]["balance_gain"] > 0 and r["result"]["law"]["balance_gain"] == 0 for r in runs)
+    assert "**Balance**" in text
 
 
 def test_the_wilson_interval_holds_the_share():

@@ -1,7 +1,8 @@
 """Issue 24's measurement: the four documented Table II answers (docs/table2.json, the default
-step), each walked open loop (the paper) and closed loop (the same gait with the heading
-and drift correction of the spec's defaults), on the nominal model, the seven named cases
-and held-out random models drawn from the stated ranges with the answer's seed (the held-out
+step), each walked open loop (the paper), closed loop (the same gait with the heading and
+drift correction of the spec's defaults) and closed loop with balance (issue 47: the same
+law plus the balance correction, BALANCE), on the nominal model, the seven named cases and
+held-out random models drawn from the stated ranges with the answer's seed (the held-out
 stream). Evaluations only, no search: `gaitmend reproduce recovery-closed-loop --write-docs`.
 Each answer's run is appended to docs/recovery_closed_loop.json the moment it ends (a
 re-run skips those already there at this code version)."""
@@ -32,6 +33,10 @@ KEEP = ("x_f_m", "y_f_m", "yaw_f_deg", "fell")
 # Issue 24's "done when", per damage: the closed-loop answer keeps the target in at least 6
 # of the 7 named cases and in at least 80 % of at least 20 held-out models.
 DONE_NAMED, DONE_HELD_OUT = 6, 0.8
+# The balance arm: full levelling by the proportional term (each tip moves by the height the
+# trunk over it is off level), at the spec's default limit; fixed before it was measured here.
+BALANCE = {"balance_gain": 1.0, "balance_integral_gain": 0.0}
+DRIVES = (("open_loop", "open loop"), ("closed_loop", "closed loop"), ("balance", "closed loop + balance"))
 
 
 class LoopParams(BaseModel):
@@ -58,8 +63,9 @@ def table2_answers(docs: Path = Path("docs")) -> list[dict]:
 
 
 def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_out_n: int, update: str) -> dict:
-    """One answer open and closed loop on the nominal model, the named cases and the held-out
-    set: {mode: {"nominal", "cases": {name: ...}, "held_out": [...]}} (metrics and target)."""
+    """One answer open loop, closed loop and closed loop with balance on the nominal model, the
+    named cases and the held-out set: {drive: {"nominal", "cases": {name: ...}, "held_out":
+    [...]}} (metrics and target), the laws and the held-out draws."""
     from app.jobs.recovery.cases import HELD_OUT_STREAM, draw_models, random_models, walking_cases
     from app.jobs.recovery.metrics import target_met
     from app.jobs.recovery.robust import MultiModelEvaluator, case_models
@@ -69,6 +75,8 @@ def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_ou
     from app.robots.catalog import get_robot
 
     spec = RecoverySpec.parse({"damage": {"lost_legs": lost}, "control": {"mode": "closed_loop", "update": update}})
+    balanced = RecoverySpec.parse({"damage": {"lost_legs": lost},
+                                   "control": {"mode": "closed_loop", "update": update} | BALANCE})
     robot = get_robot(spec.robot)
     mspec, model = sim_model(spec, robot)
     seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(),
@@ -78,7 +86,8 @@ def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_ou
     models = [model] + case_models(mspec, model, cases) + random_models(mspec, draws, robot.geometry.total_mass)
     x = np.array([list(params.values())])
     out = {"law": None, "draws": draws}
-    for mode, cfg in (("open_loop", sim_config(spec, open_loop=True)), ("closed_loop", sim_config(spec))):
+    for mode, cfg in (("open_loop", sim_config(spec, open_loop=True)), ("closed_loop", sim_config(spec)),
+                      ("balance", sim_config(balanced))):
         t0 = time.perf_counter()
         ev = MultiModelEvaluator(robot, models, seq, cfg)
         m = ev.evaluate_all(x).metrics
@@ -89,8 +98,10 @@ def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_ou
             rows.append(mk | {"target_met": target_met(mk, spec.sim.duration_s)})
         out[mode] = {"nominal": rows[0], "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
                      "held_out": rows[1 + len(cases):], "wall_s": round(time.perf_counter() - t0, 2)}
-        if cfg.law is not None:
+        if mode == "closed_loop":
             out["law"] = cfg.law.as_dict()
+        if mode == "balance":
+            out["balance_law"] = cfg.law.as_dict()
     return out
 
 
@@ -100,7 +111,7 @@ def run_loop_check(p: LoopParams, log: Callable[[str], None] = print) -> str:
     for a in answers:
         lost, seed = a["lost_legs"], a["seed"]
         spec = {"lost_legs": lost, "best_params": a["best_params"], "held_out": p.held_out, "update": p.update}
-        log(f"legs {lost} (Table II, seed {seed}): open and closed loop on 1 + 7 + {p.held_out} models")
+        log(f"legs {lost} (Table II, seed {seed}): open loop, closed loop and with balance on 1 + 7 + {p.held_out} models")
         led.run(f"legs {'-'.join(map(str, lost))}", spec, seed,
                 lambda: walk_both_ways(lost, a["best_params"], seed, p.held_out, p.update), log)
     return render([led.data])
@@ -151,20 +162,24 @@ def render(datas: list) -> str:
     rows, cases_rows, done = [], [], []
     for r in runs:
         res, name = r["result"], r["name"]
-        o, c = _count(res["open_loop"]), _count(res["closed_loop"])
+        counts = {mode: _count(res[mode]) for mode, _ in DRIVES if mode in res}
+        c = counts["closed_loop"]
         n = c.held_out[1]
         lo, hi = wilson(*c.held_out)
         ok = c.named[0] >= DONE_NAMED and c.held_out[0] >= DONE_HELD_OUT * n and n >= 20
         done.append((name, ok))
-        for mode, k in (("open loop", o), ("closed loop", c)):
-            block = res[mode.replace(" ", "_")]
+        for mode, label in DRIVES:
+            if mode not in counts:
+                continue
+            k, block = counts[mode], res[mode]
             allm = [m for m in (block["nominal"], *block["cases"].values(), *block["held_out"]) if not m["fell"]]
             total = 1 + len(block["cases"]) + len(block["held_out"])
-            rows.append([_shown(name), mode, "yes" if k.nominal else "no", _frac(k.numerics),
+            rows.append([_shown(name), label, "yes" if k.nominal else "no", _frac(k.numerics),
                          _frac(k.physical), _frac(k.named), f"{_frac(k.held_out)} ({100 * k.held_out[0] / n:.0f} %)",
                          f"{total - len(allm)}/{total}", _med(allm, "x_f_m", 100), _med(allm, "yaw_f_deg", 1),
                          _med(allm, "y_f_m", 100)])
-        rows[-1][6] += f" [{100 * lo:.0f}, {100 * hi:.0f}]"
+            if mode == "closed_loop":
+                rows[-1][6] += f" [{100 * lo:.0f}, {100 * hi:.0f}]"
         for case in res["closed_loop"]["cases"]:
             a, b = res["open_loop"]["cases"][case], res["closed_loop"]["cases"][case]
             cases_rows.append([_shown(name), case,
@@ -174,12 +189,13 @@ def render(datas: list) -> str:
                                f"{'met' if b['target_met'] else 'not met'}"])
     law = runs[0]["result"]["law"]
     cost = machine_time(data)
-    walls = {m: sum(r["result"][m]["wall_s"] for r in runs) for m in ("open_loop", "closed_loop")}
+    walls = {m: sum(r["result"][m]["wall_s"] for r in runs if m in r["result"]) for m, _ in DRIVES}
     out = [f"The {len(runs)} Table II answers at the default step (docs/table2.json), each walked open loop (the "
-           f"paper) and closed loop (control.mode closed_loop with the spec's default law: {_law_text(law)}) on the "
+           f"paper), closed loop (control.mode closed_loop with the spec's default law: {_law_text(law)}) and closed "
+           f"loop with balance (the same law and {_balance_text(runs[0]['result'].get('balance_law'))}) on the "
            f"nominal model, the 7 named cases (2 timestep checks, 5 physical) and {params['held_out']} held-out random "
            "models drawn from the stated ranges (app/jobs/recovery/cases.py RANDOM_RANGES) with the answer's seed "
-           "on the held-out stream: the same models both ways. Target: the 10 s walk's (forward >= 50 cm, "
+           "on the held-out stream: the same models every way. Target: the 10 s walk's (forward >= 50 cm, "
            "|lateral| <= 5 cm, |yaw| <= 10 deg, no fall). Medians are over the row's walks that did not fall (nominal, "
            "cases and held-out models); the closed-loop held-out share carries its 95 % Wilson interval.", "",
            md_table(["damage", "drive", "nominal", "timestep checks", "physical cases", "named cases (of 7)",
@@ -189,9 +205,10 @@ def render(datas: list) -> str:
            "models): " + "; ".join(f"{_shown(n)} {'met' if ok else '**not met**'}" for n, ok in done) + ".",
            "",
            f"Cost: {cost['runs']} runs, {cost['wall_s']:.0f} s wall in all ({walls['open_loop']:.0f} s of open-loop "
-           f"walks, {walls['closed_loop']:.0f} s closed loop: the correction's chunking and set-points).", "",
+           f"walks, {walls['closed_loop']:.0f} s closed loop: the correction's chunking and set-points; "
+           f"{walls['balance']:.0f} s with balance).", "",
            "Per named case, x (cm) / yaw (deg) / y (cm), open loop then closed loop:", "",
-           md_table(["damage", "case", "open loop", "closed loop"], cases_rows), "", reading(runs)]
+           md_table(["damage", "case", "open loop", "closed loop"], cases_rows), "", reading(runs), balance_reading(runs)]
     return "\n".join(out)
 
 
@@ -236,6 +253,55 @@ def reading(runs: list[dict]) -> str:
     if misses:
         text += " Closed loop, " + "; ".join(misses) + "."
     return text + "\n"
+
+
+def balance_reading(runs: list[dict]) -> str:
+    """What balance changes on the held-out models, and what the falls have in common (the
+    servo torque limit drawn for each model), from the data."""
+    from app.jobs.recovery.cases import RANDOM_RANGES
+    from app.jobs.recovery.spec import Control
+
+    parts, weak, gain = [], [], [0, 0]
+    for r in runs:
+        res = r["result"]
+        if "balance" not in res:
+            continue
+        c, b = res["closed_loop"]["held_out"], res["balance"]["held_out"]
+        met = [sum(m["target_met"] is True for m in x) for x in (c, b)]
+        fell = [sum(m["fell"] for m in x) for x in (c, b)]
+        gain[0] += met[1] - met[0]
+        gain[1] += fell[0] - fell[1]
+        parts.append(f"{_shown(r['name'])} keeps the target on {met[1]} of {len(b)} ({met[0]} without), falls on "
+                     f"{fell[1]} ({fell[0]} without)")
+        strength = [d["motor_strength"] for d in res.get("draws", [])]
+        falls = [s for s, m in zip(strength, c) if m["fell"]]
+        if falls:
+            weak_n = sum(1 for s in strength if s <= max(falls))
+            lo, hi = RANDOM_RANGES["motor_strength"]
+            weak.append(f"{_shown(r['name'])}: its {len(falls)} falls closed loop are all on models drawn with servo "
+                        f"torque limits at or below {100 * max(falls):.0f} % (the range is {100 * lo:.0f}-"
+                        f"{100 * hi:.0f} %); {weak_n - len(falls)} of the {weak_n} models drawn that weak did not fall")
+    if not parts:
+        return ""
+    text = "**Balance** (generated from the same data). With balance, " + "; ".join(parts) + ". "
+    if gain[0] <= 0 and gain[1] <= 0:
+        on = Control().balance_gain > 0
+        text += ("Over these answers balance keeps the target on no more held-out models and stops no fall: it does "
+                 f"not earn its place{', yet it is on by default' if on else ' and stays off by default'} "
+                 f"(control.balance_gain {Control().balance_gain:g}). ")
+    else:
+        text += (f"Over these answers balance keeps the target on {gain[0]:+d} held-out models and changes the falls "
+                 f"by {-gain[1]:+d}. ")
+    if weak:
+        text += "Where the answers fall, the servos were weak: " + "; ".join(weak) + ". "
+    return text + "\n"
+
+
+def _balance_text(law: dict | None) -> str:
+    if not law:
+        return "no balance"
+    return (f"balance gain {law['balance_gain']:g} m/m (integral {law['balance_integral_gain']:g}), tip height offset "
+            f"<= {100 * law['balance_limit_m']:g} cm")
 
 
 def _law_text(law: dict) -> str:
