@@ -236,7 +236,7 @@ class Control(StrictModel):
     line. The search, the answer's scoring and the robustness re-runs all use the mode; the
     summary reports the answer both ways. The metre-valued gains and limits are for the
     JetHexa's stance height (0.10 m): an uploaded robot's are scaled by its stance height over
-    that, as its search bounds are; the lateral gains (metres per metre) are not."""
+    that, as its search bounds are; the lateral and balance gains (metres per metre) are not."""
 
     mode: Literal["open_loop", "closed_loop"] = "open_loop"
     update: Literal["period", "phase"] = Field("period", description=(
