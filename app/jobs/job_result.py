@@ -19,6 +19,7 @@ class JobResult:
     model_xml: str  # the simulated model, exactly
     evaluations: int
     sim_steps: int
+    files: dict[str, str] = dataclasses.field(default_factory=dict)  # bundle members the run made (path -> text)
 
 
 def to_jsonable(x: Any) -> Any:

@@ -41,7 +41,7 @@ class RecoveryKind(PackageKind):
     user_robots = True  # an uploaded robot by its id (app/jobs/recovery/userrobot.py)
 
     def bundle_files(self, spec, result):
-        from app.jobs.recovery.export import bundle_files
+        from app.jobs.recovery.bundle import bundle_files
 
         return bundle_files(spec, result)
 

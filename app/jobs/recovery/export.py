@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import json
 from pathlib import Path
@@ -45,6 +44,15 @@ FILES = {
                                       "and prints the largest set-point difference",
 }
 
+ANGLES = {"builtin": """Angles are radians from the model's zero pose (`zero_offset_rad`, all 0 here: every leg
+straight out from its hip, horizontal; coxa about the vertical, femur and tibia about the
+leg's horizontal axis, positive lifting the tip); left legs' frames are turned 180 deg about
+the vertical, so the same angle moves a left and a right leg the same way.""",
+          "upload": """Set-points are the joints' positions as your model defines them (radians for a hinge,
+metres for a slide; `zero_offset_rad` is each joint's reference position in the model);
+they come from your legs' numerical inverse kinematics (`chain_ik.py`, the chains in
+`gait.json` `chain`), the solver the simulation ran."""}
+
 README = """# Running the recovered gait on the robot
 
 This folder is the gait gaitmend found, as a controller you can run without gaitmend
@@ -53,10 +61,7 @@ This folder is the gait gaitmend found, as a controller you can run without gait
 ## The servos
 
 `gait.json` `joints` lists the servos in the order every set-point table uses: {joints}.
-Angles are radians from the model's zero pose (`zero_offset_rad`, all 0 here: every leg
-straight out from its hip, horizontal; coxa about the vertical, femur and tibia about the
-leg's horizontal axis, positive lifting the tip); left legs' frames are turned 180 deg about
-the vertical, so the same angle moves a left and a right leg the same way. Each servo's PID
+{angles} Each servo's PID
 gains (`kp_nm_per_rad`, `kd_nm_s_per_rad`, `ki_nm_per_rad_s`) and torque limit are the
 simulated ones: map them to your servos' own units. Set-points are for a servo rate of
 {rate:g} Hz (one tick per simulation step). Locked joints of the damage have no servo and
@@ -135,13 +140,30 @@ sys.exit(0 if diff <= 1e-9 else 1)
 """
 
 
-def servos(model: mujoco.MjModel, ctrl_cols: np.ndarray) -> list[dict]:
+def _places(ev) -> dict[int, tuple[int, int]]:
+    """Actuator -> (leg index, joint index) where the controller finds it: the built-in
+    robots' (legs, 3) ctrl columns, or an uploaded robot's columns of every leg joint in
+    order (its controller chain's legs)."""
+    cols = np.asarray(ev.ctrl_cols)
+    if cols.ndim == 2:
+        return {int(cols[li, ji]): (int(li), int(ji)) for li, ji in zip(*np.nonzero(cols >= 0))}
+    sizes = [sum(len(b["joints"]) for b in c["bodies"]) for c in ev.controller_chain["solver"]["chains"]]
+    starts = np.cumsum([0] + sizes)
+    out = {}
+    for j, a in enumerate(cols):
+        if a >= 0:
+            leg = int(np.searchsorted(starts, j, side="right") - 1)
+            out[int(a)] = (leg, int(j - starts[leg]))
+    return out
+
+
+def servos(model: mujoco.MjModel, places: dict[int, tuple[int, int]]) -> list[dict]:
     """The actuated joints in actuator (= set-point column) order, with where the controller
     finds each (leg index, joint index), the model's zero offset and range, and the servo's
     gains as MuJoCo's pid actuator holds them (bias -kp, -kd; gain ki) and torque limit."""
     out = []
     for a in range(model.nu):
-        li, ji = (int(v[0]) for v in np.nonzero(ctrl_cols == a))
+        li, ji = places[a]
         j = int(model.actuator_trnid[a, 0])
         out.append({"name": mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j),
                     "actuator": mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a),
@@ -162,11 +184,12 @@ def gait_json(ev, x: np.ndarray, stride_bounds, law) -> dict:
     return {"schema": 1, "servo_rate_hz": 1.0 / ev.dt, "timestep_s": ev.dt, "settle_steps": ev.n_settle,
             "walk_steps": ev.n_walk, "period_steps": ev.n_period, "update_steps": update,
             "legs": [int(l) for l in ev.legs], "sides": [int(s) for s in ev.sides],
-            "link_lengths_m": [float(v) for v in ev.robot.geometry.link_lengths],
+            "link_lengths_m": [float(v) for v in getattr(ev.robot.geometry, "link_lengths", ())],
+            "chain": getattr(ev, "controller_chain", None), "heading_quat": getattr(ev, "controller_heading", None),
             "step_length_m": float(x[0, 2 * n]), "stride_bounds_m": [float(v) for v in stride_bounds],
             "law": None if law is None else law.as_dict(),
             "balance_levers_m": ev.balance_levers().tolist(),
-            "joints": servos(ev.model, ev.ctrl_cols),
+            "joints": servos(ev.model, _places(ev)),
             "base_tips_m": ev.period_tips(x)[0].tolist(), "y_rel": ev.stride_shape().tolist()}
 
 
@@ -200,7 +223,8 @@ def controller_files(ev, x: np.ndarray, stride_bounds, law, trace: dict) -> dict
         "controller/README.md": README.format(rate=g["servo_rate_hz"], settle=ev.n_settle,
                                                           period=ev.n_period, update=g["update_steps"],
                                                           mode="closed loop" if law else "open loop",
-                                                          joints=", ".join(names)),
+                                                          joints=", ".join(names),
+                                                          angles=ANGLES["upload" if g["chain"] else "builtin"]),
         "controller/gait_controller.py": Path(gait_controller.__file__).read_text(),
         "controller/ik.py": Path(ik.__file__).read_text(),
         "controller/chain_ik.py": Path(chain_ik.__file__).read_text(),
@@ -213,27 +237,9 @@ def controller_files(ev, x: np.ndarray, stride_bounds, law, trace: dict) -> dict
     }
 
 
-def bundle_files(spec, result) -> dict[str, str]:
-    """The kind's bundle hook: the ``controller/`` files of a job on a built-in robot whose
-    answer's walk was recorded with its set-points (jobs before issue 24 have none)."""
-    from app.jobs.recovery.evaluate import GaitEvaluator
-    from app.jobs.recovery.run import search_bounds, sim_config, sim_model
-    from app.jobs.recovery.sequences import plan_hexapod
-    from app.robots.catalog import ROBOTS, get_robot
-
-    trace = result.traces.get("best") or {}
-    if spec.robot not in ROBOTS or "ctrl" not in trace or "best" not in result.summary:
-        return {}
-    robot = get_robot(spec.robot)
-    _, model = sim_model(spec, robot)
-    seq = plan_hexapod(spec.damage.lost_legs, robot.nominal_feet_xy(),
-                       robot.stance_com_xy(model, spec.gait.stance_height_m))
-    cfg = dataclasses.replace(sim_config(spec), nthread=1)  # no simulation here: tips and IK only
-    lower, upper = search_bounds(spec, robot)
-    ev = GaitEvaluator(robot, model, seq, cfg)
-    try:
-        x = np.array([list(result.summary["best"]["params"].values())])
-        bounds = cfg.law.stride_bounds if cfg.law is not None else (lower[-2], upper[-2])
-        return controller_files(ev, x, bounds, cfg.law, {k: np.asarray(v) for k, v in trace.items()})
-    finally:
-        ev.close()
+def upload_files(job) -> dict[str, str]:
+    """An uploaded robot's ``controller/`` files, made at the end of its job while its
+    evaluator is at hand (the bundle writer has no stored robot to build it again)."""
+    law = job.ev.cfg.law
+    bounds = law.stride_bounds if law is not None else (job.lower[-2], job.upper[-2])
+    return controller_files(job.ev, job.searches["search"].best_x[None], bounds, law, job.traces["best"])

@@ -19,9 +19,11 @@ import numpy as np
 from app.jobs.base import JobResult, RunContext
 from app.jobs.evidence import ControlRow, PhaseContext, Phases, Robustness, control_seed
 from app.jobs.loop import Generation, GoalCheck, SearchOutcome, run_search
+from app.jobs.recovery import userrobot
 from app.jobs.recovery.cases import CHOICE_STREAM, walking_cases
 from app.jobs.recovery.closedloop import law_of
 from app.jobs.recovery.evaluate import CUT_SPEED_FACTOR, Cutoff, GaitEvaluator, SimConfig
+from app.jobs.recovery.export import upload_files
 from app.jobs.recovery.metrics import basis_text, fitness, objective_terms, target_for, target_met
 from app.jobs.recovery.randomised import RandomisedScorer
 from app.jobs.recovery.robust import MultiModelEvaluator, case_models, held_out, robust_fitness
@@ -578,8 +580,6 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
     if spec.robot in ROBOTS:
         job = set_up(spec)
     else:  # an uploaded robot, as the service or the CLI stored it
-        from app.jobs.recovery import userrobot
-
         job = userrobot.set_up(spec, ctx.load_robot(spec.robot), _Job, scorer)
     try:
         phases = Phases(ctx, phase_sizes(spec))
@@ -591,9 +591,10 @@ def run(spec: RecoverySpec, ctx: RunContext) -> JobResult:
         robustness(job, phases)
         held_out_and_open_loop(job, phases)
         record_traces(job, phases)
+        files = {} if spec.robot in ROBOTS else upload_files(job)  # its bundle's controller/
     finally:
         job.close()
     job.wall_s += time.perf_counter() - post_start  # the searches (across resumes) + the post-search steps
     extra = {"uploaded_robot": job.robot.summary()} if spec.robot not in ROBOTS else {}
     return JobResult(summary=summary(job) | extra, history=job.searches["search"].history, traces=job.traces,
-                     model_xml=job.mspec.to_xml(), evaluations=job.evaluations, sim_steps=job.sim_steps)
+                     model_xml=job.mspec.to_xml(), evaluations=job.evaluations, sim_steps=job.sim_steps, files=files)
