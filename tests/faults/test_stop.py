@@ -25,7 +25,10 @@ from service_support import wait_for
 
 from app.results import observed
 
-SPEC = ballistic(generations=8, population=32, duration_s=2.0)  # generations of ~0.3 s
+# generations of ~0.3 s; 24 of them, so that the job is still running when the stop comes: the
+# round stops both workers once SLOW has done a generation, and with 8 a busy machine saw this
+# job finish on its own worker first (it then never "ran elsewhere": a test race, not a fault)
+SPEC = ballistic(generations=24, population=32, duration_s=2.0)
 SLOW = ballistic(generations=3, population=64, duration_s=5.0)  # generations of ~1 s: the SIGKILL lands inside one
 ROUNDS = 5
 
@@ -51,6 +54,7 @@ def test_stopped_workers_jobs_run_elsewhere_at_once_without_spending_an_attempt(
         wait_for(lambda: (a := st.row(term)).status == "running" and a.progress_done >= 2
                  and (b := st.row(kill)).status == "running" and b.progress_done >= 1, 60, "both jobs running",
                  proc=st.serve)
+        assert st.row(term).status == "running", "the job finished before its worker was stopped"
         first = {jid: st.row(jid).worker for jid in (term, kill)}
         wt, wk = owner_of(st, term), owner_of(st, kill)
         t0 = time.monotonic()
