@@ -378,14 +378,13 @@ def test_an_uploaded_robots_bundle_ships_a_controller_that_replays_its_walk(mode
     IK as data; run alone with numpy only, it gives the set-points of the whole simulated
     walk from the same readings (within 1e-9 rad), open and closed loop."""
     import json
-    import subprocess
     import sys
     import zipfile
 
     from app.results.bundle import write_bundle
 
     sys.path.insert(0, str(Path(__file__).parents[1] / "jobs" / "recovery"))
-    from test_controller_export import numpy_only
+    from test_controller_export import check_alone
 
     robot = _hexapod()
     spec = _closed({"lost_legs": [robot.legs.legs[0].name]}, control={"mode": mode, "update": "phase"})
@@ -400,12 +399,5 @@ def test_an_uploaded_robots_bundle_ships_a_controller_that_replays_its_walk(mode
     assert [j["name"] for j in g["joints"]] == [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0]))
                                                 for a in range(m.nu)]
     assert "numerical inverse kinematics" in (ctl / "README.md").read_text()
-    code = ("import sys; sys.path.insert(0, %r)\n"
-            "for name in ('app', 'gaitmend', 'mujoco', 'scipy'):\n"
-            "    try:\n        __import__(name)\n    except ImportError:\n        pass\n"
-            "    else:\n        raise SystemExit(name + ' is importable: not a clean environment')\n"
-            "import runpy; runpy.run_path('check_controller.py', run_name='__main__')\n") % str(numpy_only(tmp_path))
-    out = subprocess.run([sys.executable, "-I", "-S", "-c", code], cwd=ctl, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout + out.stderr
-    report = json.loads(out.stdout.strip().splitlines()[-1])
+    report = check_alone(ctl, tmp_path)
     assert report["ticks"] == g["settle_steps"] + g["walk_steps"] and report["max_abs_diff_rad"] <= 1e-9, report

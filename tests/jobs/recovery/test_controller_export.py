@@ -45,20 +45,24 @@ def numpy_only(tmp: Path) -> Path:
     return out
 
 
-def test_the_controller_alone_gives_the_simulated_setpoints_over_the_whole_walk(bundle, tmp_path):
-    spec, res, folder = bundle
-    ctl = folder / "controller"
-    # isolated (-I: no user site, no PYTHONPATH), no site-packages (-S): the standard library,
-    # numpy and the controller folder only
+def check_alone(ctl: Path, tmp: Path) -> dict:
+    """Runs a bundle's check_controller.py isolated (-I: no user site, no PYTHONPATH) without
+    site-packages (-S): the standard library, numpy and the controller folder only; its report."""
     code = ("import sys; sys.path.insert(0, %r)\n"
             "for name in ('app', 'gaitmend', 'mujoco', 'scipy'):\n"
             "    try:\n        __import__(name)\n    except ImportError:\n        pass\n"
             "    else:\n        raise SystemExit(name + ' is importable: not a clean environment')\n"
-            "import runpy; runpy.run_path('check_controller.py', run_name='__main__')\n") % str(numpy_only(tmp_path))
+            "import runpy; runpy.run_path('check_controller.py', run_name='__main__')\n") % str(numpy_only(tmp))
     out = subprocess.run([sys.executable, "-I", "-S", "-c", code], cwd=ctl, capture_output=True, text=True,
                          timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
-    report = json.loads(out.stdout.strip().splitlines()[-1])
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_the_controller_alone_gives_the_simulated_setpoints_over_the_whole_walk(bundle, tmp_path):
+    spec, res, folder = bundle
+    ctl = folder / "controller"
+    report = check_alone(ctl, tmp_path)
     g = json.loads((ctl / "gait.json").read_text())
     assert report["ticks"] == g["settle_steps"] + g["walk_steps"]  # the whole walk (it did not fall)
     assert report["max_abs_diff_rad"] <= 1e-9
