@@ -171,6 +171,7 @@ class UserRobot:
         self.nominal_step_length, self.nominal_step_height = 0.4 * H, 0.3 * H
         self.box = stance_box(self.nominal.x0, self.nominal.y0, H)
         self.ik: LegIK | None = None
+        self._chains: dict[tuple[int, ...], dict] = {}  # controller_chain's, by leg order
         self.ik_stats = {"calls": 0, "wall_s": 0.0, "targets": 0, "max_error_m": 0.0, "beyond_1mm": 0}
 
     # -- RobotEntry's names -----------------------------------------------------------------
@@ -223,11 +224,14 @@ class UserRobot:
         """What the closed-loop controller (gait_controller.GaitController ``chain``) needs to
         turn tips of ``legs`` into joint set-points as ``joint_targets`` does: their frames
         and the damaged robot's numerical IK, its legs in that order (JSON-able)."""
-        order = [self.numbers[l.name] for l in self.walk.legs.legs]  # the IK's leg order
-        f = self.frames(legs)
-        return {"frames": {k: np.asarray(v).tolist() for k, v in f.items()},
-                "solver": self.ik.subset([order.index(n) for n in legs]).as_dict(), "tol": IK_TOL,
-                "max_iter": IK_MAX_ITER}
+        key = tuple(legs)
+        if key not in self._chains:  # one per leg order: every evaluator of the job asks for the same
+            order = [self.numbers[l.name] for l in self.walk.legs.legs]  # the IK's leg order
+            f = self.frames(legs)
+            self._chains[key] = {"frames": {k: np.asarray(v).tolist() for k, v in f.items()},
+                                 "solver": self.ik.subset([order.index(n) for n in legs]).as_dict(), "tol": IK_TOL,
+                                 "max_iter": IK_MAX_ITER}
+        return self._chains[key]
 
     def _damaged_ik(self, model: mujoco.MjModel) -> LegIK:
         ik = LegIK(model, self.walk.legs)
