@@ -20,7 +20,7 @@ from pydantic import BaseModel, Field, field_validator
 
 from app.jobs.base import Experiment, MemoryContext
 from app.jobs.recovery.reproduce import (atlas_check, choice_check, curves, jobtime, loop_check, peers_check,
-                                         page_prose, randomised_check, rejudge)
+                                         page_prose, randomised_check, recommended_check, rejudge)
 from app.jobs.reporting import Section, marked, missing
 from app.jobs.evidence import controls_of
 from app.jobs.recovery.reproduce.documented_answers import documented_answers  # noqa: F401 (re-exported for the tests)
@@ -551,4 +551,10 @@ EXPERIMENTS = [
                          "at equal walks, closed loop, on the four Table II damages, answers judged on the same "
                          "held-out random models", choice_check.ChoiceParams, choice_check.run_choice,
                (Section("recovery-choice", (choice_check.JSON,), choice_check.render),)),
+    Experiment("recommended", "issue 47's bar for the recommended mode (closed loop + robust choice): on Table II's "
+                              "damages (answers from table2.json and recovery_choice.json) and random combined "
+                              "damages (searched here), the paper's answer open and closed loop, the closed-loop "
+                              "search's best F and the robust choice on the 7 named cases and the same held-out models",
+               recommended_check.RecommendedParams, recommended_check.run_recommended,
+               (Section("recovery-recommended", (recommended_check.JSON,), recommended_check.render),)),
 ]
