@@ -158,6 +158,10 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     page.locator("#f-robustness-cases").evaluate("e => { e.closest('details').open = true; }")
     page.fill("#f-robustness-cases", "[]")
     page.fill("#f-robustness-held-out", "3")  # judged on held-out random models, as the built-in robot is
+    # issue 47, on every robot: the closed loop with balance, as a user sets it in the form
+    page.locator("#f-control-mode").evaluate("e => { e.closest('details').open = true; }")
+    page.select_option("#f-control-mode", "closed_loop")
+    page.fill("#f-control-balance-gain", "1")
     page.click("#submit")
     done = page.locator("#form-ok")
     expect(done).to_be_visible(timeout=30_000)
@@ -165,6 +169,7 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     with server.client("alice") as c:
         spec = c.get(f"/api/jobs/{job_id}").json()["spec"]
     assert spec["robot"] == robot_id and spec["robot_damage"]["lost_legs"] == ["front_left"], spec
+    assert spec["control"]["mode"] == "closed_loop" and spec["control"]["balance_gain"] == 1.0, spec["control"]
 
     page.goto(f"{server.url}/jobs/{job_id}")
     expect(page.locator("#status-line .badge")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
@@ -174,6 +179,10 @@ def test_upload_confirm_edit_save_then_recover_through_the_form(page, new_page, 
     with server.client("alice") as c:
         held = c.get(f"/api/jobs/{job_id}").json()["summary"]["robustness"]["held_out"]
     assert held["n"] == 3 and len(held["models"]) == 3, held
+    with server.client("alice") as c:
+        control = c.get(f"/api/jobs/{job_id}").json()["summary"]["control"]
+    assert control["mode"] == "closed_loop" and control["law"]["balance_gain"] == 1.0, control["law"]
+    assert control["open_loop"]["held_out"]["n"] == 3  # the same gait without the correction, same models
     expect(page.locator("#verdict-robustness .held-out")).to_contain_text(re.compile(r"\b3 held-out random models"))
     page.goto(f"{server.url}/")
     row = page.locator(f'#jobs-body tr[data-id="{job_id}"]')
