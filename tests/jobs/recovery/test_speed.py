@@ -197,6 +197,19 @@ def test_the_quick_bench_names_every_figure_of_the_issue():
     json.dumps(f)
 
 
+def test_the_bench_measures_the_recommended_modes_cost_on_todays_default_job():
+    """(h) issue 47: today's default job and the same spec in the recommended mode, every
+    phase, back to back; the recommended job walks more (the robust choice's walks and the
+    answer again without the correction)."""
+    from app.jobs.recovery.reproduce.bench import recommended_cost
+
+    f = recommended_cost(quick=True)
+    assert f["recommended_cost_ratio"] == pytest.approx(f["recommended_job_wall_s"] / f["default_job_wall_s"])
+    assert f["recommended"]["evaluations"] > f["default"]["evaluations"]
+    assert f["default"]["held_out_met"].endswith("/20") and f["recommended"]["held_out_met"].endswith("/20")
+    json.dumps(f)
+
+
 def test_the_speed_page_renders_from_its_rows():
     from app.jobs.recovery.reproduce import speed_measurements as speed
 

@@ -16,7 +16,11 @@ the machine's load, is ``paper_recovery_wall_s`` in docs/benchmarks.json):
 (g) ``equal_quality_wall_s``: the equal-quality configuration (speed.EQUAL) on legs 1 & 6,
     seed 0, stopped once its best reaches (d)'s F, its answer meeting the target at the
     default step and at half of it: the time to an answer as good as the exact paper DE's
-    (None when its budget ends first).
+    (None when its budget ends first);
+(h) ``recommended_cost_ratio``: issue 47's cost of the recommended mode, today's default job
+    (legs 1 & 6, every phase: the search, the random-search control, the named cases, the
+    held-out models) and the same spec in the recommended mode (closed loop, robust choice),
+    back to back: their wall times and the ratio.
 """
 
 from __future__ import annotations
@@ -146,6 +150,25 @@ def equal_quality(quick: bool, paper_f: float) -> dict:
         "config": cfg, "paper_fitness": paper_f, "reached": ok}}
 
 
+def recommended_cost(quick: bool) -> dict:
+    """(h) today's default job and the same job in the recommended mode, each once, back to
+    back on this machine; with each answer's target and held-out figures."""
+    from app.jobs.recovery.reproduce.recommended_check import RECOMMENDED
+
+    out: dict = {}
+    for name, extra in (("default", {}), ("recommended", RECOMMENDED)):
+        data = extra | ({"search": QUICK["search"], "sim": QUICK["sim"]} if quick else {})
+        t = time.perf_counter()
+        s = run(RecoverySpec.parse(data), MemoryContext()).summary
+        out[f"{name}_job_wall_s"] = time.perf_counter() - t
+        held = s["robustness"]["held_out"]
+        out[name] = {"target_met": s["best"]["target_met"], "evaluations": s["timing"]["evaluations"],
+                     "sim_steps": s["timing"]["sim_steps"], "held_out_met": f"{held['met']}/{held['n']}",
+                     "held_out_fell": sum(1 for m in held["models"] if m["metrics"]["fell"])}
+    out["recommended_cost_ratio"] = out["recommended_job_wall_s"] / out["default_job_wall_s"]
+    return out
+
+
 def bench_recovery(quick: bool = False, log: Callable[[str], None] = print) -> dict:
     t0 = time.perf_counter()
     figures: dict = {}
@@ -159,6 +182,8 @@ def bench_recovery(quick: bool = False, log: Callable[[str], None] = print) -> d
     figures["peers"] = peers(quick, figures["fast"]["runs"], seeds=1 if quick else 3)
     log("(g) equal quality: the exact paper DE's F and the target, for less ...")
     figures |= equal_quality(quick, figures["paper"]["fitness"])
+    log("(h) the recommended mode's cost: today's default job and the same job closed loop with the robust choice ...")
+    figures["recommended_cost"] = recommended_cost(quick)
     figures["bench_wall_s"] = time.perf_counter() - t0
     if not quick:
         figures["targets"] = _targets(figures)

@@ -53,6 +53,9 @@ COMBINED_SEED = 47
 JOINTS = ("coxa", "femur", "tibia")
 LOCK_DEG = (-40.0, 40.0)     # the locked joint's angle, uniform (the example: a tibia at -40 deg)
 WEAK_SCALE = (0.2, 0.6)      # the weak joint's torque share, uniform (the example: a coxa at 20 %)
+# The recommended mode, as a spec's sections: the closed-loop correction and the robust choice
+# at their defaults (20 models).
+RECOMMENDED = {"control": {"mode": "closed_loop"}, "choice": {"mode": "robust"}}
 
 
 class RecommendedParams(BaseModel):
@@ -138,7 +141,7 @@ def _job(p: RecommendedParams, damage: dict, seed: int, recommended: bool) -> di
     d = {"damage": damage, "search": {"population": p.population, "generations": p.generations, "seed": seed},
          "controls": {"random_search": False}, "robustness": {"cases": [], "held_out": 0}}
     if recommended:
-        d |= {"control": {"mode": "closed_loop"}, "choice": {"mode": "robust", "models": p.models}}
+        d |= RECOMMENDED | {"choice": RECOMMENDED["choice"] | {"models": p.models}}
     return run(RecoverySpec.parse(d), MemoryContext()).summary
 
 
