@@ -228,6 +228,42 @@ def _groups(runs: list[dict]) -> dict[str, list[dict]]:
     return by
 
 
+def _share(a: dict) -> float:
+    return sum(1 for m in a["held_out"] if m["target_met"] is True) / len(a["held_out"])
+
+
+def _paired(runs: list[dict]) -> list[str]:
+    """The recommended answer's held-out share against each other arm's, one pair per damage
+    and seed (all damages together)."""
+    from app.jobs.stats import paired, paired_text
+
+    res = [r["result"] for r in runs]
+    if len(res) < 2:
+        return []
+    out = []
+    for b in ARMS[:-1]:
+        r = paired([_share(x["arms"]["robust"]) for x in res], [_share(x["arms"][b]) for x in res],
+                   names=(WORDS["robust"], WORDS[b]))
+        out.append(f"- held-out share, {WORDS['robust']} - {WORDS[b]}: {paired_text(r, digits=3)}")
+    return ["Paired by damage and seed:", "", *out, ""]
+
+
+def _cost(runs: list[dict]) -> list[str]:
+    """The recommended job's wall time over the paper's search's, where both ran here (the
+    combined damages: same damage, seed and DE budget, back to back, no controls or
+    robustness block in either)."""
+    ratios = [r["result"]["jobs_wall_s"]["recommended"] / r["result"]["jobs_wall_s"]["paper"]
+              for r in runs if "jobs_wall_s" in r["result"]]
+    if not ratios:
+        return []
+    return [f"Wall time of the recommended job over the paper's search, same damage, seed and DE budget, back to back "
+            f"(combined damages; the search and the choice only: neither job ran controls or a robustness block): "
+            f"median {np.median(ratios):.2f} (range {min(ratios):.2f} - {max(ratios):.2f}, {len(ratios)} pairs; "
+            f"measured beside other runs on this machine, so a ratio, not a time). Today's default job against the "
+            f"same job in the recommended mode, every phase: `gaitmend bench --kind recovery`, figure "
+            f"recommended_cost.", ""]
+
+
 def render(datas: list) -> str:
     data = datas[0]
     runs = current_runs(data) if data else []
@@ -250,9 +286,10 @@ def render(datas: list) -> str:
             fell = sum(1 for r in rs for m in r["arms"][a]["held_out"] if m["fell"])
             cells.append(f"{named} named; {_rate(k, n)}, {fell} fell")
         v = verdict(rs)
-        bar = ("met" if v["met"] else "not met") + ("" if len(rs) >= p["seeds"] else f" so far ({len(rs)} seeds)")
+        bar = ("met" if v["met"] else "not met") + ("" if len(rs) >= p["seeds"] else f" so far ({len(rs)} seed{'s' if len(rs) > 1 else ''})")
         rows.append([name, ", ".join(str(r["seed"]) for r in rs), *cells, bar])
     out += [md_table(["damage", "seeds", *(f"{WORDS[a]}: named cases kept per seed; held-out kept [95 % Wilson], falls"
                                            for a in ARMS), "bar"], rows), ""]
+    out += _paired(runs) + _cost(runs)
     out.append(f"Machine time of all runs: {machine_time(data)['wall_s']:.0f} s wall.")
     return "\n".join(out) + "\n" + progress_note(data, len(runs))
