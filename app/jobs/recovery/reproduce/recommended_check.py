@@ -90,7 +90,8 @@ def damage_name(d: dict) -> str:
     lost = d.get("lost_legs", [])
     parts = [("legs " if len(lost) > 1 else "leg ") + " & ".join(map(str, lost)) + " lost"] if lost else []
     parts += [f"leg {j['leg']} {j['joint']} locked at {j['angle_deg']:g} deg" for j in d.get("locked_joints", [])]
-    parts += [f"leg {j['leg']} {j['joint']} at {100 * j['torque_scale']:.0f} % torque" for j in d.get("weak_joints", [])]
+    parts += [f"leg {j['leg']} {j['joint']} at {100 * j['torque_scale']:.0f} % torque"
+              for j in d.get("weak_joints", [])]
     return ", ".join(parts)
 
 
@@ -124,7 +125,8 @@ def walk_arms(damage: dict, answers: dict[str, dict[str, float]], held_out_n: in
             for k in range(len(models)):
                 mk = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in m.items() if key in KEEP}
                 rows.append(mk | {"target_met": target_met(mk, spec.sim.duration_s)})
-            out[arm] = {"params": params, "nominal": rows[0], "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
+            out[arm] = {"params": params, "nominal": rows[0],
+                        "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
                         "held_out": rows[1 + len(cases):], "wall_s": round(time.perf_counter() - t0, 2)}
     finally:
         job.close()
@@ -286,7 +288,8 @@ def render(datas: list) -> str:
             fell = sum(1 for r in rs for m in r["arms"][a]["held_out"] if m["fell"])
             cells.append(f"{named} named; {_rate(k, n)}, {fell} fell")
         v = verdict(rs)
-        bar = ("met" if v["met"] else "not met") + ("" if len(rs) >= p["seeds"] else f" so far ({len(rs)} seed{'s' if len(rs) > 1 else ''})")
+        seeds = f"{len(rs)} seed{'s' if len(rs) > 1 else ''}"
+        bar = ("met" if v["met"] else "not met") + ("" if len(rs) >= p["seeds"] else f" so far ({seeds})")
         rows.append([name, ", ".join(str(r["seed"]) for r in rs), *cells, bar])
     out += [md_table(["damage", "seeds", *(f"{WORDS[a]}: named cases kept per seed; held-out kept [95 % Wilson], falls"
                                            for a in ARMS), "bar"], rows), ""]
