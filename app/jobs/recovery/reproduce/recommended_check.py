@@ -278,7 +278,7 @@ def render(datas: list) -> str:
            f"target in at least {NAMED_MIN} of 7 named cases, and the seeds' answers together keep it on at least "
            f"{100 * KEEP_MIN:.0f} % of the held-out models with at most {100 * FALL_MAX:.0f} % falls. "
            f"{len(runs)} of {data.get('planned')} planned damage-and-seed runs are in.", ""]
-    rows = []
+    rows, whole = [], []
     for name, rs in _groups(runs).items():
         cells = []
         for a in ARMS:
@@ -288,11 +288,18 @@ def render(datas: list) -> str:
             fell = sum(1 for r in rs for m in r["arms"][a]["held_out"] if m["fell"])
             cells.append(f"{named} named; {_rate(k, n)}, {fell} fell")
         v = verdict(rs)
+        if len(rs) >= p["seeds"]:
+            whole.append((name, v["met"]))
         seeds = f"{len(rs)} seed{'s' if len(rs) > 1 else ''}"
         bar = ("met" if v["met"] else "not met") + ("" if len(rs) >= p["seeds"] else f" so far ({seeds})")
         rows.append([name, ", ".join(str(r["seed"]) for r in rs), *cells, bar])
     out += [md_table(["damage", "seeds", *(f"{WORDS[a]}: named cases kept per seed; held-out kept [95 % Wilson], falls"
                                            for a in ARMS), "bar"], rows), ""]
+    if whole:
+        missed = [n for n, ok in whole if not ok]
+        out += [f"With every seed in ({p['seeds']} per damage), the recommended mode meets the bar on "
+                f"{len(whole) - len(missed)} of {len(whole)} damages"
+                + (f"; it misses it on {'; '.join(missed)}." if missed else "."), ""]
     out += _paired(runs) + _cost(runs)
     out.append(f"Machine time of all runs: {machine_time(data)['wall_s']:.0f} s wall.")
     return "\n".join(out) + "\n" + progress_note(data, len(runs))
