@@ -223,9 +223,13 @@ def verdict(runs: list[dict]) -> dict:
     return {"named": named, "n": n, "kept": kept, "fell": fell, "met": met}
 
 
-def _groups(runs: list[dict]) -> dict[str, list[dict]]:
+def _groups(runs: list[dict], combined: int) -> dict[str, list[dict]]:
+    """The runs by damage, Table II's in its order, then the combined damages as drawn; each
+    damage's runs by seed."""
+    order = [{"lost_legs": list(l)} for l in TABLE2] + combined_damages(combined)
     by: dict[str, list[dict]] = {}
-    for r in runs:
+    for r in sorted(runs, key=lambda r: (order.index(r["result"]["damage"]) if r["result"]["damage"] in order
+                                         else len(order), r["result"]["seed"])):
         by.setdefault(damage_name(r["result"]["damage"]), []).append(r["result"])
     return by
 
@@ -279,7 +283,7 @@ def render(datas: list) -> str:
            f"{100 * KEEP_MIN:.0f} % of the held-out models with at most {100 * FALL_MAX:.0f} % falls. "
            f"{len(runs)} of {data.get('planned')} planned damage-and-seed runs are in.", ""]
     rows, whole = [], []
-    for name, rs in _groups(runs).items():
+    for name, rs in _groups(runs, p["combined"]).items():
         cells = []
         for a in ARMS:
             named = "/".join(str(_named(r["arms"][a])) for r in rs)
