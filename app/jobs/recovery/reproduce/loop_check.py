@@ -67,8 +67,7 @@ def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_ou
     named cases and the held-out set: {drive: {"nominal", "cases": {name: ...}, "held_out":
     [...]}} (metrics and target), the laws and the held-out draws."""
     from app.jobs.recovery.cases import HELD_OUT_STREAM, draw_models, random_models, walking_cases
-    from app.jobs.recovery.metrics import target_met
-    from app.jobs.recovery.robust import MultiModelEvaluator, case_models
+    from app.jobs.recovery.robust import case_models
     from app.jobs.recovery.run import sim_config, sim_model
     from app.jobs.recovery.sequences import plan_hexapod
     from app.jobs.recovery.spec import RecoverySpec
@@ -88,21 +87,33 @@ def walk_both_ways(lost: list[int], params: dict[str, float], seed: int, held_ou
     out = {"law": None, "draws": draws}
     for mode, cfg in (("open_loop", sim_config(spec, open_loop=True)), ("closed_loop", sim_config(spec)),
                       ("balance", sim_config(balanced))):
-        t0 = time.perf_counter()
-        ev = MultiModelEvaluator(robot, models, seq, cfg)
-        m = ev.evaluate_all(x).metrics
-        ev.close()
-        rows = []
-        for k in range(len(models)):
-            mk = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in m.items() if key in KEEP}
-            rows.append(mk | {"target_met": target_met(mk, spec.sim.duration_s)})
-        out[mode] = {"nominal": rows[0], "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
-                     "held_out": rows[1 + len(cases):], "wall_s": round(time.perf_counter() - t0, 2)}
+        out[mode] = walked(robot, models, seq, cfg, x, cases, spec.sim.duration_s)
         if mode == "closed_loop":
             out["law"] = cfg.law.as_dict()
         if mode == "balance":
             out["balance_law"] = cfg.law.as_dict()
     return out
+
+
+def walked(robot, models: list, seq, cfg, x: np.ndarray, cases: list, walk_s: float) -> dict:
+    """One answer ``x`` (1, D) on ``models`` (the nominal model, then one per named case in
+    ``cases``, then the held-out models) in one rollout call, each walk judged by the target:
+    {"nominal", "cases": {name: ...}, "held_out": [...], "wall_s"} (KEEP metrics, target_met)."""
+    from app.jobs.recovery.metrics import target_met
+    from app.jobs.recovery.robust import MultiModelEvaluator
+
+    t0 = time.perf_counter()
+    ev = MultiModelEvaluator(robot, models, seq, cfg)
+    try:
+        m = ev.evaluate_all(x).metrics
+    finally:
+        ev.close()
+    rows = []
+    for k in range(len(models)):
+        mk = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in m.items() if key in KEEP}
+        rows.append(mk | {"target_met": target_met(mk, walk_s)})
+    return {"nominal": rows[0], "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
+            "held_out": rows[1 + len(cases):], "wall_s": round(time.perf_counter() - t0, 2)}
 
 
 def run_loop_check(p: LoopParams, log: Callable[[str], None] = print) -> str:

@@ -26,7 +26,6 @@ left for a later run.
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from pydantic import BaseModel, Field
 
 from app.jobs.ledger import Ledger, current_runs, machine_time
 from app.jobs.recovery.reproduce import choice_check, science_files
-from app.jobs.recovery.reproduce.randomised_check import HELD_OUT_SEED, KEEP, _rate
+from app.jobs.recovery.reproduce.randomised_check import HELD_OUT_SEED, _rate
 from app.jobs.reporting import md_table, missing, progress_note
 
 JSON = "docs/recovery_recommended.json"
@@ -100,8 +99,8 @@ def walk_arms(damage: dict, answers: dict[str, dict[str, float]], held_out_n: in
     held-out models: {arm: {"nominal", "cases": {name: ...}, "held_out": [...]}} (KEEP metrics
     and target_met), open loop for ``open_loop`` and with the spec's default correction else."""
     from app.jobs.recovery.cases import HELD_OUT_STREAM, draw_models, random_models, walking_cases
-    from app.jobs.recovery.metrics import target_met
-    from app.jobs.recovery.robust import MultiModelEvaluator, case_models
+    from app.jobs.recovery.reproduce.loop_check import walked
+    from app.jobs.recovery.robust import case_models
     from app.jobs.recovery.run import set_up, sim_config
     from app.jobs.recovery.spec import RecoverySpec
 
@@ -114,20 +113,9 @@ def walk_arms(damage: dict, answers: dict[str, dict[str, float]], held_out_n: in
                   + random_models(job.mspec, draws, job.robot.geometry.total_mass))
         out = {}
         for arm, params in answers.items():
-            t0 = time.perf_counter()
             cfg = sim_config(spec, open_loop=True) if arm == "open_loop" else job.ev.cfg
-            ev = MultiModelEvaluator(job.robot, models, job.seq, cfg)
-            try:
-                m = ev.evaluate_all(np.array([[params[n] for n in job.names]])).metrics
-            finally:
-                ev.close()
-            rows = []
-            for k in range(len(models)):
-                mk = {key: (bool(v[0, k]) if key == "fell" else float(v[0, k])) for key, v in m.items() if key in KEEP}
-                rows.append(mk | {"target_met": target_met(mk, spec.sim.duration_s)})
-            out[arm] = {"params": params, "nominal": rows[0],
-                        "cases": {c.name: rows[1 + i] for i, c in enumerate(cases)},
-                        "held_out": rows[1 + len(cases):], "wall_s": round(time.perf_counter() - t0, 2)}
+            x = np.array([[params[n] for n in job.names]])
+            out[arm] = {"params": params} | walked(job.robot, models, job.seq, cfg, x, cases, spec.sim.duration_s)
     finally:
         job.close()
     return out
