@@ -69,8 +69,7 @@ def test_a_combined_damage_at_the_tests_size(tmp_path, monkeypatch):
 
 def _committed() -> tuple[list[dict], dict]:
     path = DOCS / Path(R.JSON).name
-    if not path.exists():
-        pytest.skip("docs/recovery_recommended.json is not committed yet")
+    assert path.exists(), f"{R.JSON} is committed (`{R.COMMAND}` writes it)"
     choice = json.loads((DOCS / "recovery_choice.json").read_text())
     judged = {(tuple(r["result"]["lost_legs"]), r["result"]["seed"]): r["result"]["arms"]
               for r in current_runs(choice) if r["result"]["job"] == "robust"}
